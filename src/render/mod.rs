@@ -1,0 +1,1 @@
+//! Drawing: previews now; the differentiable soft rasterizer arrives with its issue.
