@@ -2,6 +2,8 @@
 
 use clap::{Parser, Subcommand};
 
+mod build;
+mod info;
 mod ui;
 
 pub use ui::Ui;
@@ -24,11 +26,18 @@ pub struct Common {
     pub quiet: bool,
 }
 
+/// The subcommands.
 #[derive(Debug, Subcommand)]
-enum Command {}
+enum Command {
+    Build(build::BuildArgs),
+    Info(info::InfoArgs),
+}
 
 /// Runs the parsed command line.
 pub fn run(cli: Cli) -> anyhow::Result<()> {
     let ui = Ui::new(cli.common.quiet);
-    match cli.command {}
+    match cli.command {
+        Command::Build(args) => build::run(args, &ui),
+        Command::Info(args) => info::run(args, &ui),
+    }
 }
