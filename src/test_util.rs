@@ -62,7 +62,7 @@ pub fn rect_layer(name: &str, frame: (u32, u32), r: [f32; 4], n: (usize, usize),
             mesh.triangles.push([id(i, j), id(i + 1, j + 1), id(i, j + 1)]);
         }
     }
-    let tex = texture(frame.0, frame.1, |x, y| x >= x0 - 0.5 && x <= x1 + 0.5 && y >= y0 - 0.5 && y <= y1 + 0.5, colour);
+    let tex = texture(frame.0, frame.1, |x, y| x >= x0 && x <= x1 && y >= y0 && y <= y1, colour);
     layer(name, frame, mesh, tex)
 }
 
@@ -74,7 +74,7 @@ pub fn disc_layer(name: &str, frame: (u32, u32), c: [f32; 2], radius: f32, n: us
         mesh.vertices.push([c[0] + radius * th.cos(), c[1] + radius * th.sin()]);
         mesh.triangles.push([0, 1 + k as u32, 1 + ((k + 1) % n) as u32]);
     }
-    let tex = texture(frame.0, frame.1, |x, y| (x - c[0]).hypot(y - c[1]) <= radius + 0.5, colour);
+    let tex = texture(frame.0, frame.1, |x, y| (x - c[0]).hypot(y - c[1]) <= radius, colour);
     layer(name, frame, mesh, tex)
 }
 
@@ -98,10 +98,10 @@ pub fn stripes(base: [f32; 3], period: f32) -> impl Fn(f32, f32) -> [f32; 3] {
 pub fn layered_puppet() -> Puppet {
     let f = (48, 40);
     let layers = vec![
-        rect_layer("arm_back", f, [6.0, 12.0, 24.0, 17.0], (6, 2), stripes([0.2, 0.5, 0.9], 7.0)),
-        rect_layer("torso", f, [16.0, 10.0, 32.0, 34.0], (4, 6), stripes([0.9, 0.6, 0.2], 9.0)),
-        disc_layer("head", f, [24.0, 8.0], 6.5, 12, stripes([0.3, 0.8, 0.3], 5.0)),
-        rect_layer("arm_front", f, [24.0, 20.0, 43.0, 25.0], (6, 2), stripes([0.8, 0.2, 0.5], 6.0)),
+        rect_layer("arm_back", f, [6.0, 12.0, 24.0, 17.0], (6, 2), stripes([0.2, 0.5, 0.9], 14.0)),
+        rect_layer("torso", f, [16.0, 10.0, 32.0, 34.0], (4, 6), stripes([0.9, 0.6, 0.2], 16.0)),
+        disc_layer("head", f, [24.0, 9.0], 6.5, 12, stripes([0.3, 0.8, 0.3], 11.0)),
+        rect_layer("arm_front", f, [24.0, 20.0, 43.0, 25.0], (6, 2), stripes([0.8, 0.2, 0.5], 13.0)),
     ];
     Puppet { width: f.0, height: f.1, layers, root: 1, joints: Vec::new() }
 }
