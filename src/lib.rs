@@ -16,5 +16,7 @@ pub mod picture;
 pub mod progress;
 pub mod puppet;
 pub mod render;
+#[cfg(test)]
+pub(crate) mod test_util;
 
 pub use error::{Error, Result};
