@@ -127,3 +127,17 @@ fn build_the_ora_that_gimp_wrote() {
     let p = build_and_check(tmp.path(), &ora, labels.layers.len());
     assert!(!p.joints.is_empty());
 }
+
+#[test]
+fn render_rest_pose_reproduces_the_artwork_and_rejects_a_foreign_pose() {
+    let tmp = tempfile::tempdir().unwrap();
+    let art = write_layer_character(&tmp.path().join("c"), "");
+    build_and_check(tmp.path(), &art, 3);
+    puppet(tmp.path(), &["render", "out", "-o", "rest.png"]).assert_ok();
+    let rendered = puppet::picture::Picture::load(&tmp.path().join("rest.png")).unwrap();
+    let artwork = puppet::puppet::artwork::load(&art, &Default::default()).unwrap().composite();
+    let differing = rendered.pixels.iter().zip(&artwork.pixels).filter(|(a, b)| (a[3] > 0.5) != (b[3] > 0.5)).count();
+    assert!(differing <= 8, "{differing} pixels differ in coverage between the crisp rest render and the artwork");
+    std::fs::write(tmp.path().join("pose.json"), r#"{"vertices": [[1.0, 2.0]]}"#).unwrap();
+    puppet(tmp.path(), &["render", "out", "--pose", "pose.json", "-o", "x.png"]).assert_error(&["pose.json", "1 vertices, but the puppet has"]);
+}

@@ -4,6 +4,7 @@ use clap::{Parser, Subcommand};
 
 mod build;
 mod info;
+mod render;
 mod ui;
 
 pub use ui::Ui;
@@ -31,6 +32,7 @@ pub struct Common {
 enum Command {
     Build(build::BuildArgs),
     Info(info::InfoArgs),
+    Render(render::RenderArgs),
 }
 
 /// Runs the parsed command line.
@@ -39,5 +41,6 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
     match cli.command {
         Command::Build(args) => build::run(args, &ui),
         Command::Info(args) => info::run(args, &ui),
+        Command::Render(args) => render::run(args, &ui),
     }
 }

@@ -13,6 +13,7 @@ pub mod format;
 pub mod joints;
 pub mod mesh;
 pub mod ora;
+pub mod pose_file;
 
 use crate::picture::Picture;
 
