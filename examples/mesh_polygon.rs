@@ -42,12 +42,13 @@ fn main() -> anyhow::Result<()> {
     mesh.check_invariants().map_err(anyhow::Error::msg)?;
     let max_area = mesh.triangles.iter().map(|&t| mesh.signed_area(t)).fold(0.0f32, f32::max);
     println!(
-        "{{\"tool\": \"puppet (spade)\", \"vertices\": {}, \"triangles\": {}, \"min_angle\": {:.3}, \"max_area\": {:.3}, \"median_ms\": {:.4}, \"runs\": {runs}}}",
+        "{{\"tool\": \"puppet (spade)\", \"vertices\": {}, \"triangles\": {}, \"min_angle\": {:.3}, \"max_area\": {:.3}, \"median_ms\": {:.4}, \"min_ms\": {:.4}, \"runs\": {runs}}}",
         mesh.vertices.len(),
         mesh.triangles.len(),
         mesh.min_angle_degrees(),
         max_area,
-        times[runs / 2]
+        times[runs / 2],
+        times[0]
     );
     Ok(())
 }
