@@ -61,8 +61,16 @@ pub fn contour(grid: &AlphaGrid) -> Vec<Vec<[f64; 2]>> {
     for j in 0..gh - 1 {
         for i in 0..gw - 1 {
             // Corners in cyclic order TL, TR, BR, BL; edge k runs from corner k to corner k + 1.
-            let corners = [inside(i, j), inside(i + 1, j), inside(i + 1, j + 1), inside(i, j + 1)];
-            let case = corners.iter().enumerate().fold(0, |c, (k, &b)| c | (usize::from(b) << k));
+            let corners = [
+                inside(i, j),
+                inside(i + 1, j),
+                inside(i + 1, j + 1),
+                inside(i, j + 1),
+            ];
+            let case = corners
+                .iter()
+                .enumerate()
+                .fold(0, |c, (k, &b)| c | (usize::from(b) << k));
             if case == 0 || case == 15 {
                 continue;
             }
@@ -70,7 +78,9 @@ pub fn contour(grid: &AlphaGrid) -> Vec<Vec<[f64; 2]>> {
             let mut link = |from: usize, to: usize| next[edges[from]] = edges[to] as u32;
             let saddle = case == 5 || case == 10;
             let connected = saddle && {
-                let mean = (sample(i, j) + sample(i + 1, j) + sample(i + 1, j + 1) + sample(i, j + 1)) / 4.0;
+                let mean =
+                    (sample(i, j) + sample(i + 1, j) + sample(i + 1, j + 1) + sample(i, j + 1))
+                        / 4.0;
                 mean > grid.threshold
             };
             // For a run of inside corners k..=l (cyclic), the crossing goes from the edge after
@@ -101,7 +111,10 @@ pub fn contour(grid: &AlphaGrid) -> Vec<Vec<[f64; 2]>> {
         let (a0, a1) = (sample(i, j), sample(i1, j1));
         let t = ((grid.threshold - a0) / (a1 - a0)).clamp(CROSSING_CLAMP, 1.0 - CROSSING_CLAMP);
         let t = f64::from(t);
-        [i as f64 - 0.5 + t * (i1 as f64 - i as f64), j as f64 - 0.5 + t * (j1 as f64 - j as f64)]
+        [
+            i as f64 - 0.5 + t * (i1 as f64 - i as f64),
+            j as f64 - 0.5 + t * (j1 as f64 - j as f64),
+        ]
     };
     let mut rings = Vec::new();
     for start in 0..next.len() {
@@ -156,18 +169,30 @@ mod tests {
 
     fn grid_of(rows: &[&str]) -> (Vec<f32>, u32, u32) {
         let (w, h) = (rows[0].len() as u32, rows.len() as u32);
-        let alpha = rows.iter().flat_map(|r| r.bytes().map(|b| if b == b'#' { 1.0 } else { 0.0 })).collect();
+        let alpha = rows
+            .iter()
+            .flat_map(|r| r.bytes().map(|b| if b == b'#' { 1.0 } else { 0.0 }))
+            .collect();
         (alpha, w, h)
     }
 
     fn check_separates(rows: &[&str]) -> Vec<Vec<[f64; 2]>> {
         let (alpha, width, height) = grid_of(rows);
-        let grid = AlphaGrid { alpha: &alpha, width, height, threshold: 0.5 };
+        let grid = AlphaGrid {
+            alpha: &alpha,
+            width,
+            height,
+            threshold: 0.5,
+        };
         let rings = contour(&grid);
         for y in -1..=height as i64 {
             for x in -1..=width as i64 {
                 let p = [x as f64 + 0.5, y as f64 + 0.5];
-                assert_eq!(inside_rings(&rings, p), grid.inside(x, y), "pixel ({x}, {y}) in {rows:?}");
+                assert_eq!(
+                    inside_rings(&rings, p),
+                    grid.inside(x, y),
+                    "pixel ({x}, {y}) in {rows:?}"
+                );
             }
         }
         rings
@@ -186,7 +211,10 @@ mod tests {
         let rings = check_separates(&["###", "#.#", "###"]);
         assert_eq!(rings.len(), 2);
         let areas: Vec<f64> = rings.iter().map(|r| signed_area(r)).collect();
-        assert!(areas.iter().any(|&a| a > 0.0) && areas.iter().any(|&a| a < 0.0), "{areas:?}");
+        assert!(
+            areas.iter().any(|&a| a > 0.0) && areas.iter().any(|&a| a < 0.0),
+            "{areas:?}"
+        );
     }
 
     #[test]
@@ -212,7 +240,12 @@ mod tests {
         assert_eq!(rings2.len(), 2);
         // A brighter saddle connects.
         let alpha = [1.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 0.0, 0.0];
-        let grid = AlphaGrid { alpha: &alpha, width: 3, height: 3, threshold: 0.2 };
+        let grid = AlphaGrid {
+            alpha: &alpha,
+            width: 3,
+            height: 3,
+            threshold: 0.2,
+        };
         assert_eq!(contour(&grid).len(), 1);
         assert_eq!(contour(&grid), contour(&grid));
     }
@@ -225,8 +258,14 @@ mod tests {
                 .map(|_| {
                     (0..11)
                         .map(|_| {
-                            state = state.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
-                            if (state >> 33) % 2 == 0 { '#' } else { '.' }
+                            state = state
+                                .wrapping_mul(6364136223846793005)
+                                .wrapping_add(1442695040888963407);
+                            if (state >> 33) % 2 == 0 {
+                                '#'
+                            } else {
+                                '.'
+                            }
                         })
                         .collect()
                 })
@@ -240,7 +279,12 @@ mod tests {
     fn crossings_interpolate_alpha() {
         // One row: alpha 1 then 0.25; threshold 0.5 crosses 2/3 of the way between centres.
         let alpha = [1.0, 0.25];
-        let grid = AlphaGrid { alpha: &alpha, width: 2, height: 1, threshold: 0.5 };
+        let grid = AlphaGrid {
+            alpha: &alpha,
+            width: 2,
+            height: 1,
+            threshold: 0.5,
+        };
         let rings = contour(&grid);
         let max_x = rings[0].iter().map(|p| p[0]).fold(f64::MIN, f64::max);
         assert!((max_x - (0.5 + 2.0 / 3.0)).abs() < 1e-6, "{max_x}");

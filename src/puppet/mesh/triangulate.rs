@@ -9,7 +9,9 @@
 //! are left (spade keeps the small-angle fans of Miller–Pav–Walkington). Required points are
 //! inserted before refinement; refinement only adds vertices, so they stay exact vertices.
 
-use spade::{AngleLimit, ConstrainedDelaunayTriangulation, Point2, RefinementParameters, Triangulation};
+use spade::{
+    AngleLimit, ConstrainedDelaunayTriangulation, Point2, RefinementParameters, Triangulation,
+};
 
 use super::contour::{inside_rings, signed_area};
 use super::{MeshError, MeshOptions};
@@ -32,16 +34,29 @@ pub const LATTICE_MARGIN: f64 = 0.5;
 /// coordinates, crossing edges, or a bound needing more than [`MAX_VERTICES`] vertices;
 /// [`MeshError::TooSmall`] if no triangle is inside; [`MeshError::PointOutside`] for a required
 /// point outside the region.
-pub fn triangulate(rings: &[Vec<[f64; 2]>], required: &[[f64; 2]], opts: &MeshOptions) -> Result<(Mesh, Vec<u32>), MeshError> {
+pub fn triangulate(
+    rings: &[Vec<[f64; 2]>],
+    required: &[[f64; 2]],
+    opts: &MeshOptions,
+) -> Result<(Mesh, Vec<u32>), MeshError> {
     let mut area = 0.0;
     let mut vertices = Vec::new();
     let mut edges = Vec::new();
     for (r, ring) in rings.iter().enumerate() {
         if ring.len() < 3 {
-            return Err(MeshError::Options(format!("ring {r} has {} point(s), expected at least 3", ring.len())));
+            return Err(MeshError::Options(format!(
+                "ring {r} has {} point(s), expected at least 3",
+                ring.len()
+            )));
         }
-        if let Some(p) = ring.iter().find(|p| !(p[0].abs() <= 1e12 && p[1].abs() <= 1e12)) {
-            return Err(MeshError::Options(format!("ring {r}: point ({}, {}) is not a finite pixel position", p[0], p[1])));
+        if let Some(p) = ring
+            .iter()
+            .find(|p| !(p[0].abs() <= 1e12 && p[1].abs() <= 1e12))
+        {
+            return Err(MeshError::Options(format!(
+                "ring {r}: point ({}, {}) is not a finite pixel position",
+                p[0], p[1]
+            )));
         }
         area += signed_area(ring).abs();
         let first = vertices.len();
@@ -51,34 +66,52 @@ pub fn triangulate(rings: &[Vec<[f64; 2]>], required: &[[f64; 2]], opts: &MeshOp
         vertices.extend(ring.iter().map(|p| Point2::new(p[0], p[1])));
     }
     let points = vertices.len();
-    if !(area > 0.0) {
-        return Err(MeshError::TooSmall { problem: format!("the rings enclose no area ({points} points)") });
+    if area <= 0.0 {
+        return Err(MeshError::TooSmall {
+            problem: format!("the rings enclose no area ({points} points)"),
+        });
     }
     let mut sorted: Vec<[f64; 2]> = rings.iter().flatten().copied().collect();
     sorted.sort_by(|a, b| a[0].total_cmp(&b[0]).then(a[1].total_cmp(&b[1])));
     if let Some(w) = sorted.windows(2).find(|w| w[0] == w[1]) {
-        return Err(MeshError::Options(format!("the point ({}, {}) appears twice in the rings", w[0][0], w[0][1])));
+        return Err(MeshError::Options(format!(
+            "the point ({}, {}) appears twice in the rings",
+            w[0][0], w[0][1]
+        )));
     }
     let max_area = f64::from(opts.max_area);
-    let estimate = 10.0 * points as f64 + 8.0 * area / max_area + 64.0;
+    let estimate = 10.0 * points as f64 + 32.0 * area / max_area + 256.0;
     if estimate > MAX_VERTICES as f64 {
         return Err(MeshError::Options(format!(
             "max_area {max_area} px² is too small for a part of {area:.0} px² (more than {MAX_VERTICES} vertices)"
         )));
     }
-    vertices.extend(lattice(rings, max_area).into_iter().map(|p| Point2::new(p[0], p[1])));
+    vertices.extend(
+        lattice(rings, max_area)
+            .into_iter()
+            .map(|p| Point2::new(p[0], p[1])),
+    );
     let mut crossing = None;
-    let mut cdt = ConstrainedDelaunayTriangulation::<Point2<f64>>::try_bulk_load_cdt(vertices, edges, |e| {
-        crossing.get_or_insert(e[0]);
-    })
-    .map_err(|e| MeshError::Options(format!("ring points rejected: {e:?}")))?;
+    let mut cdt =
+        ConstrainedDelaunayTriangulation::<Point2<f64>>::try_bulk_load_cdt(vertices, edges, |e| {
+            crossing.get_or_insert(e[0]);
+        })
+        .map_err(|e| MeshError::Options(format!("ring points rejected: {e:?}")))?;
     if let Some(v) = crossing {
-        let p = cdt.vertex(spade::handles::FixedVertexHandle::from_index(v)).position();
-        return Err(MeshError::Options(format!("the ring edge from ({}, {}) crosses another ring edge", p.x, p.y)));
+        let p = cdt
+            .vertex(spade::handles::FixedVertexHandle::from_index(v))
+            .position();
+        return Err(MeshError::Options(format!(
+            "the ring edge from ({}, {}) crosses another ring edge",
+            p.x, p.y
+        )));
     }
     let mut required_handles = Vec::with_capacity(required.len());
     for &p in required {
-        let outside = || MeshError::PointOutside { x: p[0] as f32, y: p[1] as f32 };
+        let outside = || MeshError::PointOutside {
+            x: p[0] as f32,
+            y: p[1] as f32,
+        };
         if !(p[0].is_finite() && p[1].is_finite()) {
             return Err(outside());
         }
@@ -123,10 +156,21 @@ pub fn triangulate(rings: &[Vec<[f64; 2]>], required: &[[f64; 2]], opts: &MeshOp
         triangles.push(t);
     }
     if triangles.is_empty() {
-        return Err(MeshError::TooSmall { problem: format!("no triangle inside the rings ({area:.2} px², {points} points)") });
+        return Err(MeshError::TooSmall {
+            problem: format!("no triangle inside the rings ({area:.2} px², {points} points)"),
+        });
     }
-    let required = required_handles.iter().map(|&h| id(h, &mut vertices)).collect();
-    Ok((Mesh { vertices, triangles }, required))
+    let required = required_handles
+        .iter()
+        .map(|&h| id(h, &mut vertices))
+        .collect();
+    Ok((
+        Mesh {
+            vertices,
+            triangles,
+        },
+        required,
+    ))
 }
 
 /// Seeds for the interior: an equilateral lattice whose triangles have area just under
@@ -154,9 +198,13 @@ fn lattice(rings: &[Vec<[f64; 2]>], max_area: f64) -> Vec<[f64; 2]> {
     // Crossings of each row with the ring edges, and the edges near each bucket of a grid.
     let mut crossings: Vec<Vec<f64>> = vec![Vec::new(); rows];
     let bucket = spacing.max(1e-9);
-    let (bw, bh) = (((hi[0] - lo[0]) / bucket) as usize + 1, ((hi[1] - lo[1]) / bucket) as usize + 1);
+    let (bw, bh) = (
+        ((hi[0] - lo[0]) / bucket) as usize + 1,
+        ((hi[1] - lo[1]) / bucket) as usize + 1,
+    );
     let mut near: Vec<Vec<([f64; 2], [f64; 2])>> = vec![Vec::new(); bw * bh];
-    let cell = |v: f64, k: usize, count: usize| (((v - lo[k]) / bucket).max(0.0) as usize).min(count - 1);
+    let cell =
+        |v: f64, k: usize, count: usize| (((v - lo[k]) / bucket).max(0.0) as usize).min(count - 1);
     for ring in rings {
         for k in 0..ring.len() {
             let (a, b) = (ring[k], ring[(k + 1) % ring.len()]);
@@ -172,7 +220,9 @@ fn lattice(rings: &[Vec<[f64; 2]>], max_area: f64) -> Vec<[f64; 2]> {
                 }
             }
             for by in cell(ylo - margin, 1, bh)..=cell(yhi + margin, 1, bh) {
-                for bx in cell(a[0].min(b[0]) - margin, 0, bw)..=cell(a[0].max(b[0]) + margin, 0, bw) {
+                for bx in
+                    cell(a[0].min(b[0]) - margin, 0, bw)..=cell(a[0].max(b[0]) + margin, 0, bw)
+                {
                     near[by * bw + bx].push((a, b));
                 }
             }
@@ -184,11 +234,15 @@ fn lattice(rings: &[Vec<[f64; 2]>], max_area: f64) -> Vec<[f64; 2]> {
         let y = row_y(r);
         let shift = if r % 2 == 0 { 0.0 } else { 0.5 * spacing };
         for pair in row.chunks_exact(2) {
-            let first = ((pair[0] + margin - lo[0] - shift) / spacing).ceil().max(0.0) as usize;
+            let first = ((pair[0] + margin - lo[0] - shift) / spacing)
+                .ceil()
+                .max(0.0) as usize;
             let mut x = lo[0] + shift + first as f64 * spacing;
             while x <= pair[1] - margin {
                 let p = [x, y];
-                let clear = near[cell(y, 1, bh) * bw + cell(x, 0, bw)].iter().all(|&(a, b)| segment_distance(p, a, b) >= margin);
+                let clear = near[cell(y, 1, bh) * bw + cell(x, 0, bw)]
+                    .iter()
+                    .all(|&(a, b)| segment_distance(p, a, b) >= margin);
                 if clear {
                     seeds.push(p);
                 }
@@ -202,7 +256,11 @@ fn lattice(rings: &[Vec<[f64; 2]>], max_area: f64) -> Vec<[f64; 2]> {
 fn segment_distance(p: [f64; 2], a: [f64; 2], b: [f64; 2]) -> f64 {
     let d = [b[0] - a[0], b[1] - a[1]];
     let len2 = d[0] * d[0] + d[1] * d[1];
-    let t = if len2 > 0.0 { (((p[0] - a[0]) * d[0] + (p[1] - a[1]) * d[1]) / len2).clamp(0.0, 1.0) } else { 0.0 };
+    let t = if len2 > 0.0 {
+        (((p[0] - a[0]) * d[0] + (p[1] - a[1]) * d[1]) / len2).clamp(0.0, 1.0)
+    } else {
+        0.0
+    };
     let q = [a[0] + t * d[0] - p[0], a[1] + t * d[1] - p[1]];
     (q[0] * q[0] + q[1] * q[1]).sqrt()
 }
@@ -214,7 +272,11 @@ fn on_rings(rings: &[Vec<[f64; 2]>], p: [f64; 2]) -> bool {
             let (a, b) = (ring[k], ring[(k + 1) % ring.len()]);
             let d = [b[0] - a[0], b[1] - a[1]];
             let len2 = d[0] * d[0] + d[1] * d[1];
-            let t = if len2 > 0.0 { (((p[0] - a[0]) * d[0] + (p[1] - a[1]) * d[1]) / len2).clamp(0.0, 1.0) } else { 0.0 };
+            let t = if len2 > 0.0 {
+                (((p[0] - a[0]) * d[0] + (p[1] - a[1]) * d[1]) / len2).clamp(0.0, 1.0)
+            } else {
+                0.0
+            };
             let q = [a[0] + t * d[0] - p[0], a[1] + t * d[1] - p[1]];
             q[0] * q[0] + q[1] * q[1] <= 1e-18
         })
