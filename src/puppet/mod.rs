@@ -12,7 +12,7 @@ pub mod character;
 pub mod format;
 pub mod joints;
 pub mod mesh;
-mod ora;
+pub mod ora;
 
 use crate::picture::Picture;
 

@@ -1,1 +1,3 @@
 //! Drawing: previews now; the differentiable soft rasterizer arrives with its issue.
+
+pub mod preview;
