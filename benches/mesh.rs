@@ -29,9 +29,7 @@ fn robot(c: &mut Criterion) {
             ..MeshOptions::default()
         };
         group.bench_function(format!("vertices={vertices}"), |b| {
-            b.iter(|| {
-                mesh_polygons(black_box(&file.rings), &[], &opts).expect("robot polygon meshes")
-            })
+            b.iter(|| mesh_polygons(black_box(&file.rings), &[], &opts).expect("robot polygon meshes"))
         });
     }
     group.finish();
@@ -41,10 +39,7 @@ fn alpha(c: &mut Criterion) {
     let size = 256u32;
     let alpha: Vec<f32> = (0..size * size)
         .map(|i| {
-            let (x, y) = (
-                (i % size) as f32 + 0.5 - 128.0,
-                (i / size) as f32 + 0.5 - 128.0,
-            );
+            let (x, y) = ((i % size) as f32 + 0.5 - 128.0, (i / size) as f32 + 0.5 - 128.0);
             let r = (x * x + y * y).sqrt();
             (0.5 + (100.0 - r).min(r - 30.0)).clamp(0.0, 1.0)
         })
@@ -54,10 +49,7 @@ fn alpha(c: &mut Criterion) {
         ..MeshOptions::default()
     };
     c.bench_function("mesh/alpha/annulus256/max_area=64", |b| {
-        b.iter(|| {
-            mesh_alpha(black_box(&alpha), size, size, &[[128.0, 40.0]], &opts)
-                .expect("annulus meshes")
-        })
+        b.iter(|| mesh_alpha(black_box(&alpha), size, size, &[[128.0, 40.0]], &opts).expect("annulus meshes"))
     });
 }
 

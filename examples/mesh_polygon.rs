@@ -18,15 +18,10 @@ struct PolygonFile {
 
 fn main() -> anyhow::Result<()> {
     let args: Vec<String> = std::env::args().skip(1).collect();
-    let flag = |name: &str| {
-        args.iter()
-            .position(|a| a == name)
-            .and_then(|i| args.get(i + 1))
-            .cloned()
-    };
-    let path = args.first().ok_or_else(|| {
-        anyhow::anyhow!("usage: mesh_polygon FILE [--max-area A] [--min-angle D] [--runs N]")
-    })?;
+    let flag = |name: &str| args.iter().position(|a| a == name).and_then(|i| args.get(i + 1)).cloned();
+    let path = args
+        .first()
+        .ok_or_else(|| anyhow::anyhow!("usage: mesh_polygon FILE [--max-area A] [--min-angle D] [--runs N]"))?;
     let mut opts = MeshOptions::default();
     if let Some(a) = flag("--max-area") {
         opts.max_area = a.parse()?;
@@ -34,11 +29,7 @@ fn main() -> anyhow::Result<()> {
     if let Some(d) = flag("--min-angle") {
         opts.min_angle = d.parse()?;
     }
-    let runs: usize = flag("--runs")
-        .map(|r| r.parse())
-        .transpose()?
-        .unwrap_or(20)
-        .max(1);
+    let runs: usize = flag("--runs").map(|r| r.parse()).transpose()?.unwrap_or(20).max(1);
     let file: PolygonFile = serde_json::from_str(&std::fs::read_to_string(path)?)?;
     let mut times = Vec::with_capacity(runs);
     let mut last = None;
@@ -51,11 +42,7 @@ fn main() -> anyhow::Result<()> {
     times.sort_by(f64::total_cmp);
     let mesh = last.expect("runs >= 1").mesh;
     mesh.check_invariants().map_err(anyhow::Error::msg)?;
-    let max_area = mesh
-        .triangles
-        .iter()
-        .map(|&t| mesh.signed_area(t))
-        .fold(0.0f32, f32::max);
+    let max_area = mesh.triangles.iter().map(|&t| mesh.signed_area(t)).fold(0.0f32, f32::max);
     println!(
         "{{\"tool\": \"puppet (spade)\", \"vertices\": {}, \"triangles\": {}, \"min_angle\": {:.3}, \"max_area\": {:.3}, \"median_ms\": {:.4}, \"min_ms\": {:.4}, \"runs\": {runs}}}",
         mesh.vertices.len(),

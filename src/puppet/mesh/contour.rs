@@ -61,16 +61,8 @@ pub fn contour(grid: &AlphaGrid) -> Vec<Vec<[f64; 2]>> {
     for j in 0..gh - 1 {
         for i in 0..gw - 1 {
             // Corners in cyclic order TL, TR, BR, BL; edge k runs from corner k to corner k + 1.
-            let corners = [
-                inside(i, j),
-                inside(i + 1, j),
-                inside(i + 1, j + 1),
-                inside(i, j + 1),
-            ];
-            let case = corners
-                .iter()
-                .enumerate()
-                .fold(0, |c, (k, &b)| c | (usize::from(b) << k));
+            let corners = [inside(i, j), inside(i + 1, j), inside(i + 1, j + 1), inside(i, j + 1)];
+            let case = corners.iter().enumerate().fold(0, |c, (k, &b)| c | (usize::from(b) << k));
             if case == 0 || case == 15 {
                 continue;
             }
@@ -78,9 +70,7 @@ pub fn contour(grid: &AlphaGrid) -> Vec<Vec<[f64; 2]>> {
             let mut link = |from: usize, to: usize| next[edges[from]] = edges[to] as u32;
             let saddle = case == 5 || case == 10;
             let connected = saddle && {
-                let mean =
-                    (sample(i, j) + sample(i + 1, j) + sample(i + 1, j + 1) + sample(i, j + 1))
-                        / 4.0;
+                let mean = (sample(i, j) + sample(i + 1, j) + sample(i + 1, j + 1) + sample(i, j + 1)) / 4.0;
                 mean > grid.threshold
             };
             // For a run of inside corners k..=l (cyclic), the crossing goes from the edge after
@@ -188,11 +178,7 @@ mod tests {
         for y in -1..=height as i64 {
             for x in -1..=width as i64 {
                 let p = [x as f64 + 0.5, y as f64 + 0.5];
-                assert_eq!(
-                    inside_rings(&rings, p),
-                    grid.inside(x, y),
-                    "pixel ({x}, {y}) in {rows:?}"
-                );
+                assert_eq!(inside_rings(&rings, p), grid.inside(x, y), "pixel ({x}, {y}) in {rows:?}");
             }
         }
         rings
@@ -211,10 +197,7 @@ mod tests {
         let rings = check_separates(&["###", "#.#", "###"]);
         assert_eq!(rings.len(), 2);
         let areas: Vec<f64> = rings.iter().map(|r| signed_area(r)).collect();
-        assert!(
-            areas.iter().any(|&a| a > 0.0) && areas.iter().any(|&a| a < 0.0),
-            "{areas:?}"
-        );
+        assert!(areas.iter().any(|&a| a > 0.0) && areas.iter().any(|&a| a < 0.0), "{areas:?}");
     }
 
     #[test]
@@ -258,9 +241,7 @@ mod tests {
                 .map(|_| {
                     (0..11)
                         .map(|_| {
-                            state = state
-                                .wrapping_mul(6364136223846793005)
-                                .wrapping_add(1442695040888963407);
+                            state = state.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
                             if (state >> 33) % 2 == 0 {
                                 '#'
                             } else {

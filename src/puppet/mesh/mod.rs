@@ -64,34 +64,19 @@ impl MeshOptions {
     pub fn validate(&self) -> Result<(), MeshError> {
         let bad = |what: String| Err(MeshError::Options(what));
         if !(self.alpha_threshold >= 0.0 && self.alpha_threshold < 1.0) {
-            return bad(format!(
-                "alpha_threshold {} (expected 0 ≤ threshold < 1)",
-                self.alpha_threshold
-            ));
+            return bad(format!("alpha_threshold {} (expected 0 ≤ threshold < 1)", self.alpha_threshold));
         }
         if !(self.simplify_tolerance >= 0.0 && self.simplify_tolerance <= 16.0) {
-            return bad(format!(
-                "simplify_tolerance {} (expected 0..=16 px)",
-                self.simplify_tolerance
-            ));
+            return bad(format!("simplify_tolerance {} (expected 0..=16 px)", self.simplify_tolerance));
         }
         if !(self.max_area > 0.0 && self.max_area.is_finite()) {
-            return bad(format!(
-                "max_area {} (expected a finite area > 0 px²)",
-                self.max_area
-            ));
+            return bad(format!("max_area {} (expected a finite area > 0 px²)", self.max_area));
         }
         if !(1.0..=34.0).contains(&self.min_angle) {
-            return bad(format!(
-                "min_angle {} (expected 1..=34 degrees)",
-                self.min_angle
-            ));
+            return bad(format!("min_angle {} (expected 1..=34 degrees)", self.min_angle));
         }
         if self.subdivide > MAX_SUBDIVIDE {
-            return bad(format!(
-                "subdivide {} (expected at most {MAX_SUBDIVIDE} rounds)",
-                self.subdivide
-            ));
+            return bad(format!("subdivide {} (expected at most {MAX_SUBDIVIDE} rounds)", self.subdivide));
         }
         Ok(())
     }
@@ -145,13 +130,7 @@ pub enum MeshError {
 /// # Errors
 /// [`MeshError`] if the region is empty or too small, a required point is outside, or the
 /// options are out of range (also when `alpha.len() != width * height`).
-pub fn mesh_alpha(
-    alpha: &[f32],
-    width: u32,
-    height: u32,
-    required: &[[f32; 2]],
-    opts: &MeshOptions,
-) -> Result<LayerMesh, MeshError> {
+pub fn mesh_alpha(alpha: &[f32], width: u32, height: u32, required: &[[f32; 2]], opts: &MeshOptions) -> Result<LayerMesh, MeshError> {
     opts.validate()?;
     if alpha.len() as u64 != u64::from(width) * u64::from(height) {
         return Err(MeshError::Options(format!(
@@ -174,10 +153,7 @@ pub fn mesh_alpha(
     let traced = contour::contour(&grid);
     let rings = simplify::simplify(&traced, &grid, f64::from(opts.simplify_tolerance));
     if rings.is_empty() {
-        let largest = traced
-            .iter()
-            .map(|r| contour::signed_area(r))
-            .fold(0.0, f64::max);
+        let largest = traced.iter().map(|r| contour::signed_area(r)).fold(0.0, f64::max);
         return Err(MeshError::TooSmall {
             problem: format!(
                 "{inside_count} pixel(s) above alpha {threshold}, largest traced component {largest:.2} px² \
@@ -204,24 +180,13 @@ pub fn mesh_alpha(
 /// [`MeshError::Options`] for bad options or rings (fewer than 3 points, non-finite or huge
 /// coordinates, crossing edges); [`MeshError::TooSmall`] when the rings enclose no area;
 /// [`MeshError::PointOutside`] for a required point outside the region.
-pub fn mesh_polygons(
-    rings: &[Vec<[f32; 2]>],
-    required: &[[f32; 2]],
-    opts: &MeshOptions,
-) -> Result<LayerMesh, MeshError> {
+pub fn mesh_polygons(rings: &[Vec<[f32; 2]>], required: &[[f32; 2]], opts: &MeshOptions) -> Result<LayerMesh, MeshError> {
     opts.validate()?;
     let rings64: Vec<Vec<[f64; 2]>> = rings
         .iter()
-        .map(|r| {
-            r.iter()
-                .map(|p| [f64::from(p[0]), f64::from(p[1])])
-                .collect()
-        })
+        .map(|r| r.iter().map(|p| [f64::from(p[0]), f64::from(p[1])]).collect())
         .collect();
-    let required64: Vec<[f64; 2]> = required
-        .iter()
-        .map(|p| [f64::from(p[0]), f64::from(p[1])])
-        .collect();
+    let required64: Vec<[f64; 2]> = required.iter().map(|p| [f64::from(p[0]), f64::from(p[1])]).collect();
     let (mut mesh, required_idx) = triangulate::triangulate(&rings64, &required64, opts)?;
     for _ in 0..opts.subdivide {
         mesh = subdivide::subdivide(&mesh);
@@ -264,9 +229,7 @@ mod tests {
             ),
             (
                 "two discs",
-                image(64, 32, |x, y| {
-                    disc(14.0, 16.0, 10.0)(x, y).max(disc(47.0, 15.0, 12.5)(x, y))
-                }),
+                image(64, 32, |x, y| disc(14.0, 16.0, 10.0)(x, y).max(disc(47.0, 15.0, 12.5)(x, y))),
                 64,
                 32,
             ),
@@ -285,9 +248,7 @@ mod tests {
             (
                 "L shape",
                 image(30, 30, |x, y| {
-                    if (x < 10.0 && y < 27.0 && x > 3.0 && y > 2.0)
-                        || (x > 3.0 && x < 27.0 && y > 20.0 && y < 27.0)
-                    {
+                    if (x < 10.0 && y < 27.0 && x > 3.0 && y > 2.0) || (x > 3.0 && x < 27.0 && y > 20.0 && y < 27.0) {
                         1.0
                     } else {
                         -1.0
@@ -306,9 +267,7 @@ mod tests {
         // Random blobs: sums of seeded Gaussian bumps, thresholded smoothly.
         let mut state = 0x9E37_79B9_7F4A_7C15u64;
         let mut next = move || {
-            state = state
-                .wrapping_mul(6364136223846793005)
-                .wrapping_add(1442695040888963407);
+            state = state.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
             ((state >> 40) as f32) / (1u64 << 24) as f32
         };
         for _ in 0..4 {
@@ -318,9 +277,7 @@ mod tests {
             let alpha = image(64, 64, |x, y| {
                 let s: f32 = bumps
                     .iter()
-                    .map(|b| {
-                        (-((x - b[0]).powi(2) + (y - b[1]).powi(2)) / (2.0 * b[2] * b[2])).exp()
-                    })
+                    .map(|b| (-((x - b[0]).powi(2) + (y - b[1]).powi(2)) / (2.0 * b[2] * b[2])).exp())
                     .sum();
                 4.0 * (s - 0.5)
             });
@@ -335,18 +292,8 @@ mod tests {
         for &t in &mesh.triangles {
             let p = t.map(|i| mesh.vertices[i as usize]);
             let area2 = 2.0 * mesh.signed_area(t);
-            let x0 = p
-                .iter()
-                .map(|q| q[0])
-                .fold(f32::MAX, f32::min)
-                .floor()
-                .max(0.0) as u32;
-            let y0 = p
-                .iter()
-                .map(|q| q[1])
-                .fold(f32::MAX, f32::min)
-                .floor()
-                .max(0.0) as u32;
+            let x0 = p.iter().map(|q| q[0]).fold(f32::MAX, f32::min).floor().max(0.0) as u32;
+            let y0 = p.iter().map(|q| q[1]).fold(f32::MAX, f32::min).floor().max(0.0) as u32;
             let x1 = (p.iter().map(|q| q[0]).fold(f32::MIN, f32::max).ceil() as u32).min(width);
             let y1 = (p.iter().map(|q| q[1]).fold(f32::MIN, f32::max).ceil() as u32).min(height);
             for y in y0..y1 {
@@ -367,17 +314,9 @@ mod tests {
         covered
     }
 
-    fn check_mesh(
-        name: &str,
-        alpha: &[f32],
-        width: u32,
-        height: u32,
-        out: &LayerMesh,
-        opts: &MeshOptions,
-    ) {
+    fn check_mesh(name: &str, alpha: &[f32], width: u32, height: u32, out: &LayerMesh, opts: &MeshOptions) {
         let mesh = &out.mesh;
-        mesh.check_invariants()
-            .unwrap_or_else(|e| panic!("{name}: {e}"));
+        mesh.check_invariants().unwrap_or_else(|e| panic!("{name}: {e}"));
         let cov = covered(mesh, width, height);
         for (i, (&a, &c)) in alpha.iter().zip(&cov).enumerate() {
             assert!(
@@ -388,19 +327,9 @@ mod tests {
             );
         }
         let min_angle = mesh.min_angle_degrees();
-        assert!(
-            min_angle >= opts.min_angle - 0.01,
-            "{name}: min angle {min_angle}"
-        );
-        let max_area = mesh
-            .triangles
-            .iter()
-            .map(|&t| mesh.signed_area(t))
-            .fold(0.0, f32::max);
-        assert!(
-            max_area <= opts.max_area * 1.0001,
-            "{name}: max area {max_area}"
-        );
+        assert!(min_angle >= opts.min_angle - 0.01, "{name}: min angle {min_angle}");
+        let max_area = mesh.triangles.iter().map(|&t| mesh.signed_area(t)).fold(0.0, f32::max);
+        assert!(max_area <= opts.max_area * 1.0001, "{name}: max area {max_area}");
     }
 
     #[test]
@@ -415,8 +344,7 @@ mod tests {
             },
         ] {
             for (name, alpha, w, h) in shapes() {
-                let out =
-                    mesh_alpha(&alpha, w, h, &[], &opts).unwrap_or_else(|e| panic!("{name}: {e}"));
+                let out = mesh_alpha(&alpha, w, h, &[], &opts).unwrap_or_else(|e| panic!("{name}: {e}"));
                 check_mesh(name, &alpha, w, h, &out, &opts);
             }
         }
@@ -429,16 +357,10 @@ mod tests {
         let m = &out.mesh;
         for &t in &m.triangles {
             let p = t.map(|i| m.vertices[i as usize]);
-            let c = [
-                (p[0][0] + p[1][0] + p[2][0]) / 3.0,
-                (p[0][1] + p[1][1] + p[2][1]) / 3.0,
-            ];
+            let c = [(p[0][0] + p[1][0] + p[2][0]) / 3.0, (p[0][1] + p[1][1] + p[2][1]) / 3.0];
             let r = ((c[0] - 24.0).powi(2) + (c[1] - 24.0).powi(2)).sqrt();
             // The hole has radius 9; the boundary may move outward (into it) by ~1 px at most.
-            assert!(
-                r > 7.5,
-                "triangle {t:?} centroid {c:?} is in the hole (r = {r})"
-            );
+            assert!(r > 7.5, "triangle {t:?} centroid {c:?} is in the hole (r = {r})");
         }
     }
 
@@ -454,16 +376,11 @@ mod tests {
         }
         for t in &mesh.triangles {
             for k in 1..3 {
-                let (a, b) = (
-                    find(&mut parent, t[0] as usize),
-                    find(&mut parent, t[k] as usize),
-                );
+                let (a, b) = (find(&mut parent, t[0] as usize), find(&mut parent, t[k] as usize));
                 parent[a] = b;
             }
         }
-        (0..parent.len())
-            .filter(|&i| find(&mut parent, i) == i)
-            .count()
+        (0..parent.len()).filter(|&i| find(&mut parent, i) == i).count()
     }
 
     #[test]
@@ -472,14 +389,7 @@ mod tests {
         let out = mesh_alpha(&alpha, w, h, &[], &MeshOptions::default()).unwrap();
         assert_eq!(components(&out.mesh), 2);
         let (_, alpha, w, h) = shapes().into_iter().find(|s| s.0 == "ring").unwrap();
-        assert_eq!(
-            components(
-                &mesh_alpha(&alpha, w, h, &[], &MeshOptions::default())
-                    .unwrap()
-                    .mesh
-            ),
-            1
-        );
+        assert_eq!(components(&mesh_alpha(&alpha, w, h, &[], &MeshOptions::default()).unwrap().mesh), 1);
     }
 
     #[test]
@@ -503,19 +413,14 @@ mod tests {
     #[test]
     fn subdivision_multiplies_triangles_by_four() {
         let (_, alpha, w, h) = shapes().into_iter().find(|s| s.0 == "L shape").unwrap();
-        let base = mesh_alpha(&alpha, w, h, &[], &MeshOptions::default())
-            .unwrap()
-            .mesh;
+        let base = mesh_alpha(&alpha, w, h, &[], &MeshOptions::default()).unwrap().mesh;
         for rounds in 1..=2u32 {
             let opts = MeshOptions {
                 subdivide: rounds,
                 ..MeshOptions::default()
             };
             let fine = mesh_alpha(&alpha, w, h, &[], &opts).unwrap().mesh;
-            assert_eq!(
-                fine.triangles.len(),
-                base.triangles.len() * 4usize.pow(rounds)
-            );
+            assert_eq!(fine.triangles.len(), base.triangles.len() * 4usize.pow(rounds));
             assert_eq!(&fine.vertices[..base.vertices.len()], &base.vertices[..]);
             fine.check_invariants().unwrap();
             assert!((fine.min_angle_degrees() - base.min_angle_degrees()).abs() < 0.01);
@@ -534,17 +439,11 @@ mod tests {
     #[test]
     fn errors_name_the_problem() {
         let opts = MeshOptions::default();
-        assert_eq!(
-            mesh_alpha(&[0.0; 16], 4, 4, &[], &opts),
-            Err(MeshError::Empty { threshold: 0.5 })
-        );
+        assert_eq!(mesh_alpha(&[0.0; 16], 4, 4, &[], &opts), Err(MeshError::Empty { threshold: 0.5 }));
         let mut speck = vec![0.0; 16];
         speck[5] = 1.0;
         match mesh_alpha(&speck, 4, 4, &[], &opts) {
-            Err(MeshError::TooSmall { problem }) => assert!(
-                problem.contains("1 pixel") && problem.contains("0.50 px²"),
-                "{problem}"
-            ),
+            Err(MeshError::TooSmall { problem }) => assert!(problem.contains("1 pixel") && problem.contains("0.50 px²"), "{problem}"),
             other => panic!("{other:?}"),
         }
         let bad = [
@@ -583,18 +482,9 @@ mod tests {
         ];
         let (_, alpha, w, h) = shapes().into_iter().find(|s| s.0 == "disc").unwrap();
         for o in bad {
-            assert!(
-                matches!(
-                    mesh_alpha(&alpha, w, h, &[], &o),
-                    Err(MeshError::Options(_))
-                ),
-                "{o:?}"
-            );
+            assert!(matches!(mesh_alpha(&alpha, w, h, &[], &o), Err(MeshError::Options(_))), "{o:?}");
         }
-        assert!(matches!(
-            mesh_alpha(&alpha, w, h + 1, &[], &opts),
-            Err(MeshError::Options(_))
-        ));
+        assert!(matches!(mesh_alpha(&alpha, w, h + 1, &[], &opts), Err(MeshError::Options(_))));
         assert_eq!(
             mesh_alpha(&alpha, w, h, &[[1.0, 1.0]], &opts),
             Err(MeshError::PointOutside { x: 1.0, y: 1.0 })
@@ -625,25 +515,15 @@ mod tests {
             Err(MeshError::PointOutside { .. })
         ));
         let bow_tie = vec![[0.0, 0.0], [10.0, 0.0], [0.0, 10.0], [12.0, 12.0]];
-        assert!(matches!(
-            mesh_polygons(&[bow_tie], &[], &opts),
-            Err(MeshError::Options(_))
-        ));
+        assert!(matches!(mesh_polygons(&[bow_tie], &[], &opts), Err(MeshError::Options(_))));
         assert!(matches!(
             mesh_polygons(&[vec![[0.0, 0.0], [1.0, 1.0]]], &[], &opts),
             Err(MeshError::Options(_))
         ));
         let flat = vec![[0.0, 0.0], [1.0, 0.0], [2.0, 0.0]];
+        assert!(matches!(mesh_polygons(&[flat], &[], &opts), Err(MeshError::TooSmall { .. })));
         assert!(matches!(
-            mesh_polygons(&[flat], &[], &opts),
-            Err(MeshError::TooSmall { .. })
-        ));
-        assert!(matches!(
-            mesh_polygons(
-                &[vec![[0.0, 0.0], [f32::INFINITY, 0.0], [0.0, 1.0]]],
-                &[],
-                &opts
-            ),
+            mesh_polygons(&[vec![[0.0, 0.0], [f32::INFINITY, 0.0], [0.0, 1.0]]], &[], &opts),
             Err(MeshError::Options(_))
         ));
     }

@@ -21,10 +21,7 @@ pub const COVER_MARGIN: f64 = 0.05;
 /// [`COVER_MARGIN`] from the boundary; rings keep their orientation, at least 3 points each, and
 /// no two edges of the result touch except consecutive ones at their shared point.
 pub fn simplify(rings: &[Vec<[f64; 2]>], grid: &AlphaGrid, tolerance: f64) -> Vec<Vec<[f64; 2]>> {
-    let rings: Vec<&Vec<[f64; 2]>> = rings
-        .iter()
-        .filter(|r| signed_area(r).abs() >= MIN_RING_AREA)
-        .collect();
+    let rings: Vec<&Vec<[f64; 2]>> = rings.iter().filter(|r| signed_area(r).abs() >= MIN_RING_AREA).collect();
     let mut keep: Vec<Vec<bool>> = rings
         .iter()
         .map(|ring| {
@@ -57,13 +54,7 @@ pub fn simplify(rings: &[Vec<[f64; 2]>], grid: &AlphaGrid, tolerance: f64) -> Ve
     rings
         .iter()
         .zip(&keep)
-        .map(|(ring, keep)| {
-            ring.iter()
-                .zip(keep)
-                .filter(|(_, &k)| k)
-                .map(|(p, _)| *p)
-                .collect::<Vec<_>>()
-        })
+        .map(|(ring, keep)| ring.iter().zip(keep).filter(|(_, &k)| k).map(|(p, _)| *p).collect::<Vec<_>>())
         .filter(|r| r.len() >= 3 && signed_area(r).abs() >= MIN_RING_AREA)
         .collect()
 }
@@ -95,14 +86,7 @@ fn farthest(ring: &[[f64; 2]], i: usize, j: usize) -> (usize, f64) {
 
 /// Douglas–Peucker on the stretch `i..=j` of a closed ring (`j` may equal `ring.len()`, meaning
 /// point 0), marking kept points in `keep`; chords must also pass [`chord_covers`].
-fn douglas_peucker(
-    ring: &[[f64; 2]],
-    i: usize,
-    j: usize,
-    grid: &AlphaGrid,
-    tolerance: f64,
-    keep: &mut [bool],
-) {
+fn douglas_peucker(ring: &[[f64; 2]], i: usize, j: usize, grid: &AlphaGrid, tolerance: f64, keep: &mut [bool]) {
     let n = ring.len();
     let mut stack = vec![(i, j)];
     while let Some((i, j)) = stack.pop() {
@@ -199,12 +183,8 @@ fn crossing_chords(rings: &[&Vec<[f64; 2]>], keep: &[Vec<bool>]) -> Vec<(usize, 
                     // Consecutive chords share a point: they only conflict by folding back (a
                     // ring of two chords always does).
                     Some((f, s)) => {
-                        let (u, v) = (
-                            [f.4[0] - f.3[0], f.4[1] - f.3[1]],
-                            [s.4[0] - s.3[0], s.4[1] - s.3[1]],
-                        );
-                        p.6 < 3
-                            || (u[0] * v[1] - u[1] * v[0] == 0.0 && u[0] * v[0] + u[1] * v[1] < 0.0)
+                        let (u, v) = ([f.4[0] - f.3[0], f.4[1] - f.3[1]], [s.4[0] - s.3[0], s.4[1] - s.3[1]]);
+                        p.6 < 3 || (u[0] * v[1] - u[1] * v[0] == 0.0 && u[0] * v[0] + u[1] * v[1] < 0.0)
                     }
                     None => segments_touch(p.3, p.4, q.3, q.4),
                 };
@@ -231,17 +211,11 @@ fn orient(a: [f64; 2], b: [f64; 2], c: [f64; 2]) -> f64 {
 fn segments_touch(p1: [f64; 2], p2: [f64; 2], q1: [f64; 2], q2: [f64; 2]) -> bool {
     let (d1, d2) = (orient(q1, q2, p1), orient(q1, q2, p2));
     let (d3, d4) = (orient(p1, p2, q1), orient(p1, p2, q2));
-    if ((d1 > 0.0 && d2 < 0.0) || (d1 < 0.0 && d2 > 0.0))
-        && ((d3 > 0.0 && d4 < 0.0) || (d3 < 0.0 && d4 > 0.0))
-    {
+    if ((d1 > 0.0 && d2 < 0.0) || (d1 < 0.0 && d2 > 0.0)) && ((d3 > 0.0 && d4 < 0.0) || (d3 < 0.0 && d4 > 0.0)) {
         return true;
     }
     let on = |a: [f64; 2], b: [f64; 2], p: [f64; 2], o: f64| {
-        o == 0.0
-            && p[0] >= a[0].min(b[0])
-            && p[0] <= a[0].max(b[0])
-            && p[1] >= a[1].min(b[1])
-            && p[1] <= a[1].max(b[1])
+        o == 0.0 && p[0] >= a[0].min(b[0]) && p[0] <= a[0].max(b[0]) && p[1] >= a[1].min(b[1]) && p[1] <= a[1].max(b[1])
     };
     on(q1, q2, p1, d1) || on(q1, q2, p2, d2) || on(p1, p2, q1, d3) || on(p1, p2, q2, d4)
 }

@@ -28,10 +28,7 @@ pub fn subdivide(mesh: &Mesh) -> Mesh {
         let ca = midpoint(c, a, &mut vertices);
         triangles.extend([[a, ab, ca], [ab, b, bc], [ca, bc, c], [ab, bc, ca]]);
     }
-    Mesh {
-        vertices,
-        triangles,
-    }
+    Mesh { vertices, triangles }
 }
 
 #[cfg(test)]
@@ -52,13 +49,7 @@ mod tests {
         m.triangles = m
             .triangles
             .iter()
-            .map(|&[a, b, c]| {
-                if m.signed_area([a, b, c]) > 0.0 {
-                    [a, b, c]
-                } else {
-                    [a, c, b]
-                }
-            })
+            .map(|&[a, b, c]| if m.signed_area([a, b, c]) > 0.0 { [a, b, c] } else { [a, c, b] })
             .collect();
         m.check_invariants().unwrap();
         let s = subdivide(&m);

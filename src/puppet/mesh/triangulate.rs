@@ -9,9 +9,7 @@
 //! are left (spade keeps the small-angle fans of Miller–Pav–Walkington). Required points are
 //! inserted before refinement; refinement only adds vertices, so they stay exact vertices.
 
-use spade::{
-    AngleLimit, ConstrainedDelaunayTriangulation, Point2, RefinementParameters, Triangulation,
-};
+use spade::{AngleLimit, ConstrainedDelaunayTriangulation, Point2, RefinementParameters, Triangulation};
 
 use super::contour::{inside_rings, signed_area};
 use super::{MeshError, MeshOptions};
@@ -34,11 +32,7 @@ pub const LATTICE_MARGIN: f64 = 0.5;
 /// coordinates, crossing edges, or a bound needing more than [`MAX_VERTICES`] vertices;
 /// [`MeshError::TooSmall`] if no triangle is inside; [`MeshError::PointOutside`] for a required
 /// point outside the region.
-pub fn triangulate(
-    rings: &[Vec<[f64; 2]>],
-    required: &[[f64; 2]],
-    opts: &MeshOptions,
-) -> Result<(Mesh, Vec<u32>), MeshError> {
+pub fn triangulate(rings: &[Vec<[f64; 2]>], required: &[[f64; 2]], opts: &MeshOptions) -> Result<(Mesh, Vec<u32>), MeshError> {
     let mut area = 0.0;
     let mut vertices = Vec::new();
     let mut edges = Vec::new();
@@ -49,10 +43,7 @@ pub fn triangulate(
                 ring.len()
             )));
         }
-        if let Some(p) = ring
-            .iter()
-            .find(|p| !(p[0].abs() <= 1e12 && p[1].abs() <= 1e12))
-        {
+        if let Some(p) = ring.iter().find(|p| !(p[0].abs() <= 1e12 && p[1].abs() <= 1e12)) {
             return Err(MeshError::Options(format!(
                 "ring {r}: point ({}, {}) is not a finite pixel position",
                 p[0], p[1]
@@ -86,21 +77,14 @@ pub fn triangulate(
             "max_area {max_area} px² is too small for a part of {area:.0} px² (more than {MAX_VERTICES} vertices)"
         )));
     }
-    vertices.extend(
-        lattice(rings, max_area)
-            .into_iter()
-            .map(|p| Point2::new(p[0], p[1])),
-    );
+    vertices.extend(lattice(rings, max_area).into_iter().map(|p| Point2::new(p[0], p[1])));
     let mut crossing = None;
-    let mut cdt =
-        ConstrainedDelaunayTriangulation::<Point2<f64>>::try_bulk_load_cdt(vertices, edges, |e| {
-            crossing.get_or_insert(e[0]);
-        })
-        .map_err(|e| MeshError::Options(format!("ring points rejected: {e:?}")))?;
+    let mut cdt = ConstrainedDelaunayTriangulation::<Point2<f64>>::try_bulk_load_cdt(vertices, edges, |e| {
+        crossing.get_or_insert(e[0]);
+    })
+    .map_err(|e| MeshError::Options(format!("ring points rejected: {e:?}")))?;
     if let Some(v) = crossing {
-        let p = cdt
-            .vertex(spade::handles::FixedVertexHandle::from_index(v))
-            .position();
+        let p = cdt.vertex(spade::handles::FixedVertexHandle::from_index(v)).position();
         return Err(MeshError::Options(format!(
             "the ring edge from ({}, {}) crosses another ring edge",
             p.x, p.y
@@ -160,17 +144,8 @@ pub fn triangulate(
             problem: format!("no triangle inside the rings ({area:.2} px², {points} points)"),
         });
     }
-    let required = required_handles
-        .iter()
-        .map(|&h| id(h, &mut vertices))
-        .collect();
-    Ok((
-        Mesh {
-            vertices,
-            triangles,
-        },
-        required,
-    ))
+    let required = required_handles.iter().map(|&h| id(h, &mut vertices)).collect();
+    Ok((Mesh { vertices, triangles }, required))
 }
 
 /// Seeds for the interior: an equilateral lattice whose triangles have area just under
@@ -198,13 +173,9 @@ fn lattice(rings: &[Vec<[f64; 2]>], max_area: f64) -> Vec<[f64; 2]> {
     // Crossings of each row with the ring edges, and the edges near each bucket of a grid.
     let mut crossings: Vec<Vec<f64>> = vec![Vec::new(); rows];
     let bucket = spacing.max(1e-9);
-    let (bw, bh) = (
-        ((hi[0] - lo[0]) / bucket) as usize + 1,
-        ((hi[1] - lo[1]) / bucket) as usize + 1,
-    );
+    let (bw, bh) = (((hi[0] - lo[0]) / bucket) as usize + 1, ((hi[1] - lo[1]) / bucket) as usize + 1);
     let mut near: Vec<Vec<([f64; 2], [f64; 2])>> = vec![Vec::new(); bw * bh];
-    let cell =
-        |v: f64, k: usize, count: usize| (((v - lo[k]) / bucket).max(0.0) as usize).min(count - 1);
+    let cell = |v: f64, k: usize, count: usize| (((v - lo[k]) / bucket).max(0.0) as usize).min(count - 1);
     for ring in rings {
         for k in 0..ring.len() {
             let (a, b) = (ring[k], ring[(k + 1) % ring.len()]);
@@ -220,9 +191,7 @@ fn lattice(rings: &[Vec<[f64; 2]>], max_area: f64) -> Vec<[f64; 2]> {
                 }
             }
             for by in cell(ylo - margin, 1, bh)..=cell(yhi + margin, 1, bh) {
-                for bx in
-                    cell(a[0].min(b[0]) - margin, 0, bw)..=cell(a[0].max(b[0]) + margin, 0, bw)
-                {
+                for bx in cell(a[0].min(b[0]) - margin, 0, bw)..=cell(a[0].max(b[0]) + margin, 0, bw) {
                     near[by * bw + bx].push((a, b));
                 }
             }
@@ -234,9 +203,7 @@ fn lattice(rings: &[Vec<[f64; 2]>], max_area: f64) -> Vec<[f64; 2]> {
         let y = row_y(r);
         let shift = if r % 2 == 0 { 0.0 } else { 0.5 * spacing };
         for pair in row.chunks_exact(2) {
-            let first = ((pair[0] + margin - lo[0] - shift) / spacing)
-                .ceil()
-                .max(0.0) as usize;
+            let first = ((pair[0] + margin - lo[0] - shift) / spacing).ceil().max(0.0) as usize;
             let mut x = lo[0] + shift + first as f64 * spacing;
             while x <= pair[1] - margin {
                 let p = [x, y];
