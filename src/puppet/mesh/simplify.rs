@@ -18,7 +18,7 @@ pub const COVER_MARGIN: f64 = 0.05;
 /// dropping rings that collapse or whose area is below [`MIN_RING_AREA`] px².
 ///
 /// Every inside pixel centre of `grid` that was inside a kept ring stays inside, at least
-/// [`COVER_MARGIN`] from the boundary; rings keep their orientation, at least 3 points each, and
+/// [`COVER_MARGIN`] from every new chord (traced edges that are kept stay where they were); rings keep their orientation, at least 3 points each, and
 /// no two edges of the result touch except consecutive ones at their shared point.
 pub fn simplify(rings: &[Vec<[f64; 2]>], grid: &AlphaGrid, tolerance: f64) -> Vec<Vec<[f64; 2]>> {
     let rings: Vec<&Vec<[f64; 2]>> = rings.iter().filter(|r| signed_area(r).abs() >= MIN_RING_AREA).collect();
@@ -218,4 +218,118 @@ fn segments_touch(p1: [f64; 2], p2: [f64; 2], q1: [f64; 2], q2: [f64; 2]) -> boo
         o == 0.0 && p[0] >= a[0].min(b[0]) && p[0] <= a[0].max(b[0]) && p[1] >= a[1].min(b[1]) && p[1] <= a[1].max(b[1])
     };
     on(q1, q2, p1, d1) || on(q1, q2, p2, d2) || on(p1, p2, q1, d3) || on(p1, p2, q2, d4)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::super::contour::{contour, inside_rings};
+    use super::*;
+
+    /// Seeded blobby alpha images (sums of Gaussian bumps), 48×48.
+    fn blobs(seed: u64) -> Vec<f32> {
+        let mut state = seed;
+        let mut next = move || {
+            state = state.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+            ((state >> 40) as f32) / (1u64 << 24) as f32
+        };
+        let bumps: Vec<[f32; 3]> = (0..5)
+            .map(|_| [6.0 + 36.0 * next(), 6.0 + 36.0 * next(), 2.0 + 5.0 * next()])
+            .collect();
+        (0..48 * 48)
+            .map(|i| {
+                let (x, y) = ((i % 48) as f32 + 0.5, (i / 48) as f32 + 0.5);
+                let s: f32 = bumps
+                    .iter()
+                    .map(|b| (-((x - b[0]).powi(2) + (y - b[1]).powi(2)) / (2.0 * b[2] * b[2])).exp())
+                    .sum();
+                (0.5 + 3.0 * (s - 0.5)).clamp(0.0, 1.0)
+            })
+            .collect()
+    }
+
+    #[test]
+    fn simplified_rings_cover_inside_centres_and_never_touch() {
+        for seed in 0..12u64 {
+            let alpha = blobs(seed);
+            let grid = AlphaGrid {
+                alpha: &alpha,
+                width: 48,
+                height: 48,
+                threshold: 0.5,
+            };
+            let traced = contour(&grid);
+            for tolerance in [0.5, 1.0, 2.0] {
+                let rings = simplify(&traced, &grid, tolerance);
+                let (before, after) = (
+                    traced.iter().map(Vec::len).sum::<usize>(),
+                    rings.iter().map(Vec::len).sum::<usize>(),
+                );
+                assert!(after < before, "seed {seed}: nothing simplified ({before} points)");
+                let big: Vec<Vec<[f64; 2]>> = traced.iter().filter(|r| signed_area(r).abs() >= MIN_RING_AREA).cloned().collect();
+                for y in 0..48 {
+                    for x in 0..48 {
+                        let p = [x as f64 + 0.5, y as f64 + 0.5];
+                        if grid.inside(x, y) && inside_rings(&big, p) {
+                            assert!(inside_rings(&rings, p), "seed {seed} tol {tolerance}: ({x}, {y}) uncovered");
+                            let gap = |rings: &[Vec<[f64; 2]>]| {
+                                rings
+                                    .iter()
+                                    .flat_map(|r| (0..r.len()).map(move |k| segment_distance(p, r[k], r[(k + 1) % r.len()])))
+                                    .fold(f64::MAX, f64::min)
+                            };
+                            // Kept traced edges may be closer than the margin (alpha just above
+                            // the threshold); chords never are.
+                            let (now, was) = (gap(&rings), gap(&big));
+                            assert!(
+                                now >= COVER_MARGIN.min(was) - 1e-9,
+                                "seed {seed}: ({x}, {y}) only {now} px inside (was {was})"
+                            );
+                        }
+                    }
+                }
+                let edges: Vec<(usize, usize, [f64; 2], [f64; 2])> = rings
+                    .iter()
+                    .enumerate()
+                    .flat_map(|(r, ring)| (0..ring.len()).map(move |k| (r, k, ring[k], ring[(k + 1) % ring.len()])))
+                    .collect();
+                for (s, e) in edges.iter().enumerate() {
+                    for f in &edges[s + 1..] {
+                        let n = rings[e.0].len();
+                        let adjacent = e.0 == f.0 && ((e.1 + 1) % n == f.1 || (f.1 + 1) % n == e.1);
+                        assert!(
+                            adjacent || !segments_touch(e.2, e.3, f.2, f.3),
+                            "seed {seed}: edges {e:?} and {f:?} touch"
+                        );
+                    }
+                }
+                for r in &rings {
+                    assert!(r.len() >= 3 && signed_area(r).abs() >= MIN_RING_AREA);
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn specks_are_dropped_and_zero_tolerance_only_removes_collinear_points() {
+        let mut alpha = vec![0.0; 20 * 20];
+        for y in 4..14 {
+            for x in 4..14 {
+                alpha[y * 20 + x] = 1.0;
+            }
+        }
+        alpha[18 * 20 + 18] = 1.0; // a one-pixel speck: 0.5 px² diamond
+        let grid = AlphaGrid {
+            alpha: &alpha,
+            width: 20,
+            height: 20,
+            threshold: 0.5,
+        };
+        let traced = contour(&grid);
+        assert_eq!(traced.len(), 2);
+        let rings = simplify(&traced, &grid, 0.0);
+        assert_eq!(rings.len(), 1);
+        // The block's contour is an octagon: four sides and four 45° corner cuts.
+        assert_eq!(rings[0].len(), 8, "{:?}", rings[0]);
+        assert!((signed_area(&rings[0]) - signed_area(&traced[0])).abs() < 1e-9);
+    }
 }

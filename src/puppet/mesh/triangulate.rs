@@ -249,3 +249,67 @@ fn on_rings(rings: &[Vec<[f64; 2]>], p: [f64; 2]) -> bool {
         })
     })
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn star(cx: f64, cy: f64, r0: f64, r1: f64, points: usize) -> Vec<[f64; 2]> {
+        (0..2 * points)
+            .map(|k| {
+                let a = std::f64::consts::PI * k as f64 / points as f64;
+                let r = if k % 2 == 0 { r1 } else { r0 };
+                [cx + r * a.cos(), cy + r * a.sin()]
+            })
+            .collect()
+    }
+
+    #[test]
+    fn lattice_seeds_are_inside_and_clear_of_the_rings() {
+        let rings = vec![
+            star(50.0, 50.0, 20.0, 45.0, 7),
+            star(50.0, 50.0, 5.0, 10.0, 5).into_iter().rev().collect(),
+        ];
+        for max_area in [2.0, 10.0, 50.0] {
+            let seeds = lattice(&rings, max_area);
+            assert!(!seeds.is_empty());
+            let spacing = (4.0 * max_area / 3f64.sqrt()).sqrt() * 0.98;
+            for &p in &seeds {
+                assert!(inside_rings(&rings, p), "{p:?}");
+                for r in &rings {
+                    for k in 0..r.len() {
+                        assert!(segment_distance(p, r[k], r[(k + 1) % r.len()]) >= LATTICE_MARGIN * spacing - 1e-9);
+                    }
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn star_with_hole_meets_the_bounds() {
+        // Hole given with the same orientation as the outer ring: the even-odd rule decides.
+        let rings = vec![star(50.0, 50.0, 25.0, 45.0, 7), star(50.0, 50.0, 5.0, 10.0, 5)];
+        let opts = MeshOptions {
+            max_area: 8.0,
+            ..MeshOptions::default()
+        };
+        let (mesh, required) = triangulate(&rings, &[[50.0, 20.0], [75.0, 50.0]], &opts).unwrap();
+        mesh.check_invariants().unwrap();
+        assert!(mesh.min_angle_degrees() >= 29.99, "{}", mesh.min_angle_degrees());
+        assert_eq!(mesh.vertices[required[0] as usize], [50.0, 20.0]);
+        assert_eq!(mesh.vertices[required[1] as usize], [75.0, 50.0]);
+        let area = signed_area(&rings[0]).abs() - signed_area(&rings[1]).abs();
+        let total: f64 = mesh.triangles.iter().map(|&t| f64::from(mesh.signed_area(t))).sum();
+        assert!((total - area).abs() < 1e-3 * area, "{total} vs {area}");
+        assert!(mesh.triangles.iter().all(|&t| mesh.signed_area(t) <= 8.0 * 1.0001));
+    }
+
+    #[test]
+    fn required_point_on_a_ring_edge_is_accepted() {
+        let square = vec![[0.0, 0.0], [10.0, 0.0], [10.0, 10.0], [0.0, 10.0]];
+        let (mesh, required) = triangulate(&[square], &[[5.0, 0.0], [10.0, 10.0]], &MeshOptions::default()).unwrap();
+        assert_eq!(mesh.vertices[required[0] as usize], [5.0, 0.0]);
+        assert_eq!(mesh.vertices[required[1] as usize], [10.0, 10.0]);
+        mesh.check_invariants().unwrap();
+    }
+}
