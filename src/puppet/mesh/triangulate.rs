@@ -71,7 +71,7 @@ pub fn triangulate(rings: &[Vec<[f64; 2]>], required: &[[f64; 2]], opts: &MeshOp
         )));
     }
     let max_area = f64::from(opts.max_area);
-    let estimate = 10.0 * points as f64 + 32.0 * area / max_area + 256.0;
+    let estimate = 10.0 * points as f64 + 32.0 * area / max_area + 256.0 + 4096.0 * required.len() as f64;
     if estimate > MAX_VERTICES as f64 {
         return Err(MeshError::Options(format!(
             "max_area {max_area} px² is too small for a part of {area:.0} px² (more than {MAX_VERTICES} vertices)"
@@ -145,7 +145,16 @@ pub fn triangulate(rings: &[Vec<[f64; 2]>], required: &[[f64; 2]], opts: &MeshOp
         });
     }
     let required = required_handles.iter().map(|&h| id(h, &mut vertices)).collect();
-    Ok((Mesh { vertices, triangles }, required))
+    let mesh = Mesh { vertices, triangles };
+    // Refinement runs in f64; features far below a pixel (a required point 1e-9 px from an edge)
+    // can make a triangle flat once rounded to f32. Refuse rather than return a broken mesh.
+    if let Some(&t) = mesh.triangles.iter().find(|&&t| mesh.signed_area(t) <= 0.0) {
+        let p = mesh.vertices[t[0] as usize];
+        return Err(MeshError::TooSmall {
+            problem: format!("features near ({}, {}) are closer than f32 precision can mesh", p[0], p[1]),
+        });
+    }
+    Ok((mesh, required))
 }
 
 /// Seeds for the interior: an equilateral lattice whose triangles have area just under
@@ -311,5 +320,19 @@ mod tests {
         assert_eq!(mesh.vertices[required[0] as usize], [5.0, 0.0]);
         assert_eq!(mesh.vertices[required[1] as usize], [10.0, 10.0]);
         mesh.check_invariants().unwrap();
+    }
+
+    #[test]
+    fn required_points_near_an_edge_refine_or_fail_cleanly() {
+        let square = vec![[0.0, 0.0], [10.0, 0.0], [10.0, 10.0], [0.0, 10.0]];
+        for d in [0.1, 1e-2, 1e-4, 1e-6] {
+            let (mesh, _) = triangulate(std::slice::from_ref(&square), &[[5.0, d], [5.0 + d, d]], &MeshOptions::default()).unwrap();
+            mesh.check_invariants().unwrap();
+            assert!(mesh.min_angle_degrees() >= 29.99, "{d}: {}", mesh.min_angle_degrees());
+        }
+        match triangulate(&[square], &[[5.0, 1e-9], [5.0 + 1e-9, 1e-9]], &MeshOptions::default()) {
+            Ok((mesh, _)) => mesh.check_invariants().unwrap(),
+            Err(e) => assert!(matches!(e, MeshError::TooSmall { .. }), "{e}"),
+        }
     }
 }
