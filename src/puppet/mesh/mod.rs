@@ -151,7 +151,9 @@ pub fn mesh_alpha(alpha: &[f32], width: u32, height: u32, required: &[[f32; 2]],
         threshold,
     };
     let traced = contour::contour(&grid);
-    let rings = simplify::simplify(&traced, &grid, f64::from(opts.simplify_tolerance));
+    // Simplified corners stay at least this sharp-free: 1.5× the angle bound, at most 60°.
+    let min_vertex_angle = (1.5 * f64::from(opts.min_angle)).min(60.0);
+    let rings = simplify::simplify(&traced, &grid, f64::from(opts.simplify_tolerance), min_vertex_angle);
     if rings.is_empty() {
         let largest = traced.iter().map(|r| contour::signed_area(r)).fold(0.0, f64::max);
         return Err(MeshError::TooSmall {
@@ -312,6 +314,28 @@ mod tests {
             }
         }
         covered
+    }
+
+    /// Invariants, and coverage of every inside pixel centre except those in traced components
+    /// under [`MIN_RING_AREA`] px² (dropped by design).
+    fn check_coverage(name: &str, alpha: &[f32], width: u32, height: u32, mesh: &Mesh, opts: &MeshOptions) {
+        mesh.check_invariants().unwrap_or_else(|e| panic!("{name}: {e}"));
+        let grid = contour::AlphaGrid {
+            alpha,
+            width,
+            height,
+            threshold: opts.alpha_threshold,
+        };
+        let kept: Vec<Vec<[f64; 2]>> = contour::contour(&grid)
+            .into_iter()
+            .filter(|r| contour::signed_area(r).abs() >= MIN_RING_AREA)
+            .collect();
+        let cov = covered(mesh, width, height);
+        for (i, (&a, &c)) in alpha.iter().zip(&cov).enumerate() {
+            let (x, y) = (i as u32 % width, i as u32 / width);
+            let must = a > opts.alpha_threshold && contour::inside_rings(&kept, [f64::from(x) + 0.5, f64::from(y) + 0.5]);
+            assert!(!must || c, "{name}: pixel ({x}, {y}) alpha {a} not covered");
+        }
     }
 
     fn check_mesh(name: &str, alpha: &[f32], width: u32, height: u32, out: &LayerMesh, opts: &MeshOptions) {
@@ -526,5 +550,40 @@ mod tests {
             mesh_polygons(&[vec![[0.0, 0.0], [f32::INFINITY, 0.0], [0.0, 1.0]]], &[], &opts),
             Err(MeshError::Options(_))
         ));
+    }
+
+    /// Binary masks of random pixels: many components, saddles, one-pixel spurs and holes. The
+    /// traced contour has no angle below 90°, so the mesh keeps the bound up to spade's small
+    /// shortfalls above 30° (measured: 29.74° for a 31.3° request) and never goes below 25°.
+    #[test]
+    fn random_pixel_masks_mesh_cleanly_with_angles_kept() {
+        let mut state = 7u64;
+        let mut next = move || {
+            state = state.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+            ((state >> 40) as f32) / (1u64 << 24) as f32
+        };
+        for trial in 0..120 {
+            let (w, h) = (8 + (next() * 40.0) as u32, 8 + (next() * 40.0) as u32);
+            let density = 0.3 + 0.5 * next();
+            let alpha: Vec<f32> = (0..w * h).map(|_| if next() < density { 1.0 } else { 0.0 }).collect();
+            let opts = MeshOptions {
+                max_area: 1.0 + 20.0 * next(),
+                min_angle: 25.0 + 7.0 * next(),
+                simplify_tolerance: 2.0 * next(),
+                ..MeshOptions::default()
+            };
+            match mesh_alpha(&alpha, w, h, &[], &opts) {
+                Ok(out) => {
+                    check_coverage(&format!("trial {trial}"), &alpha, w, h, &out.mesh, &opts);
+                    let angle = out.mesh.min_angle_degrees();
+                    assert!(
+                        angle >= 25.0 && angle >= opts.min_angle.min(30.0) - 0.5,
+                        "trial {trial}: {angle} for {opts:?}"
+                    );
+                }
+                Err(MeshError::TooSmall { .. }) | Err(MeshError::Empty { .. }) => {}
+                Err(e) => panic!("trial {trial}: {e}"),
+            }
+        }
     }
 }

@@ -15,12 +15,15 @@ use super::MIN_RING_AREA;
 pub const COVER_MARGIN: f64 = 0.05;
 
 /// Simplifies traced rings (see [`super::contour::contour`]) with tolerance `tolerance` px,
-/// dropping rings that collapse or whose area is below [`MIN_RING_AREA`] px².
+/// dropping traced rings whose area is below [`MIN_RING_AREA`] px² and holes that collapse.
 ///
 /// Every inside pixel centre of `grid` that was inside a kept ring stays inside, at least
 /// [`COVER_MARGIN`] from every new chord (traced edges that are kept stay where they were); rings keep their orientation, at least 3 points each, and
-/// no two edges of the result touch except consecutive ones at their shared point.
-pub fn simplify(rings: &[Vec<[f64; 2]>], grid: &AlphaGrid, tolerance: f64) -> Vec<Vec<[f64; 2]>> {
+/// no two edges of the result touch except consecutive ones at their shared point. A kept point
+/// whose interior angle (on the part's side) is below `min_vertex_angle` degrees gets its
+/// neighbouring traced points back until the angle is at least that or both its edges are
+/// traced edges: refinement cannot widen an input angle, so simplification must not sharpen one.
+pub fn simplify(rings: &[Vec<[f64; 2]>], grid: &AlphaGrid, tolerance: f64, min_vertex_angle: f64) -> Vec<Vec<[f64; 2]>> {
     let rings: Vec<&Vec<[f64; 2]>> = rings.iter().filter(|r| signed_area(r).abs() >= MIN_RING_AREA).collect();
     let mut keep: Vec<Vec<bool>> = rings
         .iter()
@@ -38,9 +41,14 @@ pub fn simplify(rings: &[Vec<[f64; 2]>], grid: &AlphaGrid, tolerance: f64) -> Ve
             keep
         })
         .collect();
-    // Split crossing chords until none is left; terminates because the traced rings are simple.
+    // Split crossing chords, then chords meeting at a sharper angle than the traced contour
+    // had, until neither is left; terminates because the traced rings are simple and every
+    // split keeps one more traced point.
     loop {
-        let offenders = crossing_chords(&rings, &keep);
+        let mut offenders = crossing_chords(&rings, &keep);
+        if offenders.is_empty() {
+            offenders = sharp_chords(&rings, &keep, min_vertex_angle);
+        }
         if offenders.is_empty() {
             break;
         }
@@ -55,7 +63,9 @@ pub fn simplify(rings: &[Vec<[f64; 2]>], grid: &AlphaGrid, tolerance: f64) -> Ve
         .iter()
         .zip(&keep)
         .map(|(ring, keep)| ring.iter().zip(keep).filter(|(_, &k)| k).map(|(p, _)| *p).collect::<Vec<_>>())
-        .filter(|r| r.len() >= 3 && signed_area(r).abs() >= MIN_RING_AREA)
+        // Only collapsed rings go (holes filled by chords); a kept ring may end below
+        // MIN_RING_AREA (a one-pixel-wide line thins to its centres) and must stay.
+        .filter(|r| r.len() >= 3 && signed_area(r) != 0.0)
         .collect()
 }
 
@@ -203,6 +213,38 @@ fn crossing_chords(rings: &[&Vec<[f64; 2]>], keep: &[Vec<bool>]) -> Vec<(usize, 
         .collect()
 }
 
+/// Chords `(ring, i, j)` on either side of a kept point whose interior angle is below
+/// `min_angle` degrees (rings have the part on their positive side), when they can be split.
+fn sharp_chords(rings: &[&Vec<[f64; 2]>], keep: &[Vec<bool>], min_angle: f64) -> Vec<(usize, usize, usize)> {
+    let mut out = Vec::new();
+    for (r, (ring, keep)) in rings.iter().zip(keep).enumerate() {
+        let n = ring.len();
+        let kept: Vec<usize> = (0..n).filter(|&k| keep[k]).collect();
+        let m = kept.len();
+        if m < 3 {
+            continue;
+        }
+        // Chord c runs from kept[c] to kept[c + 1] (past the end: kept[0] + n).
+        let chord = |c: usize| (kept[c], if c + 1 < m { kept[c + 1] } else { kept[0] + n });
+        for c in 0..m {
+            let (i, v) = chord((c + m - 1) % m);
+            let (_, w) = chord(c);
+            let (pu, pv, pw) = (ring[i % n], ring[v % n], ring[w % n]);
+            let (d1, d2) = ([pv[0] - pu[0], pv[1] - pu[1]], [pw[0] - pv[0], pw[1] - pv[1]]);
+            let turn = (d1[0] * d2[1] - d1[1] * d2[0]).atan2(d1[0] * d2[0] + d1[1] * d2[1]);
+            let interior = 180.0 - turn.to_degrees();
+            if interior < min_angle {
+                for (a, b) in [chord((c + m - 1) % m), chord(c)] {
+                    if b > a + 1 && !out.contains(&(r, a, b)) {
+                        out.push((r, a, b));
+                    }
+                }
+            }
+        }
+    }
+    out
+}
+
 fn orient(a: [f64; 2], b: [f64; 2], c: [f64; 2]) -> f64 {
     (b[0] - a[0]) * (c[1] - a[1]) - (b[1] - a[1]) * (c[0] - a[0])
 }
@@ -259,7 +301,7 @@ mod tests {
             };
             let traced = contour(&grid);
             for tolerance in [0.5, 1.0, 2.0] {
-                let rings = simplify(&traced, &grid, tolerance);
+                let rings = simplify(&traced, &grid, tolerance, 45.0);
                 let (before, after) = (
                     traced.iter().map(Vec::len).sum::<usize>(),
                     rings.iter().map(Vec::len).sum::<usize>(),
@@ -303,7 +345,7 @@ mod tests {
                     }
                 }
                 for r in &rings {
-                    assert!(r.len() >= 3 && signed_area(r).abs() >= MIN_RING_AREA);
+                    assert!(r.len() >= 3 && signed_area(r) != 0.0);
                 }
             }
         }
@@ -326,7 +368,7 @@ mod tests {
         };
         let traced = contour(&grid);
         assert_eq!(traced.len(), 2);
-        let rings = simplify(&traced, &grid, 0.0);
+        let rings = simplify(&traced, &grid, 0.0, 45.0);
         assert_eq!(rings.len(), 1);
         // The block's contour is an octagon: four sides and four 45° corner cuts.
         assert_eq!(rings[0].len(), 8, "{:?}", rings[0]);
