@@ -83,18 +83,33 @@ def area_for_vertices(poly, target, angle):
     return hi
 
 
-def time_triangle(poly, area, angle, runs):
-    times = []
-    for _ in range(runs):
-        t0 = time.perf_counter()
-        out = triangle_mesh(poly, area, angle)
-        times.append((time.perf_counter() - t0) * 1e3)
+def triangle_stats(poly, area, angle, times):
+    out = triangle_mesh(poly, area, angle)
     v, t = out["vertices"], out["triangles"]
     a = v[t]
     areas = 0.5 * np.abs((a[:, 1, 0] - a[:, 0, 0]) * (a[:, 2, 1] - a[:, 0, 1]) - (a[:, 2, 0] - a[:, 0, 0]) * (a[:, 1, 1] - a[:, 0, 1]))
     return {"tool": "Triangle (pq%ga)" % angle, "vertices": len(v), "triangles": len(t),
             "min_angle": min_angle_deg(v, t), "max_area": float(areas.max()),
-            "median_ms": statistics.median(times), "runs": runs}
+            "median_ms": statistics.median(times), "min_ms": min(times), "runs": len(times)}
+
+
+def time_both(poly, path, area, angle, runs, rounds):
+    """Alternates the two tools in `rounds` rounds of runs/rounds runs each, so that both see the
+    same machine load; returns (Triangle row, puppet row) with medians over all runs."""
+    tri_times, ours_times, ours = [], [], None
+    per_round = max(1, runs // rounds)
+    for _ in range(rounds):
+        for _ in range(per_round):
+            t0 = time.perf_counter()
+            triangle_mesh(poly, area, angle)
+            tri_times.append((time.perf_counter() - t0) * 1e3)
+        out = subprocess.run(["target/release/examples/mesh_polygon", path, "--max-area", f"{area:.6f}",
+                              "--min-angle", str(angle), "--runs", str(per_round)],
+                             check=True, capture_output=True, text=True).stdout
+        ours = json.loads(out)
+        ours_times += ours["times_ms"]
+    ours.update(median_ms=statistics.median(ours_times), min_ms=min(ours_times), runs=len(ours_times))
+    return triangle_stats(poly, area, angle, tri_times), ours
 
 
 def main():
@@ -104,7 +119,8 @@ def main():
     ap.add_argument("--scale", type=int, default=4)
     ap.add_argument("--points", type=int, default=250)
     ap.add_argument("--angle", type=float, default=30.0)
-    ap.add_argument("--runs", type=int, default=20)
+    ap.add_argument("--runs", type=int, default=20, help="runs per tool and size (>= 20 for the table)")
+    ap.add_argument("--rounds", type=int, default=5, help="alternate the tools this many times")
     ap.add_argument("--targets", default="1000,5000")
     args = ap.parse_args()
 
@@ -124,16 +140,17 @@ def main():
     rows = []
     for target in [int(t) for t in args.targets.split(",")]:
         area = area_for_vertices(poly, target, args.angle)
-        rows.append((target, area, time_triangle(poly, area, args.angle, args.runs)))
-        out = subprocess.run(["target/release/examples/mesh_polygon", args.out, "--max-area", f"{area:.6f}",
-                              "--min-angle", str(args.angle), "--runs", str(args.runs)],
-                             check=True, capture_output=True, text=True).stdout
-        rows.append((target, area, json.loads(out)))
+        for row in time_both(poly, args.out, area, args.angle, args.runs, args.rounds):
+            rows.append((target, area, row))
     print(f"{'target':>6} {'area px²':>9} {'tool':<18} {'vertices':>8} {'triangles':>9} {'min angle':>9} "
-          f"{'max area':>8} {'median ms':>9}")
+          f"{'max area':>8} {'median ms':>9} {'min ms':>7}")
     for target, area, r in rows:
         print(f"{target:>6} {area:>9.3f} {r['tool']:<18} {r['vertices']:>8} {r['triangles']:>9} "
-              f"{r['min_angle']:>9.2f} {r['max_area']:>8.2f} {r['median_ms']:>9.3f}")
+              f"{r['min_angle']:>9.2f} {r['max_area']:>8.2f} {r['median_ms']:>9.3f} {r['min_ms']:>7.3f}")
+    for k in range(0, len(rows), 2):
+        (target, _, t), (_, _, o) = rows[k], rows[k + 1]
+        print(f"~{target} vertices: puppet/Triangle time ratio {o['median_ms'] / t['median_ms']:.2f}x (median), "
+              f"{o['min_ms'] / t['min_ms']:.2f}x (min)")
 
 
 if __name__ == "__main__":

@@ -51,23 +51,35 @@ pub fn contour(grid: &AlphaGrid) -> Vec<Vec<[f64; 2]>> {
     let gw = grid.width as usize + 2;
     let gh = grid.height as usize + 2;
     let sample = |i: usize, j: usize| grid.value(i as i64 - 1, j as i64 - 1);
-    let inside = |i: usize, j: usize| sample(i, j) > grid.threshold;
+    // The inside test once per sample, padded, so the cell loop only reads a byte per corner.
+    let mut mask = vec![false; gw * gh];
+    for y in 0..grid.height as usize {
+        let row = &grid.alpha[y * grid.width as usize..(y + 1) * grid.width as usize];
+        for (x, &a) in row.iter().enumerate() {
+            mask[(y + 1) * gw + x + 1] = a > grid.threshold;
+        }
+    }
+    let inside = |i: usize, j: usize| mask[j * gw + i];
     // Edge ids: horizontal edge from sample (i, j) to (i + 1, j) is 2 (j gw + i), vertical edge
     // from (i, j) to (i, j + 1) is 2 (j gw + i) + 1.
     let h = |i: usize, j: usize| 2 * (j * gw + i);
     let v = |i: usize, j: usize| 2 * (j * gw + i) + 1;
-    const NONE: u32 = u32::MAX;
-    let mut next = vec![NONE; 2 * gw * gh];
+    // Links (from edge, to edge), one per crossing segment; cells are visited in row-major
+    // order, so sorting by `from` only reorders within the few links of neighbouring cells.
+    let mut links: Vec<(usize, usize)> = Vec::new();
     for j in 0..gh - 1 {
         for i in 0..gw - 1 {
             // Corners in cyclic order TL, TR, BR, BL; edge k runs from corner k to corner k + 1.
             let corners = [inside(i, j), inside(i + 1, j), inside(i + 1, j + 1), inside(i, j + 1)];
+            if corners == [corners[0]; 4] {
+                continue;
+            }
             let case = corners.iter().enumerate().fold(0, |c, (k, &b)| c | (usize::from(b) << k));
             if case == 0 || case == 15 {
                 continue;
             }
             let edges = [h(i, j), v(i + 1, j), h(i, j + 1), v(i, j)];
-            let mut link = |from: usize, to: usize| next[edges[from]] = edges[to] as u32;
+            let mut link = |from: usize, to: usize| links.push((edges[from], edges[to]));
             let saddle = case == 5 || case == 10;
             let connected = saddle && {
                 let mean = (sample(i, j) + sample(i + 1, j) + sample(i + 1, j + 1) + sample(i, j + 1)) / 4.0;
@@ -101,20 +113,29 @@ pub fn contour(grid: &AlphaGrid) -> Vec<Vec<[f64; 2]>> {
         let (a0, a1) = (sample(i, j), sample(i1, j1));
         let t = ((grid.threshold - a0) / (a1 - a0)).clamp(CROSSING_CLAMP, 1.0 - CROSSING_CLAMP);
         let t = f64::from(t);
-        [i as f64 - 0.5 + t * (i1 as f64 - i as f64), j as f64 - 0.5 + t * (j1 as f64 - j as f64)]
+        [
+            i as f64 - 0.5 + t * (i1 as f64 - i as f64),
+            j as f64 - 0.5 + t * (j1 as f64 - j as f64),
+        ]
     };
+    links.sort_unstable();
+    let mut used = vec![false; links.len()];
     let mut rings = Vec::new();
-    for start in 0..next.len() {
-        if next[start] == NONE {
+    for first in 0..links.len() {
+        if used[first] {
             continue;
         }
         let mut ring = Vec::new();
-        let mut e = start;
-        while next[e] != NONE {
-            ring.push(point(e));
-            let n = next[e] as usize;
-            next[e] = NONE;
-            e = n;
+        let mut k = first;
+        // Every crossing has exactly one outgoing and one incoming link, so this closes.
+        while !used[k] {
+            used[k] = true;
+            ring.push(point(links[k].0));
+            let to = links[k].1;
+            match links.binary_search_by_key(&to, |l| l.0) {
+                Ok(n) => k = n,
+                Err(_) => break,
+            }
         }
         rings.push(ring);
     }
@@ -156,13 +177,21 @@ mod tests {
 
     fn grid_of(rows: &[&str]) -> (Vec<f32>, u32, u32) {
         let (w, h) = (rows[0].len() as u32, rows.len() as u32);
-        let alpha = rows.iter().flat_map(|r| r.bytes().map(|b| if b == b'#' { 1.0 } else { 0.0 })).collect();
+        let alpha = rows
+            .iter()
+            .flat_map(|r| r.bytes().map(|b| if b == b'#' { 1.0 } else { 0.0 }))
+            .collect();
         (alpha, w, h)
     }
 
     fn check_separates(rows: &[&str]) -> Vec<Vec<[f64; 2]>> {
         let (alpha, width, height) = grid_of(rows);
-        let grid = AlphaGrid { alpha: &alpha, width, height, threshold: 0.5 };
+        let grid = AlphaGrid {
+            alpha: &alpha,
+            width,
+            height,
+            threshold: 0.5,
+        };
         let rings = contour(&grid);
         for y in -1..=height as i64 {
             for x in -1..=width as i64 {
@@ -212,7 +241,12 @@ mod tests {
         assert_eq!(rings2.len(), 2);
         // A brighter saddle connects.
         let alpha = [1.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 0.0, 0.0];
-        let grid = AlphaGrid { alpha: &alpha, width: 3, height: 3, threshold: 0.2 };
+        let grid = AlphaGrid {
+            alpha: &alpha,
+            width: 3,
+            height: 3,
+            threshold: 0.2,
+        };
         assert_eq!(contour(&grid).len(), 1);
         assert_eq!(contour(&grid), contour(&grid));
     }
@@ -226,7 +260,11 @@ mod tests {
                     (0..11)
                         .map(|_| {
                             state = state.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
-                            if (state >> 33) % 2 == 0 { '#' } else { '.' }
+                            if (state >> 33) % 2 == 0 {
+                                '#'
+                            } else {
+                                '.'
+                            }
                         })
                         .collect()
                 })
@@ -240,7 +278,12 @@ mod tests {
     fn crossings_interpolate_alpha() {
         // One row: alpha 1 then 0.25; threshold 0.5 crosses 2/3 of the way between centres.
         let alpha = [1.0, 0.25];
-        let grid = AlphaGrid { alpha: &alpha, width: 2, height: 1, threshold: 0.5 };
+        let grid = AlphaGrid {
+            alpha: &alpha,
+            width: 2,
+            height: 1,
+            threshold: 0.5,
+        };
         let rings = contour(&grid);
         let max_x = rings[0].iter().map(|p| p[0]).fold(f64::MIN, f64::max);
         assert!((max_x - (0.5 + 2.0 / 3.0)).abs() < 1e-6, "{max_x}");

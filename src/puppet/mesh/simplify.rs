@@ -15,12 +15,15 @@ use super::MIN_RING_AREA;
 pub const COVER_MARGIN: f64 = 0.05;
 
 /// Simplifies traced rings (see [`super::contour::contour`]) with tolerance `tolerance` px,
-/// dropping rings that collapse or whose area is below [`MIN_RING_AREA`] px².
+/// dropping traced rings whose area is below [`MIN_RING_AREA`] px² and holes that collapse.
 ///
 /// Every inside pixel centre of `grid` that was inside a kept ring stays inside, at least
-/// [`COVER_MARGIN`] from the boundary; rings keep their orientation, at least 3 points each, and
-/// no two edges of the result touch except consecutive ones at their shared point.
-pub fn simplify(rings: &[Vec<[f64; 2]>], grid: &AlphaGrid, tolerance: f64) -> Vec<Vec<[f64; 2]>> {
+/// [`COVER_MARGIN`] from every new chord (traced edges that are kept stay where they were); rings keep their orientation, at least 3 points each, and
+/// no two edges of the result touch except consecutive ones at their shared point. A kept point
+/// whose interior angle (on the part's side) is below `min_vertex_angle` degrees gets its
+/// neighbouring traced points back until the angle is at least that or both its edges are
+/// traced edges: refinement cannot widen an input angle, so simplification must not sharpen one.
+pub fn simplify(rings: &[Vec<[f64; 2]>], grid: &AlphaGrid, tolerance: f64, min_vertex_angle: f64) -> Vec<Vec<[f64; 2]>> {
     let rings: Vec<&Vec<[f64; 2]>> = rings.iter().filter(|r| signed_area(r).abs() >= MIN_RING_AREA).collect();
     let mut keep: Vec<Vec<bool>> = rings
         .iter()
@@ -28,7 +31,9 @@ pub fn simplify(rings: &[Vec<[f64; 2]>], grid: &AlphaGrid, tolerance: f64) -> Ve
             let mut keep = vec![false; ring.len()];
             let n = ring.len();
             // Anchors: point 0 and the point farthest from it.
-            let far = (0..n).max_by(|&a, &b| dist2(ring[0], ring[a]).total_cmp(&dist2(ring[0], ring[b]))).unwrap_or(0);
+            let far = (0..n)
+                .max_by(|&a, &b| dist2(ring[0], ring[a]).total_cmp(&dist2(ring[0], ring[b])))
+                .unwrap_or(0);
             keep[0] = true;
             keep[far] = true;
             douglas_peucker(ring, 0, far, grid, tolerance, &mut keep);
@@ -36,9 +41,14 @@ pub fn simplify(rings: &[Vec<[f64; 2]>], grid: &AlphaGrid, tolerance: f64) -> Ve
             keep
         })
         .collect();
-    // Split crossing chords until none is left; terminates because the traced rings are simple.
+    // Split crossing chords, then chords meeting at a sharper angle than the traced contour
+    // had, until neither is left; terminates because the traced rings are simple and every
+    // split keeps one more traced point.
     loop {
-        let offenders = crossing_chords(&rings, &keep);
+        let mut offenders = crossing_chords(&rings, &keep);
+        if offenders.is_empty() {
+            offenders = sharp_chords(&rings, &keep, min_vertex_angle);
+        }
         if offenders.is_empty() {
             break;
         }
@@ -53,7 +63,9 @@ pub fn simplify(rings: &[Vec<[f64; 2]>], grid: &AlphaGrid, tolerance: f64) -> Ve
         .iter()
         .zip(&keep)
         .map(|(ring, keep)| ring.iter().zip(keep).filter(|(_, &k)| k).map(|(p, _)| *p).collect::<Vec<_>>())
-        .filter(|r| r.len() >= 3 && signed_area(r).abs() >= MIN_RING_AREA)
+        // Only collapsed rings go (holes filled by chords); a kept ring may end below
+        // MIN_RING_AREA (a one-pixel-wide line thins to its centres) and must stay.
+        .filter(|r| r.len() >= 3 && signed_area(r) != 0.0)
         .collect()
 }
 
@@ -65,7 +77,11 @@ fn dist2(a: [f64; 2], b: [f64; 2]) -> f64 {
 fn segment_distance(p: [f64; 2], a: [f64; 2], b: [f64; 2]) -> f64 {
     let d = [b[0] - a[0], b[1] - a[1]];
     let len2 = d[0] * d[0] + d[1] * d[1];
-    let t = if len2 > 0.0 { (((p[0] - a[0]) * d[0] + (p[1] - a[1]) * d[1]) / len2).clamp(0.0, 1.0) } else { 0.0 };
+    let t = if len2 > 0.0 {
+        (((p[0] - a[0]) * d[0] + (p[1] - a[1]) * d[1]) / len2).clamp(0.0, 1.0)
+    } else {
+        0.0
+    };
     dist2(p, [a[0] + t * d[0], a[1] + t * d[1]]).sqrt()
 }
 
@@ -73,7 +89,9 @@ fn segment_distance(p: [f64; 2], a: [f64; 2], b: [f64; 2]) -> f64 {
 fn farthest(ring: &[[f64; 2]], i: usize, j: usize) -> (usize, f64) {
     let n = ring.len();
     let (a, b) = (ring[i % n], ring[j % n]);
-    (i + 1..j).map(|k| (k, segment_distance(ring[k % n], a, b))).fold((i + 1, -1.0), |best, c| if c.1 > best.1 { c } else { best })
+    (i + 1..j)
+        .map(|k| (k, segment_distance(ring[k % n], a, b)))
+        .fold((i + 1, -1.0), |best, c| if c.1 > best.1 { c } else { best })
 }
 
 /// Douglas–Peucker on the stretch `i..=j` of a closed ring (`j` may equal `ring.len()`, meaning
@@ -187,7 +205,44 @@ fn crossing_chords(rings: &[&Vec<[f64; 2]>], keep: &[Vec<bool>]) -> Vec<(usize, 
             }
         }
     }
-    chords.iter().zip(&bad).filter(|(c, &b)| b && c.2 > c.1 + 1).map(|(c, _)| (c.0, c.1, c.2)).collect()
+    chords
+        .iter()
+        .zip(&bad)
+        .filter(|(c, &b)| b && c.2 > c.1 + 1)
+        .map(|(c, _)| (c.0, c.1, c.2))
+        .collect()
+}
+
+/// Chords `(ring, i, j)` on either side of a kept point whose interior angle is below
+/// `min_angle` degrees (rings have the part on their positive side), when they can be split.
+fn sharp_chords(rings: &[&Vec<[f64; 2]>], keep: &[Vec<bool>], min_angle: f64) -> Vec<(usize, usize, usize)> {
+    let mut out = Vec::new();
+    for (r, (ring, keep)) in rings.iter().zip(keep).enumerate() {
+        let n = ring.len();
+        let kept: Vec<usize> = (0..n).filter(|&k| keep[k]).collect();
+        let m = kept.len();
+        if m < 3 {
+            continue;
+        }
+        // Chord c runs from kept[c] to kept[c + 1] (past the end: kept[0] + n).
+        let chord = |c: usize| (kept[c], if c + 1 < m { kept[c + 1] } else { kept[0] + n });
+        for c in 0..m {
+            let (i, v) = chord((c + m - 1) % m);
+            let (_, w) = chord(c);
+            let (pu, pv, pw) = (ring[i % n], ring[v % n], ring[w % n]);
+            let (d1, d2) = ([pv[0] - pu[0], pv[1] - pu[1]], [pw[0] - pv[0], pw[1] - pv[1]]);
+            let turn = (d1[0] * d2[1] - d1[1] * d2[0]).atan2(d1[0] * d2[0] + d1[1] * d2[1]);
+            let interior = 180.0 - turn.to_degrees();
+            if interior < min_angle {
+                for (a, b) in [chord((c + m - 1) % m), chord(c)] {
+                    if b > a + 1 && !out.contains(&(r, a, b)) {
+                        out.push((r, a, b));
+                    }
+                }
+            }
+        }
+    }
+    out
 }
 
 fn orient(a: [f64; 2], b: [f64; 2], c: [f64; 2]) -> f64 {
@@ -205,4 +260,118 @@ fn segments_touch(p1: [f64; 2], p2: [f64; 2], q1: [f64; 2], q2: [f64; 2]) -> boo
         o == 0.0 && p[0] >= a[0].min(b[0]) && p[0] <= a[0].max(b[0]) && p[1] >= a[1].min(b[1]) && p[1] <= a[1].max(b[1])
     };
     on(q1, q2, p1, d1) || on(q1, q2, p2, d2) || on(p1, p2, q1, d3) || on(p1, p2, q2, d4)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::super::contour::{contour, inside_rings};
+    use super::*;
+
+    /// Seeded blobby alpha images (sums of Gaussian bumps), 48×48.
+    fn blobs(seed: u64) -> Vec<f32> {
+        let mut state = seed;
+        let mut next = move || {
+            state = state.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+            ((state >> 40) as f32) / (1u64 << 24) as f32
+        };
+        let bumps: Vec<[f32; 3]> = (0..5)
+            .map(|_| [6.0 + 36.0 * next(), 6.0 + 36.0 * next(), 2.0 + 5.0 * next()])
+            .collect();
+        (0..48 * 48)
+            .map(|i| {
+                let (x, y) = ((i % 48) as f32 + 0.5, (i / 48) as f32 + 0.5);
+                let s: f32 = bumps
+                    .iter()
+                    .map(|b| (-((x - b[0]).powi(2) + (y - b[1]).powi(2)) / (2.0 * b[2] * b[2])).exp())
+                    .sum();
+                (0.5 + 3.0 * (s - 0.5)).clamp(0.0, 1.0)
+            })
+            .collect()
+    }
+
+    #[test]
+    fn simplified_rings_cover_inside_centres_and_never_touch() {
+        for seed in 0..12u64 {
+            let alpha = blobs(seed);
+            let grid = AlphaGrid {
+                alpha: &alpha,
+                width: 48,
+                height: 48,
+                threshold: 0.5,
+            };
+            let traced = contour(&grid);
+            for tolerance in [0.5, 1.0, 2.0] {
+                let rings = simplify(&traced, &grid, tolerance, 45.0);
+                let (before, after) = (
+                    traced.iter().map(Vec::len).sum::<usize>(),
+                    rings.iter().map(Vec::len).sum::<usize>(),
+                );
+                assert!(after < before, "seed {seed}: nothing simplified ({before} points)");
+                let big: Vec<Vec<[f64; 2]>> = traced.iter().filter(|r| signed_area(r).abs() >= MIN_RING_AREA).cloned().collect();
+                for y in 0..48 {
+                    for x in 0..48 {
+                        let p = [x as f64 + 0.5, y as f64 + 0.5];
+                        if grid.inside(x, y) && inside_rings(&big, p) {
+                            assert!(inside_rings(&rings, p), "seed {seed} tol {tolerance}: ({x}, {y}) uncovered");
+                            let gap = |rings: &[Vec<[f64; 2]>]| {
+                                rings
+                                    .iter()
+                                    .flat_map(|r| (0..r.len()).map(move |k| segment_distance(p, r[k], r[(k + 1) % r.len()])))
+                                    .fold(f64::MAX, f64::min)
+                            };
+                            // Kept traced edges may be closer than the margin (alpha just above
+                            // the threshold); chords never are.
+                            let (now, was) = (gap(&rings), gap(&big));
+                            assert!(
+                                now >= COVER_MARGIN.min(was) - 1e-9,
+                                "seed {seed}: ({x}, {y}) only {now} px inside (was {was})"
+                            );
+                        }
+                    }
+                }
+                let edges: Vec<(usize, usize, [f64; 2], [f64; 2])> = rings
+                    .iter()
+                    .enumerate()
+                    .flat_map(|(r, ring)| (0..ring.len()).map(move |k| (r, k, ring[k], ring[(k + 1) % ring.len()])))
+                    .collect();
+                for (s, e) in edges.iter().enumerate() {
+                    for f in &edges[s + 1..] {
+                        let n = rings[e.0].len();
+                        let adjacent = e.0 == f.0 && ((e.1 + 1) % n == f.1 || (f.1 + 1) % n == e.1);
+                        assert!(
+                            adjacent || !segments_touch(e.2, e.3, f.2, f.3),
+                            "seed {seed}: edges {e:?} and {f:?} touch"
+                        );
+                    }
+                }
+                for r in &rings {
+                    assert!(r.len() >= 3 && signed_area(r) != 0.0);
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn specks_are_dropped_and_zero_tolerance_only_removes_collinear_points() {
+        let mut alpha = vec![0.0; 20 * 20];
+        for y in 4..14 {
+            for x in 4..14 {
+                alpha[y * 20 + x] = 1.0;
+            }
+        }
+        alpha[18 * 20 + 18] = 1.0; // a one-pixel speck: 0.5 px² diamond
+        let grid = AlphaGrid {
+            alpha: &alpha,
+            width: 20,
+            height: 20,
+            threshold: 0.5,
+        };
+        let traced = contour(&grid);
+        assert_eq!(traced.len(), 2);
+        let rings = simplify(&traced, &grid, 0.0, 45.0);
+        assert_eq!(rings.len(), 1);
+        // The block's contour is an octagon: four sides and four 45° corner cuts.
+        assert_eq!(rings[0].len(), 8, "{:?}", rings[0]);
+        assert!((signed_area(&rings[0]) - signed_area(&traced[0])).abs() < 1e-9);
+    }
 }

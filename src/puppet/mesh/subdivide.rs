@@ -36,14 +36,21 @@ mod tests {
     use super::*;
 
     fn square() -> Mesh {
-        Mesh { vertices: vec![[0.0, 0.0], [4.0, 0.0], [4.0, 4.0], [0.0, 4.0]], triangles: vec![[0, 2, 1], [0, 3, 2]] }
+        Mesh {
+            vertices: vec![[0.0, 0.0], [4.0, 0.0], [4.0, 4.0], [0.0, 4.0]],
+            triangles: vec![[0, 2, 1], [0, 3, 2]],
+        }
     }
 
     #[test]
     fn four_triangles_per_triangle_and_shared_midpoints() {
         let mut m = square();
         // Make the winding positive for this crate's convention first.
-        m.triangles = m.triangles.iter().map(|&[a, b, c]| if m.signed_area([a, b, c]) > 0.0 { [a, b, c] } else { [a, c, b] }).collect();
+        m.triangles = m
+            .triangles
+            .iter()
+            .map(|&[a, b, c]| if m.signed_area([a, b, c]) > 0.0 { [a, b, c] } else { [a, c, b] })
+            .collect();
         m.check_invariants().unwrap();
         let s = subdivide(&m);
         assert_eq!(s.triangles.len(), 8);
