@@ -256,9 +256,9 @@ fn label_pixels(map: &Picture, map_path: &Path, legend: &[[u8; 3]]) -> Result<Ve
 fn extend_part(image: &Picture, own: &[bool], allowed: &[bool], overlap: u32) -> Picture {
     let (w, h) = (image.width as usize, image.height as usize);
     let mut out = Picture::filled(image.width, image.height, [0.0; 4]);
-    for i in 0..own.len() {
-        if own[i] {
-            out.pixels[i] = image.pixels[i];
+    for ((dst, src), &mine) in out.pixels.iter_mut().zip(&image.pixels).zip(own) {
+        if mine {
+            *dst = *src;
         }
     }
     let holes = enclosed_holes(own, allowed, w, h);
