@@ -22,25 +22,50 @@ pub fn render_pose(
 ) -> Result<Picture> {
     let raster = SoftRasterizer::new(puppet)?;
     let flat: Vec<f32> = vertices.iter().flatten().copied().collect();
-    let params = Params { sigma, background, ..Params::default() };
+    let params = Params {
+        sigma,
+        background,
+        ..Params::default()
+    };
     let frames = raster.forward(&flat, 1, width as usize, height as usize, &params)?;
     let pixels = frames
         .image
         .chunks_exact(4)
         .map(|p| match p[3] {
-            a if a > 0.0 => [(p[0] / a).min(1.0), (p[1] / a).min(1.0), (p[2] / a).min(1.0), a.min(1.0)],
+            a if a > 0.0 => [
+                (p[0] / a).min(1.0),
+                (p[1] / a).min(1.0),
+                (p[2] / a).min(1.0),
+                a.min(1.0),
+            ],
             _ => [0.0; 4],
         })
         .collect();
-    Ok(Picture { width, height, pixels })
+    Ok(Picture {
+        width,
+        height,
+        pixels,
+    })
 }
 
 /// The crisp render (σ = 0, transparent background) every preview and export uses.
 ///
 /// # Errors
 /// As [`render_pose`].
-pub fn render_crisp(puppet: &Puppet, vertices: &[[f32; 2]], width: u32, height: u32) -> Result<Picture> {
-    render_pose(puppet, vertices, width, height, 0.0, Background::Transparent)
+pub fn render_crisp(
+    puppet: &Puppet,
+    vertices: &[[f32; 2]],
+    width: u32,
+    height: u32,
+) -> Result<Picture> {
+    render_pose(
+        puppet,
+        vertices,
+        width,
+        height,
+        0.0,
+        Background::Transparent,
+    )
 }
 
 #[cfg(test)]
@@ -54,7 +79,13 @@ mod tests {
         for layer in &puppet.layers {
             for (o, s) in out.pixels.iter_mut().zip(&layer.texture.pixels) {
                 let a = s[3] + o[3] * (1.0 - s[3]);
-                let mix = |c: usize| if a > 0.0 { (s[c] * s[3] + o[c] * o[3] * (1.0 - s[3])) / a } else { 0.0 };
+                let mix = |c: usize| {
+                    if a > 0.0 {
+                        (s[c] * s[3] + o[c] * o[3] * (1.0 - s[3])) / a
+                    } else {
+                        0.0
+                    }
+                };
                 *o = [mix(0), mix(1), mix(2), a];
             }
         }
@@ -97,9 +128,25 @@ mod tests {
     #[test]
     fn soft_render_is_opaque_on_a_colour_background_and_errors_name_the_problem() {
         let puppet = layered_puppet();
-        let pic = render_pose(&puppet, &puppet.rest_vertices(), 30, 20, 0.5, Background::Colour([1.0, 1.0, 1.0])).unwrap();
+        let pic = render_pose(
+            &puppet,
+            &puppet.rest_vertices(),
+            30,
+            20,
+            0.5,
+            Background::Colour([1.0, 1.0, 1.0]),
+        )
+        .unwrap();
         assert!(pic.pixels.iter().all(|p| (p[3] - 1.0).abs() < 1e-6));
-        let err = render_pose(&puppet, &puppet.rest_vertices()[1..], 30, 20, 0.5, Background::Transparent).unwrap_err();
+        let err = render_pose(
+            &puppet,
+            &puppet.rest_vertices()[1..],
+            30,
+            20,
+            0.5,
+            Background::Transparent,
+        )
+        .unwrap_err();
         assert!(err.to_string().contains("vertices"), "{err}");
     }
 }

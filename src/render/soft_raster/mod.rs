@@ -35,6 +35,9 @@
 //! sample, `bins.rs` the tiles; `reference.rs` (tests only) is the every-face × every-pixel
 //! version. Kernels are generic over `f32`/`f64` ([`Real`]).
 
+// Index loops here mirror the subscripts of the equations (corners k, channels c).
+#![allow(clippy::needless_range_loop)]
+
 mod backward;
 mod bins;
 mod forward;
@@ -91,14 +94,22 @@ pub struct Params {
 
 impl Default for Params {
     fn default() -> Self {
-        Params { sigma: 0.5, cutoff: 1e-4, background: Background::Transparent }
+        Params {
+            sigma: 0.5,
+            cutoff: 1e-4,
+            background: Background::Transparent,
+        }
     }
 }
 
 impl Params {
     /// Crisp rendering (σ = 0) onto `background`.
     pub fn crisp(background: Background) -> Self {
-        Params { sigma: 0.0, cutoff: 1e-4, background }
+        Params {
+            sigma: 0.0,
+            cutoff: 1e-4,
+            background,
+        }
     }
 
     /// Checks σ ≥ 0 (finite), 0 < ε < 1/2, and a finite background in [0, 1].
@@ -107,14 +118,22 @@ impl Params {
     /// [`Error::Invalid`] naming the bad setting.
     pub fn validate(&self) -> Result<()> {
         if !(self.sigma.is_finite() && self.sigma >= 0.0) {
-            return Err(Error::Invalid(format!("render: sigma {} is not a finite value ≥ 0 (px²)", self.sigma)));
+            return Err(Error::Invalid(format!(
+                "render: sigma {} is not a finite value ≥ 0 (px²)",
+                self.sigma
+            )));
         }
         if !(self.cutoff > 0.0 && self.cutoff < 0.5) {
-            return Err(Error::Invalid(format!("render: cutoff {} is not in (0, 0.5)", self.cutoff)));
+            return Err(Error::Invalid(format!(
+                "render: cutoff {} is not in (0, 0.5)",
+                self.cutoff
+            )));
         }
         if let Background::Colour(c) = self.background {
             if c.iter().any(|v| !(0.0..=1.0).contains(v)) {
-                return Err(Error::Invalid(format!("render: background {c:?} is not RGB in [0, 1]")));
+                return Err(Error::Invalid(format!(
+                    "render: background {c:?} is not RGB in [0, 1]"
+                )));
             }
         }
         Ok(())
@@ -164,24 +183,39 @@ impl SoftRasterizer {
     /// differs from the vertex count, a UV is not finite, or the texture is empty.
     pub fn new(puppet: &Puppet) -> Result<Self> {
         let offsets = puppet.vertex_offsets();
-        let (mut faces, mut face_layer, mut textures, mut errors) = (Vec::new(), Vec::new(), Vec::new(), Vec::new());
+        let (mut faces, mut face_layer, mut textures, mut errors) =
+            (Vec::new(), Vec::new(), Vec::new(), Vec::new());
         for (l, layer) in puppet.layers.iter().enumerate() {
             let n = layer.mesh.vertices.len();
-            let bad = |problem: String| Error::Invalid(format!("render: layer {:?}: {problem}", layer.name));
+            let bad = |problem: String| {
+                Error::Invalid(format!("render: layer {:?}: {problem}", layer.name))
+            };
             if layer.uvs.len() != n {
                 errors.push(bad(format!("{} UVs for {n} vertices", layer.uvs.len())));
                 continue;
             }
-            if layer.uvs.iter().any(|uv| !uv[0].is_finite() || !uv[1].is_finite()) {
+            if layer
+                .uvs
+                .iter()
+                .any(|uv| !uv[0].is_finite() || !uv[1].is_finite())
+            {
                 errors.push(bad("a UV is not finite".into()));
                 continue;
             }
             let (tw, th) = (layer.texture.width as usize, layer.texture.height as usize);
             if tw == 0 || th == 0 || layer.texture.pixels.len() != tw * th {
-                errors.push(bad(format!("texture is {tw}×{th} with {} pixels", layer.texture.pixels.len())));
+                errors.push(bad(format!(
+                    "texture is {tw}×{th} with {} pixels",
+                    layer.texture.pixels.len()
+                )));
                 continue;
             }
-            if let Some(t) = layer.mesh.triangles.iter().find(|t| t.iter().any(|&i| i as usize >= n)) {
+            if let Some(t) = layer
+                .mesh
+                .triangles
+                .iter()
+                .find(|t| t.iter().any(|&i| i as usize >= n))
+            {
                 errors.push(bad(format!("triangle {t:?} indexes past {n} vertices")));
                 continue;
             }
@@ -192,11 +226,25 @@ impl SoftRasterizer {
                 });
                 face_layer.push(l as u32);
             }
-            let texels = layer.texture.pixels.iter().map(|&[r, g, b, a]| [r * a, g * a, b * a, a]).collect();
-            textures.push(Texture { width: tw, height: th, texels });
+            let texels = layer
+                .texture
+                .pixels
+                .iter()
+                .map(|&[r, g, b, a]| [r * a, g * a, b * a, a])
+                .collect();
+            textures.push(Texture {
+                width: tw,
+                height: th,
+                texels,
+            });
         }
         Error::collect(errors)?;
-        Ok(SoftRasterizer { faces, face_layer, textures, vertex_count: puppet.vertex_count() })
+        Ok(SoftRasterizer {
+            faces,
+            face_layer,
+            textures,
+            vertex_count: puppet.vertex_count(),
+        })
     }
 
     /// Number of vertices V expected per pose.
@@ -218,7 +266,13 @@ impl SoftRasterizer {
     ///
     /// # Errors
     /// [`Error::Invalid`] saying what is wrong.
-    pub fn validate_input<T: Real>(&self, vertices: &[T], batch: usize, width: usize, height: usize) -> Result<()> {
+    pub fn validate_input<T: Real>(
+        &self,
+        vertices: &[T],
+        batch: usize,
+        width: usize,
+        height: usize,
+    ) -> Result<()> {
         if vertices.len() != batch * self.vertex_count * 2 {
             return Err(Error::Invalid(format!(
                 "render: {} vertex coordinates, expected {batch} poses × {} vertices × 2",
@@ -227,10 +281,14 @@ impl SoftRasterizer {
             )));
         }
         if let Some(i) = vertices.iter().position(|v| !v.is_finite()) {
-            return Err(Error::Invalid(format!("render: vertex coordinate {i} is not finite")));
+            return Err(Error::Invalid(format!(
+                "render: vertex coordinate {i} is not finite"
+            )));
         }
         if width == 0 || height == 0 {
-            return Err(Error::Invalid(format!("render: image size {width}×{height} is empty")));
+            return Err(Error::Invalid(format!(
+                "render: image size {width}×{height} is empty"
+            )));
         }
         Ok(())
     }
@@ -242,7 +300,13 @@ mod tests {
     use crate::test_util::layered_puppet;
 
     /// Rotates `v[range]` (pairs) by `deg` degrees about `c`.
-    fn rotate(v: &mut [f32], range: std::ops::Range<usize>, c: [f32; 2], deg: f32, keep: impl Fn(f32, f32) -> bool) {
+    fn rotate(
+        v: &mut [f32],
+        range: std::ops::Range<usize>,
+        c: [f32; 2],
+        deg: f32,
+        keep: impl Fn(f32, f32) -> bool,
+    ) {
         let (s, co) = deg.to_radians().sin_cos();
         for p in v[2 * range.start..2 * range.end].chunks_mut(2) {
             if keep(p[0], p[1]) {
@@ -253,7 +317,11 @@ mod tests {
     }
 
     fn vertex_error(a: &[f32], b: &[f32]) -> f32 {
-        a.chunks(2).zip(b.chunks(2)).map(|(p, q)| (p[0] - q[0]).hypot(p[1] - q[1])).sum::<f32>() / (a.len() / 2) as f32
+        a.chunks(2)
+            .zip(b.chunks(2))
+            .map(|(p, q)| (p[0] - q[0]).hypot(p[1] - q[1]))
+            .sum::<f32>()
+            / (a.len() / 2) as f32
     }
 
     /// neural-puppet.md §3.2 eq. 1 minimised over the vertices alone: from a pose that is
@@ -270,7 +338,8 @@ mod tests {
         rotate(&mut v, off[3]..off[4], [33.0, 22.5], 10.0, |x, _| x > 33.5); // front arm bent
         rotate(&mut v, off[0]..off[1], [15.0, 14.5], -8.0, |x, _| x < 14.5); // back arm bent
         rotate(&mut v, 0..off[4], [24.0, 22.0], 3.0, |_, _| true);
-        v.chunks_mut(2).for_each(|p| (p[0], p[1]) = (p[0] + 1.2, p[1] - 0.8));
+        v.chunks_mut(2)
+            .for_each(|p| (p[0], p[1]) = (p[0] + 1.2, p[1] - 0.8));
         let start = vertex_error(&v, &truth);
         let v0 = v.clone();
 
@@ -278,13 +347,27 @@ mod tests {
         let (schedule, lr) = ([(4.0f32, 600), (1.0, 600), (0.3, 600)], 0.05);
         let mut losses = Vec::new();
         for &(sigma, steps) in &schedule {
-            let p = Params { sigma, ..Params::default() };
+            let p = Params {
+                sigma,
+                ..Params::default()
+            };
             let target = raster.forward(&truth, 1, w, h, &p).unwrap().image;
             for step in 0..steps {
                 let f = raster.forward(&v, 1, w, h, &p).unwrap();
-                let d: Vec<f32> = f.image.iter().zip(&target).map(|(a, b)| 2.0 * (a - b)).collect();
+                let d: Vec<f32> = f
+                    .image
+                    .iter()
+                    .zip(&target)
+                    .map(|(a, b)| 2.0 * (a - b))
+                    .collect();
                 if step == 0 || step == steps - 1 {
-                    losses.push(f.image.iter().zip(&target).map(|(a, b)| (a - b).powi(2)).sum::<f32>());
+                    losses.push(
+                        f.image
+                            .iter()
+                            .zip(&target)
+                            .map(|(a, b)| (a - b).powi(2))
+                            .sum::<f32>(),
+                    );
                 }
                 let g = raster.backward(&v, 1, w, h, &p, Some(&d), None).unwrap();
                 v.iter_mut().zip(&g).for_each(|(x, g)| *x -= lr * g);
@@ -297,16 +380,27 @@ mod tests {
             later.layers.iter().any(|layer| {
                 let t = &layer.texture;
                 let (i, j) = (x.floor() as i64, y.floor() as i64);
-                (0..t.width as i64).contains(&i) && (0..t.height as i64).contains(&j) && t.pixels[(j * t.width as i64 + i) as usize][3] > 0.5
+                (0..t.width as i64).contains(&i)
+                    && (0..t.height as i64).contains(&j)
+                    && t.pixels[(j * t.width as i64 + i) as usize][3] > 0.5
             })
         };
         let visible: Vec<bool> = (0..puppet.layers.len())
             .flat_map(|l| (off[l]..off[l + 1]).map(move |i| (l, i)))
             .map(|(l, i)| !front(l, truth[2 * i], truth[2 * i + 1]))
             .collect();
-        let pick = |x: &[f32]| -> Vec<f32> { x.chunks(2).zip(&visible).filter(|(_, &vis)| vis).flat_map(|(p, _)| p.to_vec()).collect() };
+        let pick = |x: &[f32]| -> Vec<f32> {
+            x.chunks(2)
+                .zip(&visible)
+                .filter(|(_, &vis)| vis)
+                .flat_map(|(p, _)| p.to_vec())
+                .collect()
+        };
         let end = vertex_error(&v, &truth);
-        let (start_vis, end_vis) = (vertex_error(&pick(&v0), &pick(&truth)), vertex_error(&pick(&v), &pick(&truth)));
+        let (start_vis, end_vis) = (
+            vertex_error(&pick(&v0), &pick(&truth)),
+            vertex_error(&pick(&v), &pick(&truth)),
+        );
         println!(
             "mean vertex error: all {} vertices {start:.3} → {end:.3} px; {} visible ones {start_vis:.3} → {end_vis:.3} px; L2 loss per stage (first, last) {losses:.3?}",
             visible.len(),
@@ -314,6 +408,9 @@ mod tests {
         );
         // Most visible vertices return to within 0.1 px; a few get stuck in local minima (no
         // regulariser here), and hidden ones cannot move for want of signal.
-        assert!(end_vis < 0.25 * start_vis && end < 0.4 * start, "vertex error {start} → {end}, visible {start_vis} → {end_vis}");
+        assert!(
+            end_vis < 0.25 * start_vis && end < 0.4 * start,
+            "vertex error {start} → {end}, visible {start_vis} → {end_vis}"
+        );
     }
 }

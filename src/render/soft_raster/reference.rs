@@ -36,7 +36,11 @@ fn closest_boundary(p: [f64; 2], v: [[f64; 2]; 3]) -> (f64, [f64; 3]) {
         let (a, b) = (v[k], v[(k + 1) % 3]);
         let e = sub(b, a);
         let len2 = e[0] * e[0] + e[1] * e[1];
-        let t = if len2 > 0.0 { ((p[0] - a[0]) * e[0] + (p[1] - a[1]) * e[1]) / len2 } else { 0.0 };
+        let t = if len2 > 0.0 {
+            ((p[0] - a[0]) * e[0] + (p[1] - a[1]) * e[1]) / len2
+        } else {
+            0.0
+        };
         let t = t.clamp(0.0, 1.0);
         let q = [a[0] + t * e[0], a[1] + t * e[1]];
         let d2 = (p[0] - q[0]).powi(2) + (p[1] - q[1]).powi(2);
@@ -61,12 +65,25 @@ fn bilinear(tex: &Texture, uv: [f64; 2]) -> [f64; 4] {
         let j = j.clamp(0.0, tex.height as f64 - 1.0) as usize;
         tex.texels[j * tex.width + i].map(|c| c as f64)
     };
-    let (a, b, c, d) = (at(x0, y0), at(x0 + 1.0, y0), at(x0, y0 + 1.0), at(x0 + 1.0, y0 + 1.0));
-    [0, 1, 2, 3].map(|k| (a[k] * (1.0 - fx) + b[k] * fx) * (1.0 - fy) + (c[k] * (1.0 - fx) + d[k] * fx) * fy)
+    let (a, b, c, d) = (
+        at(x0, y0),
+        at(x0 + 1.0, y0),
+        at(x0, y0 + 1.0),
+        at(x0 + 1.0, y0 + 1.0),
+    );
+    [0, 1, 2, 3].map(|k| {
+        (a[k] * (1.0 - fx) + b[k] * fx) * (1.0 - fy) + (c[k] * (1.0 - fx) + d[k] * fx) * fy
+    })
 }
 
 /// One pose rendered by brute force: (premultiplied RGBA `[H, W, 4]`, mask `[H, W]`).
-pub(crate) fn render(raster: &SoftRasterizer, verts: &[f64], width: usize, height: usize, params: &Params) -> (Vec<f64>, Vec<f64>) {
+pub(crate) fn render(
+    raster: &SoftRasterizer,
+    verts: &[f64],
+    width: usize,
+    height: usize,
+    params: &Params,
+) -> (Vec<f64>, Vec<f64>) {
     let sigma = params.sigma as f64;
     let layers = raster.textures.len();
     let bg = params.background.premultiplied().map(|c| c as f64);
@@ -78,7 +95,9 @@ pub(crate) fn render(raster: &SoftRasterizer, verts: &[f64], width: usize, heigh
             let mut keep = vec![1.0; layers];
             let mut best: Vec<Option<(f64, usize, [f64; 3])>> = vec![None; layers];
             for (f, face) in raster.faces.iter().enumerate() {
-                let v = face.vertices.map(|i| [verts[2 * i as usize], verts[2 * i as usize + 1]]);
+                let v = face
+                    .vertices
+                    .map(|i| [verts[2 * i as usize], verts[2 * i as usize + 1]]);
                 let is_in = inside(p, v);
                 let (d2, wq) = closest_boundary(p, v);
                 let d = if sigma == 0.0 {
@@ -102,7 +121,11 @@ pub(crate) fn render(raster: &SoftRasterizer, verts: &[f64], width: usize, heigh
                 let l = raster.face_layer[f] as usize;
                 keep[l] *= 1.0 - d;
                 let key = if is_in { d2 } else { -d2 };
-                let w = if is_in { barycentric(p, v).expect("inside implies non-zero area") } else { wq };
+                let w = if is_in {
+                    barycentric(p, v).expect("inside implies non-zero area")
+                } else {
+                    wq
+                };
                 if best[l].is_none_or(|b| key > b.0) {
                     best[l] = Some((key, f, w));
                 }
@@ -128,22 +151,56 @@ pub(crate) fn render(raster: &SoftRasterizer, verts: &[f64], width: usize, heigh
 
 /// A plain hard rasterizer: each layer's triangles painted where the pixel centre is inside
 /// (edges included), textured at the interpolated UV, layers composited "over" back to front.
-pub(crate) fn hard(raster: &SoftRasterizer, verts: &[f64], width: usize, height: usize, bg: [f64; 4]) -> Vec<f64> {
+pub(crate) fn hard(
+    raster: &SoftRasterizer,
+    verts: &[f64],
+    width: usize,
+    height: usize,
+    bg: [f64; 4],
+) -> Vec<f64> {
     let mut image: Vec<f64> = (0..width * height).flat_map(|_| bg).collect();
     for l in 0..raster.textures.len() {
         let mut paint: Vec<Option<[f64; 4]>> = vec![None; width * height];
-        for (f, face) in raster.faces.iter().enumerate().filter(|(f, _)| raster.face_layer[*f] as usize == l) {
-            let v = face.vertices.map(|i| [verts[2 * i as usize], verts[2 * i as usize + 1]]);
-            let x0 = v.iter().map(|p| p[0]).fold(f64::INFINITY, f64::min).floor().max(0.0) as usize;
-            let y0 = v.iter().map(|p| p[1]).fold(f64::INFINITY, f64::min).floor().max(0.0) as usize;
-            let x1 = (v.iter().map(|p| p[0]).fold(f64::NEG_INFINITY, f64::max).ceil() as usize).min(width);
-            let y1 = (v.iter().map(|p| p[1]).fold(f64::NEG_INFINITY, f64::max).ceil() as usize).min(height);
+        for (f, face) in raster
+            .faces
+            .iter()
+            .enumerate()
+            .filter(|(f, _)| raster.face_layer[*f] as usize == l)
+        {
+            let v = face
+                .vertices
+                .map(|i| [verts[2 * i as usize], verts[2 * i as usize + 1]]);
+            let x0 = v
+                .iter()
+                .map(|p| p[0])
+                .fold(f64::INFINITY, f64::min)
+                .floor()
+                .max(0.0) as usize;
+            let y0 = v
+                .iter()
+                .map(|p| p[1])
+                .fold(f64::INFINITY, f64::min)
+                .floor()
+                .max(0.0) as usize;
+            let x1 = (v
+                .iter()
+                .map(|p| p[0])
+                .fold(f64::NEG_INFINITY, f64::max)
+                .ceil() as usize)
+                .min(width);
+            let y1 = (v
+                .iter()
+                .map(|p| p[1])
+                .fold(f64::NEG_INFINITY, f64::max)
+                .ceil() as usize)
+                .min(height);
             for y in y0..y1 {
                 for x in x0..x1 {
                     let p = [x as f64 + 0.5, y as f64 + 0.5];
                     if let (true, Some(w)) = (inside(p, v), barycentric(p, v)) {
                         let uvs = raster.faces[f].uvs;
-                        let uv = [0, 1].map(|c| (0..3).map(|k| w[k] * uvs[k][c] as f64).sum::<f64>());
+                        let uv =
+                            [0, 1].map(|c| (0..3).map(|k| w[k] * uvs[k][c] as f64).sum::<f64>());
                         paint[y * width + x] = Some(bilinear(&raster.textures[l], uv));
                     }
                 }
