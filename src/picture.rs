@@ -19,11 +19,7 @@ pub struct Picture {
 impl Picture {
     /// A picture of one colour.
     pub fn filled(width: u32, height: u32, rgba: [f32; 4]) -> Self {
-        Picture {
-            width,
-            height,
-            pixels: vec![rgba; width as usize * height as usize],
-        }
+        Picture { width, height, pixels: vec![rgba; width as usize * height as usize] }
     }
 
     /// The pixel at column `x`, row `y`.
@@ -31,12 +27,7 @@ impl Picture {
     /// # Panics
     /// If `(x, y)` is outside the picture (a caller bug).
     pub fn get(&self, x: u32, y: u32) -> [f32; 4] {
-        assert!(
-            x < self.width && y < self.height,
-            "pixel ({x}, {y}) outside {}×{}",
-            self.width,
-            self.height
-        );
+        assert!(x < self.width && y < self.height, "pixel ({x}, {y}) outside {}×{}", self.width, self.height);
         self.pixels[(y * self.width + x) as usize]
     }
 
@@ -48,22 +39,14 @@ impl Picture {
     /// Converts an 8-bit image (any colour type) to straight-alpha f32.
     pub fn from_image(image: &image::DynamicImage) -> Self {
         let rgba = image.to_rgba8();
-        let pixels = rgba
-            .pixels()
-            .map(|p| p.0.map(|c| c as f32 / 255.0))
-            .collect();
-        Picture {
-            width: rgba.width(),
-            height: rgba.height(),
-            pixels,
-        }
+        let pixels = rgba.pixels().map(|p| p.0.map(|c| c as f32 / 255.0)).collect();
+        Picture { width: rgba.width(), height: rgba.height(), pixels }
     }
 
     /// Converts to an 8-bit RGBA image, rounding and clamping each channel.
     pub fn to_rgba8(&self) -> image::RgbaImage {
         let bytes = self.pixels.iter().flat_map(|p| p.map(to_u8)).collect();
-        image::RgbaImage::from_raw(self.width, self.height, bytes)
-            .expect("pixel count is width × height")
+        image::RgbaImage::from_raw(self.width, self.height, bytes).expect("pixel count is width × height")
     }
 
     /// Reads a PNG (or any format the `image` crate was built with).
@@ -80,10 +63,8 @@ impl Picture {
     /// # Errors
     /// [`Error::Image`] if the bytes are not a readable image.
     pub fn decode(bytes: &[u8], path: &Path) -> Result<Self> {
-        let image = image::load_from_memory(bytes).map_err(|e| Error::Image {
-            path: path.to_path_buf(),
-            problem: format!("cannot decode image: {e}"),
-        })?;
+        let image = image::load_from_memory(bytes)
+            .map_err(|e| Error::Image { path: path.to_path_buf(), problem: format!("cannot decode image: {e}") })?;
         Ok(Self::from_image(&image))
     }
 
@@ -94,14 +75,8 @@ impl Picture {
     pub fn save_png(&self, path: &Path) -> Result<()> {
         let mut bytes = Vec::new();
         self.to_rgba8()
-            .write_to(
-                &mut std::io::Cursor::new(&mut bytes),
-                image::ImageFormat::Png,
-            )
-            .map_err(|e| Error::Image {
-                path: path.to_path_buf(),
-                problem: format!("cannot encode PNG: {e}"),
-            })?;
+            .write_to(&mut std::io::Cursor::new(&mut bytes), image::ImageFormat::Png)
+            .map_err(|e| Error::Image { path: path.to_path_buf(), problem: format!("cannot encode PNG: {e}") })?;
         crate::atomic_file::write_atomic(path, &bytes)
     }
 }
@@ -130,9 +105,6 @@ mod tests {
         let path = dir.path().join("broken.png");
         std::fs::write(&path, b"not a png").unwrap();
         let err = Picture::load(&path).unwrap_err().to_string();
-        assert!(
-            err.contains("broken.png") && err.contains("cannot decode"),
-            "{err}"
-        );
+        assert!(err.contains("broken.png") && err.contains("cannot decode"), "{err}");
     }
 }

@@ -92,8 +92,8 @@ impl Character {
     /// # Errors
     /// [`Error::Format`] naming `path`, or [`Error::Many`] listing every problem found.
     pub fn parse(text: &str, path: &Path) -> Result<Self> {
-        let character: Character = toml::from_str(text)
-            .map_err(|e| Error::format(path, format!("invalid character.toml: {}", e.message())))?;
+        let character: Character =
+            toml::from_str(text).map_err(|e| Error::format(path, format!("invalid character.toml: {}", e.message())))?;
         character.validate(path)?;
         Ok(character)
     }
@@ -109,26 +109,14 @@ impl Character {
                 problems.push(Error::layer(path, &layer.name, "duplicate layer name"));
             }
             match (&self.labels, &layer.file, &layer.color) {
-                (None, None, _) => problems.push(Error::layer(
-                    path,
-                    &layer.name,
-                    "no `file` (the layer's PNG)",
-                )),
-                (None, Some(_), Some(_)) => problems.push(Error::layer(
-                    path,
-                    &layer.name,
-                    "`color` needs a [labels] table (label-map form)",
-                )),
-                (Some(_), _, None) => problems.push(Error::layer(
-                    path,
-                    &layer.name,
-                    "no `color` (its colour in the label map)",
-                )),
-                (Some(_), Some(_), _) => problems.push(Error::layer(
-                    path,
-                    &layer.name,
-                    "`file` is not used in the label-map form (remove it)",
-                )),
+                (None, None, _) => problems.push(Error::layer(path, &layer.name, "no `file` (the layer's PNG)")),
+                (None, Some(_), Some(_)) => {
+                    problems.push(Error::layer(path, &layer.name, "`color` needs a [labels] table (label-map form)"))
+                }
+                (Some(_), _, None) => problems.push(Error::layer(path, &layer.name, "no `color` (its colour in the label map)")),
+                (Some(_), Some(_), _) => {
+                    problems.push(Error::layer(path, &layer.name, "`file` is not used in the label-map form (remove it)"))
+                }
                 (Some(_), None, Some(c)) => {
                     if let Err(problem) = parse_color(c) {
                         problems.push(Error::layer(path, &layer.name, problem));
@@ -142,47 +130,29 @@ impl Character {
             for layer in &self.layers {
                 if let Some(Ok(c)) = layer.color.as_deref().map(parse_color) {
                     if !colors.insert(c) {
-                        problems.push(Error::layer(
-                            path,
-                            &layer.name,
-                            format!(
-                                "colour {} is used by another layer",
-                                layer.color.as_deref().unwrap_or_default()
-                            ),
-                        ));
+                        problems.push(Error::layer(path, &layer.name, format!("colour {} is used by another layer", layer.color.as_deref().unwrap_or_default())));
                     }
                 }
             }
         }
         match &self.root {
-            None => problems.push(Error::format(
-                path,
-                "no root body layer (add `root = \"<layer name>\"`)",
-            )),
+            None => problems.push(Error::format(path, "no root body layer (add `root = \"<layer name>\"`)")),
             Some(root) => match self.layers.iter().find(|l| &l.name == root) {
                 None => problems.push(Error::format(path, format!("root {root:?} is not a layer"))),
-                Some(l) if l.kind != LayerKind::Body => problems.push(Error::layer(
-                    path,
-                    root,
-                    "the root must be a body layer, not an accessory",
-                )),
+                Some(l) if l.kind != LayerKind::Body => {
+                    problems.push(Error::layer(path, root, "the root must be a body layer, not an accessory"))
+                }
                 Some(_) => {}
             },
         }
         for pair in self.joints.iter().flatten() {
             for name in pair {
                 if !seen.contains(name.as_str()) {
-                    problems.push(Error::format(
-                        path,
-                        format!("joint {pair:?} names {name:?}, which is not a layer"),
-                    ));
+                    problems.push(Error::format(path, format!("joint {pair:?} names {name:?}, which is not a layer")));
                 }
             }
             if pair[0] == pair[1] {
-                problems.push(Error::format(
-                    path,
-                    format!("joint {pair:?} joins a layer to itself"),
-                ));
+                problems.push(Error::format(path, format!("joint {pair:?} joins a layer to itself")));
             }
         }
         Error::collect(problems)
@@ -191,10 +161,7 @@ impl Character {
     /// The index of the root layer (validated to exist).
     pub fn root_index(&self) -> usize {
         let root = self.root.as_deref().expect("validated: root is present");
-        self.layers
-            .iter()
-            .position(|l| l.name == root)
-            .expect("validated: root names a layer")
+        self.layers.iter().position(|l| l.name == root).expect("validated: root names a layer")
     }
 }
 
@@ -234,49 +201,31 @@ mod tests {
         let text = "root = \"torso\"\n[labels]\nmap = \"l.png\"\nimage = \"i.png\"\n[[layer]]\nname = \"torso\"\ncolor = \"#FF0000\"\n[[layer]]\nname = \"hat\"\nkind = \"accessory\"\ncolor = \"00ff00\"\n";
         let c = parse(text).unwrap();
         assert_eq!(c.layers[1].kind, LayerKind::Accessory);
-        assert_eq!(
-            parse_color(c.layers[0].color.as_deref().unwrap()),
-            Ok([255, 0, 0])
-        );
+        assert_eq!(parse_color(c.layers[0].color.as_deref().unwrap()), Ok([255, 0, 0]));
     }
 
     #[test]
     fn unknown_key_is_named() {
-        let err = parse(&format!("colour_depth = 3\n{LAYERS}"))
-            .unwrap_err()
-            .to_string();
-        assert!(
-            err.contains("dir/character.toml") && err.contains("colour_depth"),
-            "{err}"
-        );
+        let err = parse(&format!("colour_depth = 3\n{LAYERS}")).unwrap_err().to_string();
+        assert!(err.contains("dir/character.toml") && err.contains("colour_depth"), "{err}");
     }
 
     #[test]
     fn missing_root_is_reported() {
-        let err = parse(&LAYERS.replace("root = \"torso\"\n", ""))
-            .unwrap_err()
-            .to_string();
+        let err = parse(&LAYERS.replace("root = \"torso\"\n", "")).unwrap_err().to_string();
         assert!(err.contains("no root body layer"), "{err}");
     }
 
     #[test]
     fn accessory_root_is_rejected() {
-        let text = LAYERS.replace(
-            "name = \"torso\"\n",
-            "name = \"torso\"\nkind = \"accessory\"\n",
-        );
+        let text = LAYERS.replace("name = \"torso\"\n", "name = \"torso\"\nkind = \"accessory\"\n");
         let err = parse(&text).unwrap_err().to_string();
-        assert!(
-            err.contains("layer \"torso\"") && err.contains("must be a body layer"),
-            "{err}"
-        );
+        assert!(err.contains("layer \"torso\"") && err.contains("must be a body layer"), "{err}");
     }
 
     #[test]
     fn duplicate_names_are_all_reported_with_other_problems() {
-        let text = format!(
-            "{LAYERS}[[layer]]\nname = \"arm\"\nfile = \"arm2.png\"\n[[layer]]\nname = \"tail\"\n"
-        );
+        let text = format!("{LAYERS}[[layer]]\nname = \"arm\"\nfile = \"arm2.png\"\n[[layer]]\nname = \"tail\"\n");
         let err = parse(&text).unwrap_err().to_string();
         assert!(err.contains("layer \"arm\": duplicate layer name"), "{err}");
         assert!(err.contains("layer \"tail\": no `file`"), "{err}");
@@ -286,22 +235,13 @@ mod tests {
     fn bad_colours_and_shared_colours_are_rejected() {
         let text = "root = \"a\"\n[labels]\nmap = \"l.png\"\nimage = \"i.png\"\n[[layer]]\nname = \"a\"\ncolor = \"#ff0000\"\n[[layer]]\nname = \"b\"\ncolor = \"#ff0000\"\n[[layer]]\nname = \"c\"\ncolor = \"red\"\n";
         let err = parse(text).unwrap_err().to_string();
-        assert!(
-            err.contains("layer \"b\": colour #ff0000 is used by another layer"),
-            "{err}"
-        );
-        assert!(
-            err.contains("layer \"c\": colour \"red\" is not of the form"),
-            "{err}"
-        );
+        assert!(err.contains("layer \"b\": colour #ff0000 is used by another layer"), "{err}");
+        assert!(err.contains("layer \"c\": colour \"red\" is not of the form"), "{err}");
     }
 
     #[test]
     fn joints_must_name_layers() {
-        let text = LAYERS.replace(
-            "root = \"torso\"\n",
-            "root = \"torso\"\njoints = [[\"torso\", \"head\"]]\n",
-        );
+        let text = LAYERS.replace("root = \"torso\"\n", "root = \"torso\"\njoints = [[\"torso\", \"head\"]]\n");
         let err = parse(&text).unwrap_err().to_string();
         assert!(err.contains("\"head\", which is not a layer"), "{err}");
     }

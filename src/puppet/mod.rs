@@ -59,26 +59,16 @@ impl Mesh {
     /// # Errors
     /// A description of the first broken invariant.
     pub fn check_invariants(&self) -> Result<(), String> {
-        if let Some(i) = self
-            .vertices
-            .iter()
-            .position(|v| !v[0].is_finite() || !v[1].is_finite())
-        {
+        if let Some(i) = self.vertices.iter().position(|v| !v[0].is_finite() || !v[1].is_finite()) {
             return Err(format!("vertex {i} is not finite"));
         }
         let mut used = vec![false; self.vertices.len()];
         for (k, &t) in self.triangles.iter().enumerate() {
             if t.iter().any(|&i| i as usize >= self.vertices.len()) {
-                return Err(format!(
-                    "triangle {k} {t:?} indexes past {} vertices",
-                    self.vertices.len()
-                ));
+                return Err(format!("triangle {k} {t:?} indexes past {} vertices", self.vertices.len()));
             }
             if self.signed_area(t) <= 0.0 {
-                return Err(format!(
-                    "triangle {k} {t:?} is not counter-clockwise (area {})",
-                    self.signed_area(t)
-                ));
+                return Err(format!("triangle {k} {t:?} is not counter-clockwise (area {})", self.signed_area(t)));
             }
             t.iter().for_each(|&i| used[i as usize] = true);
         }
@@ -163,10 +153,7 @@ impl Puppet {
 
     /// All rest vertices in the global numbering.
     pub fn rest_vertices(&self) -> Vec<[f32; 2]> {
-        self.layers
-            .iter()
-            .flat_map(|l| l.mesh.vertices.iter().copied())
-            .collect()
+        self.layers.iter().flat_map(|l| l.mesh.vertices.iter().copied()).collect()
     }
 
     /// Total number of vertices.
@@ -176,11 +163,7 @@ impl Puppet {
 
     /// Global index of a layer vertex.
     pub fn global_index(&self, v: VertexRef) -> usize {
-        self.layers[..v.layer]
-            .iter()
-            .map(|l| l.mesh.vertices.len())
-            .sum::<usize>()
-            + v.vertex as usize
+        self.layers[..v.layer].iter().map(|l| l.mesh.vertices.len()).sum::<usize>() + v.vertex as usize
     }
 
     /// Index of the layer called `name`.
