@@ -10,6 +10,7 @@
 
 pub mod atomic_file;
 pub mod backend;
+pub mod model;
 pub mod error;
 pub mod picture;
 pub mod progress;
