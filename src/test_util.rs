@@ -31,12 +31,7 @@ impl Rng {
 
 /// A frame-sized texture: `colour(x, y)` where `inside(x, y)`, transparent elsewhere (colours
 /// still extended there, as [`Layer::texture`] asks).
-pub fn texture(
-    width: u32,
-    height: u32,
-    inside: impl Fn(f32, f32) -> bool,
-    colour: impl Fn(f32, f32) -> [f32; 3],
-) -> Picture {
+pub fn texture(width: u32, height: u32, inside: impl Fn(f32, f32) -> bool, colour: impl Fn(f32, f32) -> [f32; 3]) -> Picture {
     let mut pic = Picture::filled(width, height, [0.0; 4]);
     for y in 0..height {
         for x in 0..width {
@@ -51,68 +46,39 @@ pub fn texture(
 
 /// A layer over the rectangle `[x0, x1] × [y0, y1]`, an `nx × ny` grid of cells, two
 /// counter-clockwise triangles each; UVs are frame positions / frame size.
-pub fn rect_layer(
-    name: &str,
-    frame: (u32, u32),
-    r: [f32; 4],
-    n: (usize, usize),
-    colour: impl Fn(f32, f32) -> [f32; 3],
-) -> Layer {
+pub fn rect_layer(name: &str, frame: (u32, u32), r: [f32; 4], n: (usize, usize), colour: impl Fn(f32, f32) -> [f32; 3]) -> Layer {
     let [x0, y0, x1, y1] = r;
     let (nx, ny) = n;
     let mut mesh = Mesh::default();
     for j in 0..=ny {
         for i in 0..=nx {
-            mesh.vertices.push([
-                x0 + (x1 - x0) * i as f32 / nx as f32,
-                y0 + (y1 - y0) * j as f32 / ny as f32,
-            ]);
+            mesh.vertices
+                .push([x0 + (x1 - x0) * i as f32 / nx as f32, y0 + (y1 - y0) * j as f32 / ny as f32]);
         }
     }
     let id = |i: usize, j: usize| (j * (nx + 1) + i) as u32;
     for j in 0..ny {
         for i in 0..nx {
-            mesh.triangles
-                .push([id(i, j), id(i + 1, j), id(i + 1, j + 1)]);
-            mesh.triangles
-                .push([id(i, j), id(i + 1, j + 1), id(i, j + 1)]);
+            mesh.triangles.push([id(i, j), id(i + 1, j), id(i + 1, j + 1)]);
+            mesh.triangles.push([id(i, j), id(i + 1, j + 1), id(i, j + 1)]);
         }
     }
-    let tex = texture(
-        frame.0,
-        frame.1,
-        |x, y| x >= x0 && x <= x1 && y >= y0 && y <= y1,
-        colour,
-    );
+    let tex = texture(frame.0, frame.1, |x, y| x >= x0 && x <= x1 && y >= y0 && y <= y1, colour);
     layer(name, frame, mesh, tex)
 }
 
 /// A disc layer: centre plus `n` rim vertices, fan-triangulated counter-clockwise.
-pub fn disc_layer(
-    name: &str,
-    frame: (u32, u32),
-    c: [f32; 2],
-    radius: f32,
-    n: usize,
-    colour: impl Fn(f32, f32) -> [f32; 3],
-) -> Layer {
+pub fn disc_layer(name: &str, frame: (u32, u32), c: [f32; 2], radius: f32, n: usize, colour: impl Fn(f32, f32) -> [f32; 3]) -> Layer {
     let mut mesh = Mesh {
         vertices: vec![c],
         triangles: Vec::new(),
     };
     for k in 0..n {
         let th = std::f32::consts::TAU * k as f32 / n as f32;
-        mesh.vertices
-            .push([c[0] + radius * th.cos(), c[1] + radius * th.sin()]);
-        mesh.triangles
-            .push([0, 1 + k as u32, 1 + ((k + 1) % n) as u32]);
+        mesh.vertices.push([c[0] + radius * th.cos(), c[1] + radius * th.sin()]);
+        mesh.triangles.push([0, 1 + k as u32, 1 + ((k + 1) % n) as u32]);
     }
-    let tex = texture(
-        frame.0,
-        frame.1,
-        |x, y| (x - c[0]).hypot(y - c[1]) <= radius,
-        colour,
-    );
+    let tex = texture(frame.0, frame.1, |x, y| (x - c[0]).hypot(y - c[1]) <= radius, colour);
     layer(name, frame, mesh, tex)
 }
 
@@ -150,35 +116,10 @@ pub fn stripes(base: [f32; 3], period: f32) -> impl Fn(f32, f32) -> [f32; 3] {
 pub fn layered_puppet() -> Puppet {
     let f = (48, 40);
     let layers = vec![
-        rect_layer(
-            "arm_back",
-            f,
-            [6.0, 12.0, 24.0, 17.0],
-            (6, 2),
-            stripes([0.2, 0.5, 0.9], 14.0),
-        ),
-        rect_layer(
-            "torso",
-            f,
-            [16.0, 10.0, 32.0, 34.0],
-            (4, 6),
-            stripes([0.9, 0.6, 0.2], 16.0),
-        ),
-        disc_layer(
-            "head",
-            f,
-            [24.0, 9.0],
-            6.5,
-            12,
-            stripes([0.3, 0.8, 0.3], 11.0),
-        ),
-        rect_layer(
-            "arm_front",
-            f,
-            [24.0, 20.0, 43.0, 25.0],
-            (6, 2),
-            stripes([0.8, 0.2, 0.5], 13.0),
-        ),
+        rect_layer("arm_back", f, [6.0, 12.0, 24.0, 17.0], (6, 2), stripes([0.2, 0.5, 0.9], 14.0)),
+        rect_layer("torso", f, [16.0, 10.0, 32.0, 34.0], (4, 6), stripes([0.9, 0.6, 0.2], 16.0)),
+        disc_layer("head", f, [24.0, 9.0], 6.5, 12, stripes([0.3, 0.8, 0.3], 11.0)),
+        rect_layer("arm_front", f, [24.0, 20.0, 43.0, 25.0], (6, 2), stripes([0.8, 0.2, 0.5], 13.0)),
     ];
     Puppet {
         width: f.0,

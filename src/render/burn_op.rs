@@ -35,13 +35,7 @@ pub struct Rendered {
 /// # Errors
 /// [`Error::Invalid`] if the shape is not `[B, V, 2]` for this puppet, a coordinate is not
 /// finite, `params` are invalid, or the tensor is on a backend other than flex.
-pub fn soft_raster(
-    vertices: Tensor<3>,
-    raster: &Arc<SoftRasterizer>,
-    width: usize,
-    height: usize,
-    params: Params,
-) -> Result<Rendered> {
+pub fn soft_raster(vertices: Tensor<3>, raster: &Arc<SoftRasterizer>, width: usize, height: usize, params: Params) -> Result<Rendered> {
     let [batch, v, two] = vertices.dims();
     if v != raster.vertex_count() || two != 2 {
         return Err(Error::Invalid(format!(
@@ -58,21 +52,11 @@ pub fn soft_raster(
         params,
     };
     let out: Tensor<4> = if let Ok(ad) = vertices.clone().try_into_primitive::<Autodiff<Flex>>() {
-        match RasterBackward
-            .prepare::<NoCheckpointing>([ad.node()])
-            .compute_bound()
-            .stateful()
-        {
+        match RasterBackward.prepare::<NoCheckpointing>([ad.node()]).compute_bound().stateful() {
             OpsKind::Tracked(prep) => {
                 let verts = host::<Flex>(ad.primitive().clone());
                 let rendered = call.forward(&verts)?;
-                prep.finish(
-                    Arc::new(Saved {
-                        call,
-                        vertices: verts,
-                    }),
-                    rendered,
-                )
+                prep.finish(Arc::new(Saved { call, vertices: verts }), rendered)
             }
             OpsKind::UnTracked(prep) => {
                 let rendered = call.forward(&host::<Flex>(ad.into_primitive()))?;
@@ -83,9 +67,7 @@ pub fn soft_raster(
     } else if let Ok(plain) = vertices.try_into_primitive::<Flex>() {
         Tensor::from_primitive::<Flex>(call.forward(&host::<Flex>(plain))?)
     } else {
-        return Err(Error::Invalid(
-            "render: the vertex tensor is not on the flex backend".into(),
-        ));
+        return Err(Error::Invalid("render: the vertex tensor is not on the flex backend".into()));
     };
     Ok(Rendered {
         image: out.clone().narrow(1, 0, 4),
@@ -104,11 +86,7 @@ impl<T> Pipe for T {}
 /// A backend tensor's values on the host as f32.
 fn host<B: Backend>(t: B::FloatTensorPrimitive) -> Vec<f32> {
     read_sync(B::float_into_data(t))
-        .map(|d| {
-            d.convert::<f32>()
-                .try_into_vec::<f32>()
-                .expect("converted to f32")
-        })
+        .map(|d| d.convert::<f32>().try_into_vec::<f32>().expect("converted to f32"))
         .expect("reading a CPU tensor cannot fail")
 }
 
@@ -124,13 +102,8 @@ struct Call {
 
 impl Call {
     /// Renders and packs image and mask as one `[B, 5, H, W]` Flex tensor (channels RGBA, M).
-    fn forward(
-        &self,
-        verts: &[f32],
-    ) -> Result<<Flex as burn::backend::BackendTypes>::FloatTensorPrimitive> {
-        let f = self
-            .raster
-            .forward(verts, self.batch, self.width, self.height, &self.params)?;
+    fn forward(&self, verts: &[f32]) -> Result<<Flex as burn::backend::BackendTypes>::FloatTensorPrimitive> {
+        let f = self.raster.forward(verts, self.batch, self.width, self.height, &self.params)?;
         let n = self.width * self.height;
         let mut packed = vec![0f32; self.batch * 5 * n];
         for b in 0..self.batch {
@@ -159,12 +132,7 @@ struct RasterBackward;
 impl<B: Backend> Backward<B, 1> for RasterBackward {
     type State = Arc<Saved>;
 
-    fn backward(
-        self,
-        ops: Ops<Self::State, 1>,
-        grads: &mut Gradients,
-        _checkpointer: &mut Checkpointer,
-    ) {
+    fn backward(self, ops: Ops<Self::State, 1>, grads: &mut Gradients, _checkpointer: &mut Checkpointer) {
         let [parent] = ops.parents;
         let grad = grads.consume::<B>(&ops.node);
         let Some(parent) = parent else { return };
@@ -184,15 +152,7 @@ impl<B: Backend> Backward<B, 1> for RasterBackward {
         }
         let dv = c
             .raster
-            .backward(
-                &s.vertices,
-                c.batch,
-                c.width,
-                c.height,
-                &c.params,
-                Some(&d_image),
-                Some(&d_mask),
-            )
+            .backward(&s.vertices, c.batch, c.width, c.height, &c.params, Some(&d_image), Some(&d_mask))
             .expect("inputs were validated by the forward call");
         let data = TensorData::new(dv, [c.batch, c.raster.vertex_count(), 2]);
         grads.register::<B>(parent.id, B::float_from_data(data, &device));
@@ -219,9 +179,7 @@ mod tests {
             .map(|x| x as f32)
             .collect();
         let mut rng = Rng::new(4);
-        let target: Vec<f32> = (0..2 * 4 * H * W)
-            .map(|_| rng.uniform(0.0, 1.0) as f32)
-            .collect();
+        let target: Vec<f32> = (0..2 * 4 * H * W).map(|_| rng.uniform(0.0, 1.0) as f32).collect();
         let params = Params {
             sigma: 0.7,
             background: Background::Transparent,
@@ -229,13 +187,11 @@ mod tests {
         };
 
         let device = crate::backend::train_device();
-        let v = Tensor::<3>::from_data(TensorData::new(verts.clone(), [2, nv, 2]), &device)
-            .require_grad();
+        let v = Tensor::<3>::from_data(TensorData::new(verts.clone(), [2, nv, 2]), &device).require_grad();
         let t = Tensor::<4>::from_data(TensorData::new(target.clone(), [2, 4, H, W]), &device);
         let out = soft_raster(v.clone(), &raster, W, H, params).unwrap();
         // eq. 1 (L2) plus an area term on the silhouette (eq. 11's Σ R(V, F, I¹)).
-        let loss =
-            (out.image.clone() - t).powf_scalar(2.0).sum() + out.mask.clone().sum().mul_scalar(0.3);
+        let loss = (out.image.clone() - t).powf_scalar(2.0).sum() + out.mask.clone().sum().mul_scalar(0.3);
         let grads = loss.backward();
         let got: Vec<f32> = v
             .grad(&grads)
@@ -257,25 +213,16 @@ mod tests {
                         (img[planar] - f.image[(b * n + i) * 4 + c]).abs() < 1e-6,
                         "image differs from the kernel's"
                     );
-                    d_image[(b * n + i) * 4 + c] =
-                        2.0 * (f.image[(b * n + i) * 4 + c] - target[planar]);
+                    d_image[(b * n + i) * 4 + c] = 2.0 * (f.image[(b * n + i) * 4 + c] - target[planar]);
                 }
             }
         }
         let d_mask = vec![0.3f32; 2 * n];
-        let want = raster
-            .backward(&verts, 2, W, H, &params, Some(&d_image), Some(&d_mask))
-            .unwrap();
+        let want = raster.backward(&verts, 2, W, H, &params, Some(&d_image), Some(&d_mask)).unwrap();
         let scale = want.iter().fold(0f32, |m, x| m.max(x.abs()));
-        let err = got
-            .iter()
-            .zip(&want)
-            .fold(0f32, |m, (a, b)| m.max((a - b).abs()));
+        let err = got.iter().zip(&want).fold(0f32, |m, (a, b)| m.max((a - b).abs()));
         println!("burn vs kernel vertex gradient: max |Δ| = {err:e} (max |g| = {scale})");
-        assert!(
-            scale > 1.0 && err <= 1e-5 * scale,
-            "max |Δ| {err} for gradients up to {scale}"
-        );
+        assert!(scale > 1.0 && err <= 1e-5 * scale, "max |Δ| {err} for gradients up to {scale}");
     }
 
     #[test]
@@ -284,20 +231,14 @@ mod tests {
         let raster = Arc::new(SoftRasterizer::new(&puppet).unwrap());
         let nv = raster.vertex_count();
         let verts: Vec<f32> = puppet.rest_vertices().iter().flatten().copied().collect();
-        let v = Tensor::<3>::from_data(
-            TensorData::new(verts.clone(), [1, nv, 2]),
-            &crate::backend::device(),
-        );
+        let v = Tensor::<3>::from_data(TensorData::new(verts.clone(), [1, nv, 2]), &crate::backend::device());
         let out = soft_raster(v.clone(), &raster, W, H, Params::default()).unwrap();
         assert_eq!(out.image.dims(), [1, 4, H, W]);
         assert_eq!(out.mask.dims(), [1, 1, H, W]);
         let mask: Vec<f32> = out.mask.into_data().try_to_vec::<f32>().unwrap();
         let f = raster.forward(&verts, 1, W, H, &Params::default()).unwrap();
         assert_eq!(mask, f.mask);
-        let wrong = Tensor::<3>::from_data(
-            TensorData::new(verts, [1, nv / 2, 4]),
-            &crate::backend::device(),
-        );
+        let wrong = Tensor::<3>::from_data(TensorData::new(verts, [1, nv / 2, 4]), &crate::backend::device());
         assert!(soft_raster(wrong, &raster, W, H, Params::default()).is_err());
     }
 }

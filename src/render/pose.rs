@@ -12,14 +12,7 @@ use crate::puppet::Puppet;
 /// # Errors
 /// [`crate::Error::Invalid`] if the vertex count differs from the puppet's, a coordinate is not
 /// finite, the size is empty, `sigma` is negative, or a layer is malformed.
-pub fn render_pose(
-    puppet: &Puppet,
-    vertices: &[[f32; 2]],
-    width: u32,
-    height: u32,
-    sigma: f32,
-    background: Background,
-) -> Result<Picture> {
+pub fn render_pose(puppet: &Puppet, vertices: &[[f32; 2]], width: u32, height: u32, sigma: f32, background: Background) -> Result<Picture> {
     let raster = SoftRasterizer::new(puppet)?;
     let flat: Vec<f32> = vertices.iter().flatten().copied().collect();
     let params = Params {
@@ -32,40 +25,19 @@ pub fn render_pose(
         .image
         .chunks_exact(4)
         .map(|p| match p[3] {
-            a if a > 0.0 => [
-                (p[0] / a).min(1.0),
-                (p[1] / a).min(1.0),
-                (p[2] / a).min(1.0),
-                a.min(1.0),
-            ],
+            a if a > 0.0 => [(p[0] / a).min(1.0), (p[1] / a).min(1.0), (p[2] / a).min(1.0), a.min(1.0)],
             _ => [0.0; 4],
         })
         .collect();
-    Ok(Picture {
-        width,
-        height,
-        pixels,
-    })
+    Ok(Picture { width, height, pixels })
 }
 
 /// The crisp render (σ = 0, transparent background) every preview and export uses.
 ///
 /// # Errors
 /// As [`render_pose`].
-pub fn render_crisp(
-    puppet: &Puppet,
-    vertices: &[[f32; 2]],
-    width: u32,
-    height: u32,
-) -> Result<Picture> {
-    render_pose(
-        puppet,
-        vertices,
-        width,
-        height,
-        0.0,
-        Background::Transparent,
-    )
+pub fn render_crisp(puppet: &Puppet, vertices: &[[f32; 2]], width: u32, height: u32) -> Result<Picture> {
+    render_pose(puppet, vertices, width, height, 0.0, Background::Transparent)
 }
 
 #[cfg(test)]
@@ -128,25 +100,9 @@ mod tests {
     #[test]
     fn soft_render_is_opaque_on_a_colour_background_and_errors_name_the_problem() {
         let puppet = layered_puppet();
-        let pic = render_pose(
-            &puppet,
-            &puppet.rest_vertices(),
-            30,
-            20,
-            0.5,
-            Background::Colour([1.0, 1.0, 1.0]),
-        )
-        .unwrap();
+        let pic = render_pose(&puppet, &puppet.rest_vertices(), 30, 20, 0.5, Background::Colour([1.0, 1.0, 1.0])).unwrap();
         assert!(pic.pixels.iter().all(|p| (p[3] - 1.0).abs() < 1e-6));
-        let err = render_pose(
-            &puppet,
-            &puppet.rest_vertices()[1..],
-            30,
-            20,
-            0.5,
-            Background::Transparent,
-        )
-        .unwrap_err();
+        let err = render_pose(&puppet, &puppet.rest_vertices()[1..], 30, 20, 0.5, Background::Transparent).unwrap_err();
         assert!(err.to_string().contains("vertices"), "{err}");
     }
 }

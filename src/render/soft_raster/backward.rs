@@ -80,15 +80,7 @@ impl SoftRasterizer {
         }
         let ctxs: Vec<Ctx<T>> = (0..batch)
             .into_par_iter()
-            .map(|b| {
-                Ctx::new(
-                    self,
-                    &vertices[b * pose..(b + 1) * pose],
-                    params,
-                    width,
-                    height,
-                )
-            })
+            .map(|b| Ctx::new(self, &vertices[b * pose..(b + 1) * pose], params, width, height))
             .collect();
         let bands = height.div_ceil(TILE);
         let partial: Vec<(usize, Vec<T>)> = (0..batch * bands)
@@ -146,9 +138,7 @@ fn band_vjp<T: Real>(
         for y in band * TILE..((band + 1) * TILE).min(height) {
             for x in tx * TILE..((tx + 1) * TILE).min(width) {
                 let i = y * width + x;
-                let gout = gi.map_or([zero; 4], |g| {
-                    [g[4 * i], g[4 * i + 1], g[4 * i + 2], g[4 * i + 3]]
-                });
+                let gout = gi.map_or([zero; 4], |g| [g[4 * i], g[4 * i + 1], g[4 * i + 2], g[4 * i + 3]]);
                 let gmask = gm.map_or(zero, |g| g[i]);
                 if gout.iter().all(|&v| v == zero) && gmask == zero {
                     continue;
@@ -174,9 +164,9 @@ fn band_vjp<T: Real>(
                     let guv = sample_vjp(tex, la.uv, gs);
                     if routes.texture && (guv[0] != zero || guv[1] != zero) {
                         let face = &ctx.raster.faces[la.best as usize];
-                        let gw = face.uvs.map(|uv| {
-                            guv[0] * real::<T>(uv[0] as f64) + guv[1] * real::<T>(uv[1] as f64)
-                        });
+                        let gw = face
+                            .uvs
+                            .map(|uv| guv[0] * real::<T>(uv[0] as f64) + guv[1] * real::<T>(uv[1] as f64));
                         let h = la.best_hit.expect("a touched layer has a face");
                         let mut gc = [[zero; 2]; 3];
                         bary_vjp(gw, p, ctx.corners(la.best as usize), &h, &mut gc);
@@ -192,17 +182,12 @@ fn band_vjp<T: Real>(
                 for n in &px.near {
                     let la = &px.touched[n.slot as usize];
                     let om = one - n.d;
-                    let gd = ga[n.slot as usize] * product_without(la.prod, la.zeros, om)
-                        + gmask * product_without(px.prod, px.zeros, om);
+                    let gd = ga[n.slot as usize] * product_without(la.prod, la.zeros, om) + gmask * product_without(px.prod, px.zeros, om);
                     let gz = gd * n.d * om;
                     if gz == zero {
                         continue;
                     }
-                    let gd2 = if n.hit.inside {
-                        gz / ctx.sigma
-                    } else {
-                        -gz / ctx.sigma
-                    };
+                    let gd2 = if n.hit.inside { gz / ctx.sigma } else { -gz / ctx.sigma };
                     let mut gc = [[zero; 2]; 3];
                     dist2_vjp(gd2, &n.hit, &mut gc);
                     scatter(g, ctx.raster.faces[n.face as usize].vertices, gc);
@@ -233,21 +218,13 @@ mod tests {
     /// `<g_image, image> + <g_mask, mask>` for one pose.
     fn loss(raster: &SoftRasterizer, v: &[f64], p: &Params, gi: &[f64], gm: &[f64]) -> f64 {
         let f = raster.forward(v, 1, W, H, p).unwrap();
-        f.image.iter().zip(gi).map(|(a, b)| a * b).sum::<f64>()
-            + f.mask.iter().zip(gm).map(|(a, b)| a * b).sum::<f64>()
+        f.image.iter().zip(gi).map(|(a, b)| a * b).sum::<f64>() + f.mask.iter().zip(gm).map(|(a, b)| a * b).sum::<f64>()
     }
 
     /// Largest violation of |vjp − fd| ≤ tol·(1 + |fd|) over all coordinates, as a multiple of
     /// the allowance (≤ 1 passes). h = 1e-6: truncation ~h²·|L'''| (L''' ≲ 1e3 at σ = 0.3)
     /// and rounding ~1e-16·|L|/h ≈ 1e-9 are both far below tol = 1e-5.
-    fn fd_violation(
-        raster: &SoftRasterizer,
-        v: &[f64],
-        p: &Params,
-        gi: &[f64],
-        gm: &[f64],
-        vjp: &[f64],
-    ) -> (f64, f64) {
+    fn fd_violation(raster: &SoftRasterizer, v: &[f64], p: &Params, gi: &[f64], gm: &[f64], vjp: &[f64]) -> (f64, f64) {
         let (h, tol) = (1e-6, 1e-5);
         let mut worst: (f64, f64) = (0.0, 0.0);
         for i in 0..v.len() {
@@ -265,18 +242,9 @@ mod tests {
     fn weights(mask: &[f64], seed: u64, keep: impl Fn(f64) -> bool) -> (Vec<f64>, Vec<f64>) {
         let mut rng = Rng::new(seed);
         let gi = (0..mask.len() * 4)
-            .map(|i| {
-                if keep(mask[i / 4]) {
-                    rng.uniform(-1.0, 1.0)
-                } else {
-                    0.0
-                }
-            })
+            .map(|i| if keep(mask[i / 4]) { rng.uniform(-1.0, 1.0) } else { 0.0 })
             .collect();
-        let gm = mask
-            .iter()
-            .map(|&m| if keep(m) { rng.uniform(-1.0, 1.0) } else { 0.0 })
-            .collect();
+        let gm = mask.iter().map(|&m| if keep(m) { rng.uniform(-1.0, 1.0) } else { 0.0 }).collect();
         (gi, gm)
     }
 
@@ -293,17 +261,8 @@ mod tests {
         texture: false,
     };
 
-    fn vjp(
-        raster: &SoftRasterizer,
-        v: &[f64],
-        p: &Params,
-        gi: &[f64],
-        gm: &[f64],
-        routes: Routes,
-    ) -> Vec<f64> {
-        raster
-            .vjp(v, 1, W, H, p, Some(gi), Some(gm), routes)
-            .unwrap()
+    fn vjp(raster: &SoftRasterizer, v: &[f64], p: &Params, gi: &[f64], gm: &[f64], routes: Routes) -> Vec<f64> {
+        raster.vjp(v, 1, W, H, p, Some(gi), Some(gm), routes).unwrap()
     }
 
     /// The fixture's four layers overlap (arms behind and in front of the torso, head over it);
@@ -341,10 +300,7 @@ mod tests {
                 let partial = vjp(&raster, &v, &p, gi, gm, dropped);
                 let (bad, _) = fd_violation(&raster, &v, &p, gi, gm, &partial);
                 println!("σ {sigma} {name} pixels without the {what} term: {bad:.0} × allowance");
-                assert!(
-                    bad > 100.0,
-                    "σ {sigma} {name}: dropping the {what} term went unnoticed ({bad})"
-                );
+                assert!(bad > 100.0, "σ {sigma} {name}: dropping the {what} term went unnoticed ({bad})");
             }
         }
     }
@@ -372,9 +328,7 @@ mod tests {
         let mut v = jittered(&puppet.rest_vertices(), 5, 0.4);
         // Move the head (layer 2) far off the image.
         let off = puppet.vertex_offsets();
-        v[2 * off[2]..2 * off[3]]
-            .iter_mut()
-            .for_each(|x| *x -= 500.0);
+        v[2 * off[2]..2 * off[3]].iter_mut().for_each(|x| *x -= 500.0);
         let p = Params::crisp(Background::Transparent);
         let mask = raster.forward(&v, 1, W, H, &p).unwrap().mask;
         let (gi, gm) = weights(&mask, 4, |m| m > 0.5);
@@ -383,10 +337,7 @@ mod tests {
             full[2 * off[2]..2 * off[3]].iter().all(|&g| g == 0.0),
             "off-image head got a gradient"
         );
-        assert!(
-            full.iter().any(|&g| g != 0.0),
-            "crisp texture route is empty"
-        );
+        assert!(full.iter().any(|&g| g != 0.0), "crisp texture route is empty");
         // Central differences see the interiors (no pixel changes coverage for a 1e-6 step).
         let (bad, _) = fd_violation(&raster, &v, &p, &gi, &gm, &full);
         assert!(bad <= 1.0, "{bad} × allowance");
@@ -404,15 +355,9 @@ mod tests {
         let mut rng = Rng::new(9);
         let gi: Vec<f64> = (0..2 * W * H * 4).map(|_| rng.uniform(-1.0, 1.0)).collect();
         let both: Vec<f64> = a.iter().chain(&b).copied().collect();
-        let g = raster
-            .backward(&both, 2, W, H, &p, Some(&gi), None)
-            .unwrap();
-        let ga = raster
-            .backward(&a, 1, W, H, &p, Some(&gi[..W * H * 4]), None)
-            .unwrap();
-        let gb = raster
-            .backward(&b, 1, W, H, &p, Some(&gi[W * H * 4..]), None)
-            .unwrap();
+        let g = raster.backward(&both, 2, W, H, &p, Some(&gi), None).unwrap();
+        let ga = raster.backward(&a, 1, W, H, &p, Some(&gi[..W * H * 4]), None).unwrap();
+        let gb = raster.backward(&b, 1, W, H, &p, Some(&gi[W * H * 4..]), None).unwrap();
         let n = a.len();
         assert!(g[..n]
             .iter()
@@ -421,17 +366,9 @@ mod tests {
             .all(|(x, y)| (x - y).abs() < 1e-9));
         let a32: Vec<f32> = a.iter().map(|&x| x as f32).collect();
         let gi32: Vec<f32> = gi[..W * H * 4].iter().map(|&x| x as f32).collect();
-        let g32 = raster
-            .backward(&a32, 1, W, H, &p, Some(&gi32), None)
-            .unwrap();
+        let g32 = raster.backward(&a32, 1, W, H, &p, Some(&gi32), None).unwrap();
         let scale = ga.iter().fold(0.0f64, |m, x| m.max(x.abs()));
-        let err = g32
-            .iter()
-            .zip(&ga)
-            .fold(0.0f64, |m, (x, y)| m.max((*x as f64 - y).abs()));
-        assert!(
-            err < 1e-3 * scale,
-            "f32 gradient off by {err} (scale {scale})"
-        );
+        let err = g32.iter().zip(&ga).fold(0.0f64, |m, (x, y)| m.max((*x as f64 - y).abs()));
+        assert!(err < 1e-3 * scale, "f32 gradient off by {err} (scale {scale})");
     }
 }

@@ -21,13 +21,7 @@ pub(crate) struct Bins<T> {
 impl<T: Real> Bins<T> {
     /// Bins the faces of one pose. `corners(f)` gives face f's three positions; `reach` is the
     /// growth in pixels (√ of the cut distance², 0 when crisp).
-    pub fn new(
-        face_count: usize,
-        corners: impl Fn(usize) -> [[T; 2]; 3],
-        reach: T,
-        width: usize,
-        height: usize,
-    ) -> Self {
+    pub fn new(face_count: usize, corners: impl Fn(usize) -> [[T; 2]; 3], reach: T, width: usize, height: usize) -> Self {
         let tiles_x = width.div_ceil(TILE);
         let tiles_y = height.div_ceil(TILE);
         let margin = real::<T>(1e-3);
@@ -56,12 +50,7 @@ impl<T: Real> Bins<T> {
                 continue;
             }
             let idx = |v: T| v.to_usize().expect("clamped to the image");
-            let rg = [
-                idx(lo_x) / TILE,
-                idx(lo_y) / TILE,
-                idx(hi_x) / TILE,
-                idx(hi_y) / TILE,
-            ];
+            let rg = [idx(lo_x) / TILE, idx(lo_y) / TILE, idx(hi_x) / TILE, idx(hi_y) / TILE];
             for ty in rg[1]..=rg[3] {
                 for tx in rg[0]..=rg[2] {
                     count[ty * tiles_x + tx + 1] += 1;

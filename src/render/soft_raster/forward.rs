@@ -41,23 +41,11 @@ pub(crate) struct Ctx<'a, T> {
 }
 
 impl<'a, T: Real> Ctx<'a, T> {
-    pub fn new(
-        raster: &'a SoftRasterizer,
-        verts: &'a [T],
-        params: &Params,
-        width: usize,
-        height: usize,
-    ) -> Self {
+    pub fn new(raster: &'a SoftRasterizer, verts: &'a [T], params: &Params, width: usize, height: usize) -> Self {
         let cut2: T = real(params.cut_distance2());
-        let corners = |f: usize| {
-            raster.faces[f]
-                .vertices
-                .map(|i| [verts[2 * i as usize], verts[2 * i as usize + 1]])
-        };
+        let corners = |f: usize| raster.faces[f].vertices.map(|i| [verts[2 * i as usize], verts[2 * i as usize + 1]]);
         let bins = Bins::new(raster.faces.len(), corners, cut2.sqrt(), width, height);
-        let tris = (0..raster.faces.len())
-            .map(|f| Tri::new(corners(f)))
-            .collect();
+        let tris = (0..raster.faces.len()).map(|f| Tri::new(corners(f))).collect();
         let bg = params.background.premultiplied().map(|c| real(c as f64));
         Ctx {
             raster,
@@ -212,8 +200,7 @@ impl<T: Real> Pixel<T> {
             la.a = if la.zeros > 0 { one } else { one - la.prod };
             let h = la.best_hit.expect("a touched layer has a face");
             let uvs = ctx.raster.faces[la.best as usize].uvs;
-            la.uv =
-                [0, 1].map(|c| (0..3).fold(zero, |s, k| s + h.w[k] * real::<T>(uvs[k][c] as f64)));
+            la.uv = [0, 1].map(|c| (0..3).fold(zero, |s, k| s + h.w[k] * real::<T>(uvs[k][c] as f64)));
             la.s = sample(&ctx.raster.textures[la.layer as usize], la.uv);
             la.behind = acc;
             let alpha = la.a * la.s[3];
@@ -233,32 +220,14 @@ impl SoftRasterizer {
     /// # Errors
     /// [`crate::Error::Invalid`] if the sizes disagree, a coordinate is not finite, the image is
     /// empty, or `params` is invalid.
-    pub fn forward<T: Real>(
-        &self,
-        vertices: &[T],
-        batch: usize,
-        width: usize,
-        height: usize,
-        params: &Params,
-    ) -> Result<Frames<T>> {
+    pub fn forward<T: Real>(&self, vertices: &[T], batch: usize, width: usize, height: usize, params: &Params) -> Result<Frames<T>> {
         params.validate()?;
         self.validate_input(vertices, batch, width, height)?;
-        let (mut image, mut mask) = (
-            vec![T::zero(); batch * height * width * 4],
-            vec![T::zero(); batch * height * width],
-        );
+        let (mut image, mut mask) = (vec![T::zero(); batch * height * width * 4], vec![T::zero(); batch * height * width]);
         let pose = 2 * self.vertex_count;
         let ctxs: Vec<Ctx<T>> = (0..batch)
             .into_par_iter()
-            .map(|b| {
-                Ctx::new(
-                    self,
-                    &vertices[b * pose..(b + 1) * pose],
-                    params,
-                    width,
-                    height,
-                )
-            })
+            .map(|b| Ctx::new(self, &vertices[b * pose..(b + 1) * pose], params, width, height))
             .collect();
         image
             .par_chunks_mut(height * width * 4)
@@ -311,10 +280,7 @@ mod tests {
 
     fn max_diff(a: &[f64], b: &[f64]) -> f64 {
         assert_eq!(a.len(), b.len());
-        a.iter()
-            .zip(b)
-            .map(|(x, y)| (x - y).abs())
-            .fold(0.0, f64::max)
+        a.iter().zip(b).map(|(x, y)| (x - y).abs()).fold(0.0, f64::max)
     }
 
     fn params(sigma: f32, background: Background) -> Params {
@@ -335,8 +301,7 @@ mod tests {
             // Jitter below what folds a triangle: a fold makes two faces of a layer tie up to rounding.
             let mut v = jittered(&puppet.rest_vertices(), seed, 0.4);
             let (dx, dy) = (rng.uniform(-4.0, 4.0), rng.uniform(-4.0, 4.0));
-            v.chunks_mut(2)
-                .for_each(|p| (p[0], p[1]) = (p[0] + dx, p[1] + dy));
+            v.chunks_mut(2).for_each(|p| (p[0], p[1]) = (p[0] + dx, p[1] + dy));
             for (sigma, bg) in [
                 (0.3, Background::Transparent),
                 (1.0, Background::Colour([0.2, 0.9, 1.0])),
@@ -346,19 +311,10 @@ mod tests {
                 let fast = raster.forward(&v, 1, w, h, &p).unwrap();
                 let (img, mask) = reference::render(&raster, &v, w, h, &p);
                 let (di, dm) = (max_diff(&fast.image, &img), max_diff(&fast.mask, &mask));
-                assert!(
-                    di < 1e-12 && dm < 1e-12,
-                    "seed {seed} σ {sigma}: image {di:e}, mask {dm:e}"
-                );
+                assert!(di < 1e-12 && dm < 1e-12, "seed {seed} σ {sigma}: image {di:e}, mask {dm:e}");
                 // The f32 kernel agrees to single precision.
                 let v32: Vec<f32> = v.iter().map(|&x| x as f32).collect();
-                let f32img: Vec<f64> = raster
-                    .forward(&v32, 1, w, h, &p)
-                    .unwrap()
-                    .image
-                    .iter()
-                    .map(|&x| x as f64)
-                    .collect();
+                let f32img: Vec<f64> = raster.forward(&v32, 1, w, h, &p).unwrap().image.iter().map(|&x| x as f64).collect();
                 assert!(
                     max_diff(&f32img, &img) < 2e-4,
                     "f32 seed {seed} σ {sigma}: {:e}",
@@ -373,15 +329,9 @@ mod tests {
         let frame = (20, 16);
         let mesh = Mesh {
             vertices: tris.iter().flatten().copied().collect(),
-            triangles: (0..tris.len() as u32)
-                .map(|t| [3 * t, 3 * t + 1, 3 * t + 2])
-                .collect(),
+            triangles: (0..tris.len() as u32).map(|t| [3 * t, 3 * t + 1, 3 * t + 2]).collect(),
         };
-        let uvs = mesh
-            .vertices
-            .iter()
-            .map(|v| [v[0] / 20.0, v[1] / 16.0])
-            .collect();
+        let uvs = mesh.vertices.iter().map(|v| [v[0] / 20.0, v[1] / 16.0]).collect();
         let tex = texture(frame.0, frame.1, |_, _| true, stripes([0.7, 0.4, 0.9], 4.0));
         let layer = Layer {
             name: "raw".into(),
@@ -403,35 +353,21 @@ mod tests {
     fn forward_matches_reference_on_degenerate_scenes() {
         let scenes: [&[[[f32; 2]; 3]]; 4] = [
             // zero-area face (collinear) beside a normal one
-            &[
-                [[2.0, 2.0], [8.0, 5.0], [14.0, 8.0]],
-                [[3.0, 9.0], [12.0, 10.3], [6.0, 14.7]],
-            ],
+            &[[[2.0, 2.0], [8.0, 5.0], [14.0, 8.0]], [[3.0, 9.0], [12.0, 10.3], [6.0, 14.7]]],
             // off-screen and straddling the image border
             &[
                 [[-30.0, -30.0], [-20.0, -30.0], [-25.0, -22.0]],
                 [[15.2, 10.1], [27.0, 12.0], [18.0, 25.0]],
             ],
             // coincident faces, one wound clockwise
-            &[
-                [[3.1, 2.2], [15.3, 4.1], [7.7, 13.9]],
-                [[3.1, 2.2], [7.7, 13.9], [15.3, 4.1]],
-            ],
+            &[[[3.1, 2.2], [15.3, 4.1], [7.7, 13.9]], [[3.1, 2.2], [7.7, 13.9], [15.3, 4.1]]],
             // a point-like face and a sliver
-            &[
-                [[9.3, 7.3], [9.3, 7.3], [9.3, 7.3]],
-                [[1.0, 1.2], [19.0, 1.3], [10.0, 1.35]],
-            ],
+            &[[[9.3, 7.3], [9.3, 7.3], [9.3, 7.3]], [[1.0, 1.2], [19.0, 1.3], [10.0, 1.35]]],
         ];
         for (k, tris) in scenes.iter().enumerate() {
             let puppet = raw_puppet(tris);
             let raster = SoftRasterizer::new(&puppet).unwrap();
-            let mut v: Vec<f64> = puppet
-                .rest_vertices()
-                .iter()
-                .flatten()
-                .map(|&c| c as f64)
-                .collect();
+            let mut v: Vec<f64> = puppet.rest_vertices().iter().flatten().map(|&c| c as f64).collect();
             // The second layer is the first shifted (exactly, keeping collinear points collinear),
             // so layers overlap partly.
             let half = v.len() / 2;
@@ -444,15 +380,9 @@ mod tests {
                 // A zero-area face's edges overlap, so its nearest edge is a tie broken differently
                 // by the two codes; both give the same point, but the f32-rounded UVs make the
                 // colour differ by ~1e-8. Coverage has no such tie.
+                assert!(di < 1e-7 && dm < 1e-12, "scene {k} σ {sigma}: image {di:e}, mask {dm:e}");
                 assert!(
-                    di < 1e-7 && dm < 1e-12,
-                    "scene {k} σ {sigma}: image {di:e}, mask {dm:e}"
-                );
-                assert!(
-                    fast.image
-                        .iter()
-                        .chain(&fast.mask)
-                        .all(|&x| (0.0..=1.0 + 1e-12).contains(&x)),
+                    fast.image.iter().chain(&fast.mask).all(|&x| (0.0..=1.0 + 1e-12).contains(&x)),
                     "scene {k}: out of [0, 1]"
                 );
             }
@@ -473,10 +403,7 @@ mod tests {
         for y in 0..40 {
             for x in 1..56 {
                 for c in 0..4 {
-                    let (a, b) = (
-                        f.image[(y * 56 + x - 1) * 4 + c],
-                        f.image[56 * 40 * 4 + (y * 56 + x) * 4 + c],
-                    );
+                    let (a, b) = (f.image[(y * 56 + x - 1) * 4 + c], f.image[56 * 40 * 4 + (y * 56 + x) * 4 + c]);
                     assert!((a - b).abs() < 1e-12, "({x}, {y}).{c}: {a} vs {b}");
                 }
             }
@@ -491,8 +418,7 @@ mod tests {
             let v = jittered(&puppet.rest_vertices(), 100 + seed, 1.5);
             for bg in [Background::Transparent, Background::Colour([1.0, 1.0, 1.0])] {
                 let crisp = raster.forward(&v, 1, 48, 40, &Params::crisp(bg)).unwrap();
-                let hard =
-                    reference::hard(&raster, &v, 48, 40, bg.premultiplied().map(|c| c as f64));
+                let hard = reference::hard(&raster, &v, 48, 40, bg.premultiplied().map(|c| c as f64));
                 assert!(
                     max_diff(&crisp.image, &hard) < 1e-12,
                     "seed {seed}: {:e}",
@@ -514,9 +440,7 @@ mod tests {
         let puppet = layered_puppet();
         let raster = SoftRasterizer::new(&puppet).unwrap();
         let v: Vec<f32> = puppet.rest_vertices().iter().flatten().copied().collect();
-        assert!(raster
-            .forward(&v[1..], 1, 8, 8, &Params::default())
-            .is_err());
+        assert!(raster.forward(&v[1..], 1, 8, 8, &Params::default()).is_err());
         let mut nan = v.clone();
         nan[5] = f32::NAN;
         assert!(raster
@@ -525,14 +449,9 @@ mod tests {
             .to_string()
             .contains("coordinate 5"));
         assert!(raster.forward(&v, 1, 0, 8, &Params::default()).is_err());
-        assert!(raster
-            .forward(&v, 1, 8, 8, &params(-1.0, Background::Transparent))
-            .is_err());
+        assert!(raster.forward(&v, 1, 8, 8, &params(-1.0, Background::Transparent)).is_err());
         let mut broken = puppet.clone();
         broken.layers[2].uvs.pop();
-        assert!(SoftRasterizer::new(&broken)
-            .unwrap_err()
-            .to_string()
-            .contains("\"head\""));
+        assert!(SoftRasterizer::new(&broken).unwrap_err().to_string().contains("\"head\""));
     }
 }

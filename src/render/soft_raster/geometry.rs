@@ -182,13 +182,7 @@ pub(crate) fn dist2_vjp<T: Real>(g: T, h: &Hit<T>, grads: &mut [[T; 2]; 3]) {
 /// `dL = Σ_k (gw_k − ḡ)/A · dE_k` with `ḡ = Σ gw_k w_k`. Outside, `w_i = 1 − t`, `w_j = t` with
 /// `t = ((p − v_i)·e)/(e·e)`, `e = v_j − v_i`, differentiated unless clamped.
 #[inline]
-pub(crate) fn bary_vjp<T: Real>(
-    gw: [T; 3],
-    p: [T; 2],
-    v: [[T; 2]; 3],
-    h: &Hit<T>,
-    grads: &mut [[T; 2]; 3],
-) {
+pub(crate) fn bary_vjp<T: Real>(gw: [T; 3], p: [T; 2], v: [[T; 2]; 3], h: &Hit<T>, grads: &mut [[T; 2]; 3]) {
     if h.inside {
         let gbar = gw[0] * h.w[0] + gw[1] * h.w[1] + gw[2] * h.w[2];
         for k in 0..3 {

@@ -124,16 +124,11 @@ impl Params {
             )));
         }
         if !(self.cutoff > 0.0 && self.cutoff < 0.5) {
-            return Err(Error::Invalid(format!(
-                "render: cutoff {} is not in (0, 0.5)",
-                self.cutoff
-            )));
+            return Err(Error::Invalid(format!("render: cutoff {} is not in (0, 0.5)", self.cutoff)));
         }
         if let Background::Colour(c) = self.background {
             if c.iter().any(|v| !(0.0..=1.0).contains(v)) {
-                return Err(Error::Invalid(format!(
-                    "render: background {c:?} is not RGB in [0, 1]"
-                )));
+                return Err(Error::Invalid(format!("render: background {c:?} is not RGB in [0, 1]")));
             }
         }
         Ok(())
@@ -183,39 +178,24 @@ impl SoftRasterizer {
     /// differs from the vertex count, a UV is not finite, or the texture is empty.
     pub fn new(puppet: &Puppet) -> Result<Self> {
         let offsets = puppet.vertex_offsets();
-        let (mut faces, mut face_layer, mut textures, mut errors) =
-            (Vec::new(), Vec::new(), Vec::new(), Vec::new());
+        let (mut faces, mut face_layer, mut textures, mut errors) = (Vec::new(), Vec::new(), Vec::new(), Vec::new());
         for (l, layer) in puppet.layers.iter().enumerate() {
             let n = layer.mesh.vertices.len();
-            let bad = |problem: String| {
-                Error::Invalid(format!("render: layer {:?}: {problem}", layer.name))
-            };
+            let bad = |problem: String| Error::Invalid(format!("render: layer {:?}: {problem}", layer.name));
             if layer.uvs.len() != n {
                 errors.push(bad(format!("{} UVs for {n} vertices", layer.uvs.len())));
                 continue;
             }
-            if layer
-                .uvs
-                .iter()
-                .any(|uv| !uv[0].is_finite() || !uv[1].is_finite())
-            {
+            if layer.uvs.iter().any(|uv| !uv[0].is_finite() || !uv[1].is_finite()) {
                 errors.push(bad("a UV is not finite".into()));
                 continue;
             }
             let (tw, th) = (layer.texture.width as usize, layer.texture.height as usize);
             if tw == 0 || th == 0 || layer.texture.pixels.len() != tw * th {
-                errors.push(bad(format!(
-                    "texture is {tw}×{th} with {} pixels",
-                    layer.texture.pixels.len()
-                )));
+                errors.push(bad(format!("texture is {tw}×{th} with {} pixels", layer.texture.pixels.len())));
                 continue;
             }
-            if let Some(t) = layer
-                .mesh
-                .triangles
-                .iter()
-                .find(|t| t.iter().any(|&i| i as usize >= n))
-            {
+            if let Some(t) = layer.mesh.triangles.iter().find(|t| t.iter().any(|&i| i as usize >= n)) {
                 errors.push(bad(format!("triangle {t:?} indexes past {n} vertices")));
                 continue;
             }
@@ -226,12 +206,7 @@ impl SoftRasterizer {
                 });
                 face_layer.push(l as u32);
             }
-            let texels = layer
-                .texture
-                .pixels
-                .iter()
-                .map(|&[r, g, b, a]| [r * a, g * a, b * a, a])
-                .collect();
+            let texels = layer.texture.pixels.iter().map(|&[r, g, b, a]| [r * a, g * a, b * a, a]).collect();
             textures.push(Texture {
                 width: tw,
                 height: th,
@@ -266,13 +241,7 @@ impl SoftRasterizer {
     ///
     /// # Errors
     /// [`Error::Invalid`] saying what is wrong.
-    pub fn validate_input<T: Real>(
-        &self,
-        vertices: &[T],
-        batch: usize,
-        width: usize,
-        height: usize,
-    ) -> Result<()> {
+    pub fn validate_input<T: Real>(&self, vertices: &[T], batch: usize, width: usize, height: usize) -> Result<()> {
         if vertices.len() != batch * self.vertex_count * 2 {
             return Err(Error::Invalid(format!(
                 "render: {} vertex coordinates, expected {batch} poses × {} vertices × 2",
@@ -281,14 +250,10 @@ impl SoftRasterizer {
             )));
         }
         if let Some(i) = vertices.iter().position(|v| !v.is_finite()) {
-            return Err(Error::Invalid(format!(
-                "render: vertex coordinate {i} is not finite"
-            )));
+            return Err(Error::Invalid(format!("render: vertex coordinate {i} is not finite")));
         }
         if width == 0 || height == 0 {
-            return Err(Error::Invalid(format!(
-                "render: image size {width}×{height} is empty"
-            )));
+            return Err(Error::Invalid(format!("render: image size {width}×{height} is empty")));
         }
         Ok(())
     }
@@ -300,13 +265,7 @@ mod tests {
     use crate::test_util::layered_puppet;
 
     /// Rotates `v[range]` (pairs) by `deg` degrees about `c`.
-    fn rotate(
-        v: &mut [f32],
-        range: std::ops::Range<usize>,
-        c: [f32; 2],
-        deg: f32,
-        keep: impl Fn(f32, f32) -> bool,
-    ) {
+    fn rotate(v: &mut [f32], range: std::ops::Range<usize>, c: [f32; 2], deg: f32, keep: impl Fn(f32, f32) -> bool) {
         let (s, co) = deg.to_radians().sin_cos();
         for p in v[2 * range.start..2 * range.end].chunks_mut(2) {
             if keep(p[0], p[1]) {
@@ -338,8 +297,7 @@ mod tests {
         rotate(&mut v, off[3]..off[4], [33.0, 22.5], 10.0, |x, _| x > 33.5); // front arm bent
         rotate(&mut v, off[0]..off[1], [15.0, 14.5], -8.0, |x, _| x < 14.5); // back arm bent
         rotate(&mut v, 0..off[4], [24.0, 22.0], 3.0, |_, _| true);
-        v.chunks_mut(2)
-            .for_each(|p| (p[0], p[1]) = (p[0] + 1.2, p[1] - 0.8));
+        v.chunks_mut(2).for_each(|p| (p[0], p[1]) = (p[0] + 1.2, p[1] - 0.8));
         let start = vertex_error(&v, &truth);
         let v0 = v.clone();
 
@@ -354,20 +312,9 @@ mod tests {
             let target = raster.forward(&truth, 1, w, h, &p).unwrap().image;
             for step in 0..steps {
                 let f = raster.forward(&v, 1, w, h, &p).unwrap();
-                let d: Vec<f32> = f
-                    .image
-                    .iter()
-                    .zip(&target)
-                    .map(|(a, b)| 2.0 * (a - b))
-                    .collect();
+                let d: Vec<f32> = f.image.iter().zip(&target).map(|(a, b)| 2.0 * (a - b)).collect();
                 if step == 0 || step == steps - 1 {
-                    losses.push(
-                        f.image
-                            .iter()
-                            .zip(&target)
-                            .map(|(a, b)| (a - b).powi(2))
-                            .sum::<f32>(),
-                    );
+                    losses.push(f.image.iter().zip(&target).map(|(a, b)| (a - b).powi(2)).sum::<f32>());
                 }
                 let g = raster.backward(&v, 1, w, h, &p, Some(&d), None).unwrap();
                 v.iter_mut().zip(&g).for_each(|(x, g)| *x -= lr * g);
@@ -397,10 +344,7 @@ mod tests {
                 .collect()
         };
         let end = vertex_error(&v, &truth);
-        let (start_vis, end_vis) = (
-            vertex_error(&pick(&v0), &pick(&truth)),
-            vertex_error(&pick(&v), &pick(&truth)),
-        );
+        let (start_vis, end_vis) = (vertex_error(&pick(&v0), &pick(&truth)), vertex_error(&pick(&v), &pick(&truth)));
         println!(
             "mean vertex error: all {} vertices {start:.3} → {end:.3} px; {} visible ones {start_vis:.3} → {end_vis:.3} px; L2 loss per stage (first, last) {losses:.3?}",
             visible.len(),

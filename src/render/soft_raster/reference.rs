@@ -65,25 +65,12 @@ fn bilinear(tex: &Texture, uv: [f64; 2]) -> [f64; 4] {
         let j = j.clamp(0.0, tex.height as f64 - 1.0) as usize;
         tex.texels[j * tex.width + i].map(|c| c as f64)
     };
-    let (a, b, c, d) = (
-        at(x0, y0),
-        at(x0 + 1.0, y0),
-        at(x0, y0 + 1.0),
-        at(x0 + 1.0, y0 + 1.0),
-    );
-    [0, 1, 2, 3].map(|k| {
-        (a[k] * (1.0 - fx) + b[k] * fx) * (1.0 - fy) + (c[k] * (1.0 - fx) + d[k] * fx) * fy
-    })
+    let (a, b, c, d) = (at(x0, y0), at(x0 + 1.0, y0), at(x0, y0 + 1.0), at(x0 + 1.0, y0 + 1.0));
+    [0, 1, 2, 3].map(|k| (a[k] * (1.0 - fx) + b[k] * fx) * (1.0 - fy) + (c[k] * (1.0 - fx) + d[k] * fx) * fy)
 }
 
 /// One pose rendered by brute force: (premultiplied RGBA `[H, W, 4]`, mask `[H, W]`).
-pub(crate) fn render(
-    raster: &SoftRasterizer,
-    verts: &[f64],
-    width: usize,
-    height: usize,
-    params: &Params,
-) -> (Vec<f64>, Vec<f64>) {
+pub(crate) fn render(raster: &SoftRasterizer, verts: &[f64], width: usize, height: usize, params: &Params) -> (Vec<f64>, Vec<f64>) {
     let sigma = params.sigma as f64;
     let layers = raster.textures.len();
     let bg = params.background.premultiplied().map(|c| c as f64);
@@ -95,9 +82,7 @@ pub(crate) fn render(
             let mut keep = vec![1.0; layers];
             let mut best: Vec<Option<(f64, usize, [f64; 3])>> = vec![None; layers];
             for (f, face) in raster.faces.iter().enumerate() {
-                let v = face
-                    .vertices
-                    .map(|i| [verts[2 * i as usize], verts[2 * i as usize + 1]]);
+                let v = face.vertices.map(|i| [verts[2 * i as usize], verts[2 * i as usize + 1]]);
                 let is_in = inside(p, v);
                 let (d2, wq) = closest_boundary(p, v);
                 let d = if sigma == 0.0 {
@@ -151,56 +136,22 @@ pub(crate) fn render(
 
 /// A plain hard rasterizer: each layer's triangles painted where the pixel centre is inside
 /// (edges included), textured at the interpolated UV, layers composited "over" back to front.
-pub(crate) fn hard(
-    raster: &SoftRasterizer,
-    verts: &[f64],
-    width: usize,
-    height: usize,
-    bg: [f64; 4],
-) -> Vec<f64> {
+pub(crate) fn hard(raster: &SoftRasterizer, verts: &[f64], width: usize, height: usize, bg: [f64; 4]) -> Vec<f64> {
     let mut image: Vec<f64> = (0..width * height).flat_map(|_| bg).collect();
     for l in 0..raster.textures.len() {
         let mut paint: Vec<Option<[f64; 4]>> = vec![None; width * height];
-        for (f, face) in raster
-            .faces
-            .iter()
-            .enumerate()
-            .filter(|(f, _)| raster.face_layer[*f] as usize == l)
-        {
-            let v = face
-                .vertices
-                .map(|i| [verts[2 * i as usize], verts[2 * i as usize + 1]]);
-            let x0 = v
-                .iter()
-                .map(|p| p[0])
-                .fold(f64::INFINITY, f64::min)
-                .floor()
-                .max(0.0) as usize;
-            let y0 = v
-                .iter()
-                .map(|p| p[1])
-                .fold(f64::INFINITY, f64::min)
-                .floor()
-                .max(0.0) as usize;
-            let x1 = (v
-                .iter()
-                .map(|p| p[0])
-                .fold(f64::NEG_INFINITY, f64::max)
-                .ceil() as usize)
-                .min(width);
-            let y1 = (v
-                .iter()
-                .map(|p| p[1])
-                .fold(f64::NEG_INFINITY, f64::max)
-                .ceil() as usize)
-                .min(height);
+        for (f, face) in raster.faces.iter().enumerate().filter(|(f, _)| raster.face_layer[*f] as usize == l) {
+            let v = face.vertices.map(|i| [verts[2 * i as usize], verts[2 * i as usize + 1]]);
+            let x0 = v.iter().map(|p| p[0]).fold(f64::INFINITY, f64::min).floor().max(0.0) as usize;
+            let y0 = v.iter().map(|p| p[1]).fold(f64::INFINITY, f64::min).floor().max(0.0) as usize;
+            let x1 = (v.iter().map(|p| p[0]).fold(f64::NEG_INFINITY, f64::max).ceil() as usize).min(width);
+            let y1 = (v.iter().map(|p| p[1]).fold(f64::NEG_INFINITY, f64::max).ceil() as usize).min(height);
             for y in y0..y1 {
                 for x in x0..x1 {
                     let p = [x as f64 + 0.5, y as f64 + 0.5];
                     if let (true, Some(w)) = (inside(p, v), barycentric(p, v)) {
                         let uvs = raster.faces[f].uvs;
-                        let uv =
-                            [0, 1].map(|c| (0..3).map(|k| w[k] * uvs[k][c] as f64).sum::<f64>());
+                        let uv = [0, 1].map(|c| (0..3).map(|k| w[k] * uvs[k][c] as f64).sum::<f64>());
                         paint[y * width + x] = Some(bilinear(&raster.textures[l], uv));
                     }
                 }

@@ -23,9 +23,7 @@ fn footprint<T: Real>(tex: &Texture, uv: [T; 2]) -> Footprint<T> {
     let (xf, yf) = (x.floor(), y.floor());
     let (fx, fy) = (x - xf, y - yf);
     let clampi = |v: T, n: usize| -> (usize, bool) {
-        let i = v
-            .to_i64()
-            .unwrap_or(if v > T::zero() { i64::MAX } else { i64::MIN });
+        let i = v.to_i64().unwrap_or(if v > T::zero() { i64::MAX } else { i64::MIN });
         if i < 0 {
             (0, true)
         } else if i as u64 >= n as u64 {
@@ -62,9 +60,7 @@ fn footprint<T: Real>(tex: &Texture, uv: [T; 2]) -> Footprint<T> {
 #[inline]
 pub(crate) fn sample<T: Real>(tex: &Texture, uv: [T; 2]) -> [T; 4] {
     let f = footprint(tex, uv);
-    let t = f
-        .idx
-        .map(|i| tex.texels[i].map(|c| T::from(c).expect("f32 fits")));
+    let t = f.idx.map(|i| tex.texels[i].map(|c| T::from(c).expect("f32 fits")));
     let one = T::one();
     let mut s = [T::zero(); 4];
     for c in 0..4 {
@@ -79,9 +75,7 @@ pub(crate) fn sample<T: Real>(tex: &Texture, uv: [T; 2]) -> [T; 4] {
 #[inline]
 pub(crate) fn sample_vjp<T: Real>(tex: &Texture, uv: [T; 2], g: [T; 4]) -> [T; 2] {
     let f = footprint(tex, uv);
-    let t = f
-        .idx
-        .map(|i| tex.texels[i].map(|c| T::from(c).expect("f32 fits")));
+    let t = f.idx.map(|i| tex.texels[i].map(|c| T::from(c).expect("f32 fits")));
     let one = T::one();
     let (mut gu, mut gv) = (T::zero(), T::zero());
     for c in 0..4 {
@@ -99,14 +93,7 @@ mod tests {
 
     fn tex() -> Texture {
         let texels = (0..12)
-            .map(|i| {
-                [
-                    i as f32 / 12.0,
-                    (i * i % 7) as f32 / 7.0,
-                    0.5,
-                    ((i * 5) % 12) as f32 / 11.0,
-                ]
-            })
+            .map(|i| [i as f32 / 12.0, (i * i % 7) as f32 / 7.0, 0.5, ((i * 5) % 12) as f32 / 11.0])
             .collect();
         Texture {
             width: 4,
@@ -122,10 +109,7 @@ mod tests {
             for i in 0..4 {
                 let s = sample(&t, [(i as f64 + 0.5) / 4.0, (j as f64 + 0.5) / 3.0]);
                 let want = t.texels[j * 4 + i];
-                assert!(
-                    (0..4).all(|c| (s[c] - want[c] as f64).abs() < 1e-7),
-                    "{i},{j}: {s:?} vs {want:?}"
-                );
+                assert!((0..4).all(|c| (s[c] - want[c] as f64).abs() < 1e-7), "{i},{j}: {s:?} vs {want:?}");
             }
         }
     }
@@ -135,21 +119,12 @@ mod tests {
         let t = tex();
         let g = [0.4, -0.9, 0.2, 1.3];
         let f = |uv: [f64; 2]| (0..4).map(|c| g[c] * sample(&t, uv)[c]).sum::<f64>();
-        for uv in [
-            [0.41, 0.52],
-            [0.03, 0.47],
-            [0.7, 0.97],
-            [1.3, -0.2],
-            [0.26, 0.61],
-        ] {
+        for uv in [[0.41, 0.52], [0.03, 0.47], [0.7, 0.97], [1.3, -0.2], [0.26, 0.61]] {
             let a = sample_vjp(&t, uv, g);
             let h = 1e-7;
             let du = (f([uv[0] + h, uv[1]]) - f([uv[0] - h, uv[1]])) / (2.0 * h);
             let dv = (f([uv[0], uv[1] + h]) - f([uv[0], uv[1] - h])) / (2.0 * h);
-            assert!(
-                (a[0] - du).abs() < 1e-6 && (a[1] - dv).abs() < 1e-6,
-                "{uv:?}: {a:?} vs {du}, {dv}"
-            );
+            assert!((a[0] - du).abs() < 1e-6 && (a[1] - dv).abs() < 1e-6, "{uv:?}: {a:?} vs {du}, {dv}");
         }
     }
 }
