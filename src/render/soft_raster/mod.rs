@@ -351,7 +351,8 @@ mod tests {
             visible.iter().filter(|&&x| x).count()
         );
         // Most visible vertices return to within 0.1 px; a few get stuck in local minima (no
-        // regulariser here), and hidden ones cannot move for want of signal.
+        // regulariser here), and hidden ones cannot move for want of signal. Measured: visible
+        // 1.615 → 0.376 px (0.23×), all 1.645 → 0.552 px (0.34×).
         assert!(
             end_vis < 0.25 * start_vis && end < 0.4 * start,
             "vertex error {start} → {end}, visible {start_vis} → {end_vis}"
