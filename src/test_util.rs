@@ -52,7 +52,8 @@ pub fn rect_layer(name: &str, frame: (u32, u32), r: [f32; 4], n: (usize, usize),
     let mut mesh = Mesh::default();
     for j in 0..=ny {
         for i in 0..=nx {
-            mesh.vertices.push([x0 + (x1 - x0) * i as f32 / nx as f32, y0 + (y1 - y0) * j as f32 / ny as f32]);
+            mesh.vertices
+                .push([x0 + (x1 - x0) * i as f32 / nx as f32, y0 + (y1 - y0) * j as f32 / ny as f32]);
         }
     }
     let id = |i: usize, j: usize| (j * (nx + 1) + i) as u32;
@@ -68,7 +69,10 @@ pub fn rect_layer(name: &str, frame: (u32, u32), r: [f32; 4], n: (usize, usize),
 
 /// A disc layer: centre plus `n` rim vertices, fan-triangulated counter-clockwise.
 pub fn disc_layer(name: &str, frame: (u32, u32), c: [f32; 2], radius: f32, n: usize, colour: impl Fn(f32, f32) -> [f32; 3]) -> Layer {
-    let mut mesh = Mesh { vertices: vec![c], triangles: Vec::new() };
+    let mut mesh = Mesh {
+        vertices: vec![c],
+        triangles: Vec::new(),
+    };
     for k in 0..n {
         let th = std::f32::consts::TAU * k as f32 / n as f32;
         mesh.vertices.push([c[0] + radius * th.cos(), c[1] + radius * th.sin()]);
@@ -79,8 +83,18 @@ pub fn disc_layer(name: &str, frame: (u32, u32), c: [f32; 2], radius: f32, n: us
 }
 
 fn layer(name: &str, frame: (u32, u32), mesh: Mesh, texture: Picture) -> Layer {
-    let uvs = mesh.vertices.iter().map(|v| [v[0] / frame.0 as f32, v[1] / frame.1 as f32]).collect();
-    Layer { name: name.into(), kind: LayerKind::Body, mesh, uvs, texture }
+    let uvs = mesh
+        .vertices
+        .iter()
+        .map(|v| [v[0] / frame.0 as f32, v[1] / frame.1 as f32])
+        .collect();
+    Layer {
+        name: name.into(),
+        kind: LayerKind::Body,
+        mesh,
+        uvs,
+        texture,
+    }
 }
 
 /// Smoothly varying colour with stripes, so every interior pixel has a texture gradient.
@@ -88,7 +102,11 @@ pub fn stripes(base: [f32; 3], period: f32) -> impl Fn(f32, f32) -> [f32; 3] {
     move |x, y| {
         let s = 0.5 + 0.5 * ((x + 0.7 * y) * std::f32::consts::TAU / period).sin();
         let t = 0.5 + 0.5 * ((y - 0.3 * x) * std::f32::consts::TAU / (1.7 * period)).cos();
-        [base[0] * (0.4 + 0.6 * s), base[1] * (0.5 + 0.5 * t), (base[2] + 0.3 * s * t).min(1.0)]
+        [
+            base[0] * (0.4 + 0.6 * s),
+            base[1] * (0.5 + 0.5 * t),
+            (base[2] + 0.3 * s * t).min(1.0),
+        ]
     }
 }
 
@@ -103,12 +121,22 @@ pub fn layered_puppet() -> Puppet {
         disc_layer("head", f, [24.0, 9.0], 6.5, 12, stripes([0.3, 0.8, 0.3], 11.0)),
         rect_layer("arm_front", f, [24.0, 20.0, 43.0, 25.0], (6, 2), stripes([0.8, 0.2, 0.5], 13.0)),
     ];
-    Puppet { width: f.0, height: f.1, layers, root: 1, joints: Vec::new() }
+    Puppet {
+        width: f.0,
+        height: f.1,
+        layers,
+        root: 1,
+        joints: Vec::new(),
+    }
 }
 
 /// `vertices` flattened to `[x0, y0, x1, y1, …]` with each coordinate moved by a uniform amount
 /// in `[-amount, amount)` (seeded), so that no pixel centre lies exactly on an edge.
 pub fn jittered(vertices: &[[f32; 2]], seed: u64, amount: f64) -> Vec<f64> {
     let mut rng = Rng::new(seed);
-    vertices.iter().flatten().map(|&c| c as f64 + rng.uniform(-amount, amount)).collect()
+    vertices
+        .iter()
+        .flatten()
+        .map(|&c| c as f64 + rng.uniform(-amount, amount))
+        .collect()
 }

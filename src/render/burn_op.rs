@@ -35,13 +35,7 @@ pub struct Rendered {
 /// # Errors
 /// [`Error::Invalid`] if the shape is not `[B, V, 2]` for this puppet, a coordinate is not
 /// finite, `params` are invalid, or the tensor is on a backend other than flex.
-pub fn soft_raster(
-    vertices: Tensor<3>,
-    raster: &Arc<SoftRasterizer>,
-    width: usize,
-    height: usize,
-    params: Params,
-) -> Result<Rendered> {
+pub fn soft_raster(vertices: Tensor<3>, raster: &Arc<SoftRasterizer>, width: usize, height: usize, params: Params) -> Result<Rendered> {
     let [batch, v, two] = vertices.dims();
     if v != raster.vertex_count() || two != 2 {
         return Err(Error::Invalid(format!(
@@ -50,7 +44,13 @@ pub fn soft_raster(
         )));
     }
     params.validate()?;
-    let call = Call { raster: raster.clone(), batch, width, height, params };
+    let call = Call {
+        raster: raster.clone(),
+        batch,
+        width,
+        height,
+        params,
+    };
     let out: Tensor<4> = if let Ok(ad) = vertices.clone().try_into_primitive::<Autodiff<Flex>>() {
         match RasterBackward.prepare::<NoCheckpointing>([ad.node()]).compute_bound().stateful() {
             OpsKind::Tracked(prep) => {
@@ -69,7 +69,10 @@ pub fn soft_raster(
     } else {
         return Err(Error::Invalid("render: the vertex tensor is not on the flex backend".into()));
     };
-    Ok(Rendered { image: out.clone().narrow(1, 0, 4), mask: out.narrow(1, 4, 1) })
+    Ok(Rendered {
+        image: out.clone().narrow(1, 0, 4),
+        mask: out.narrow(1, 4, 1),
+    })
 }
 
 /// `x.pipe(f) = f(x)`, to keep the match above readable.
@@ -170,10 +173,18 @@ mod tests {
         let puppet = layered_puppet();
         let raster = Arc::new(SoftRasterizer::new(&puppet).unwrap());
         let nv = raster.vertex_count();
-        let verts: Vec<f32> = [1u64, 2].iter().flat_map(|&s| jittered(&puppet.rest_vertices(), s, 0.4)).map(|x| x as f32).collect();
+        let verts: Vec<f32> = [1u64, 2]
+            .iter()
+            .flat_map(|&s| jittered(&puppet.rest_vertices(), s, 0.4))
+            .map(|x| x as f32)
+            .collect();
         let mut rng = Rng::new(4);
         let target: Vec<f32> = (0..2 * 4 * H * W).map(|_| rng.uniform(0.0, 1.0) as f32).collect();
-        let params = Params { sigma: 0.7, background: Background::Transparent, ..Params::default() };
+        let params = Params {
+            sigma: 0.7,
+            background: Background::Transparent,
+            ..Params::default()
+        };
 
         let device = crate::backend::train_device();
         let v = Tensor::<3>::from_data(TensorData::new(verts.clone(), [2, nv, 2]), &device).require_grad();
@@ -182,7 +193,12 @@ mod tests {
         // eq. 1 (L2) plus an area term on the silhouette (eq. 11's Σ R(V, F, I¹)).
         let loss = (out.image.clone() - t).powf_scalar(2.0).sum() + out.mask.clone().sum().mul_scalar(0.3);
         let grads = loss.backward();
-        let got: Vec<f32> = v.grad(&grads).expect("vertices require grad").into_data().try_to_vec::<f32>().unwrap();
+        let got: Vec<f32> = v
+            .grad(&grads)
+            .expect("vertices require grad")
+            .into_data()
+            .try_to_vec::<f32>()
+            .unwrap();
 
         // The same gradient from a direct kernel call.
         let f = raster.forward(&verts, 2, W, H, &params).unwrap();
@@ -193,7 +209,10 @@ mod tests {
             for i in 0..n {
                 for c in 0..4 {
                     let planar = (b * 4 + c) * n + i;
-                    assert!((img[planar] - f.image[(b * n + i) * 4 + c]).abs() < 1e-6, "image differs from the kernel's");
+                    assert!(
+                        (img[planar] - f.image[(b * n + i) * 4 + c]).abs() < 1e-6,
+                        "image differs from the kernel's"
+                    );
                     d_image[(b * n + i) * 4 + c] = 2.0 * (f.image[(b * n + i) * 4 + c] - target[planar]);
                 }
             }

@@ -12,17 +12,14 @@ use crate::puppet::Puppet;
 /// # Errors
 /// [`crate::Error::Invalid`] if the vertex count differs from the puppet's, a coordinate is not
 /// finite, the size is empty, `sigma` is negative, or a layer is malformed.
-pub fn render_pose(
-    puppet: &Puppet,
-    vertices: &[[f32; 2]],
-    width: u32,
-    height: u32,
-    sigma: f32,
-    background: Background,
-) -> Result<Picture> {
+pub fn render_pose(puppet: &Puppet, vertices: &[[f32; 2]], width: u32, height: u32, sigma: f32, background: Background) -> Result<Picture> {
     let raster = SoftRasterizer::new(puppet)?;
     let flat: Vec<f32> = vertices.iter().flatten().copied().collect();
-    let params = Params { sigma, background, ..Params::default() };
+    let params = Params {
+        sigma,
+        background,
+        ..Params::default()
+    };
     let frames = raster.forward(&flat, 1, width as usize, height as usize, &params)?;
     let pixels = frames
         .image
@@ -54,7 +51,13 @@ mod tests {
         for layer in &puppet.layers {
             for (o, s) in out.pixels.iter_mut().zip(&layer.texture.pixels) {
                 let a = s[3] + o[3] * (1.0 - s[3]);
-                let mix = |c: usize| if a > 0.0 { (s[c] * s[3] + o[c] * o[3] * (1.0 - s[3])) / a } else { 0.0 };
+                let mix = |c: usize| {
+                    if a > 0.0 {
+                        (s[c] * s[3] + o[c] * o[3] * (1.0 - s[3])) / a
+                    } else {
+                        0.0
+                    }
+                };
                 *o = [mix(0), mix(1), mix(2), a];
             }
         }

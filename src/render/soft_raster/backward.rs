@@ -33,7 +33,19 @@ impl SoftRasterizer {
         d_image: Option<&[T]>,
         d_mask: Option<&[T]>,
     ) -> Result<Vec<T>> {
-        self.vjp(vertices, batch, width, height, params, d_image, d_mask, Routes { coverage: true, texture: true })
+        self.vjp(
+            vertices,
+            batch,
+            width,
+            height,
+            params,
+            d_image,
+            d_mask,
+            Routes {
+                coverage: true,
+                texture: true,
+            },
+        )
     }
 
     /// [`SoftRasterizer::backward`] with a choice of routes (tests switch one off to show that the
@@ -152,7 +164,9 @@ fn band_vjp<T: Real>(
                     let guv = sample_vjp(tex, la.uv, gs);
                     if routes.texture && (guv[0] != zero || guv[1] != zero) {
                         let face = &ctx.raster.faces[la.best as usize];
-                        let gw = face.uvs.map(|uv| guv[0] * real::<T>(uv[0] as f64) + guv[1] * real::<T>(uv[1] as f64));
+                        let gw = face
+                            .uvs
+                            .map(|uv| guv[0] * real::<T>(uv[0] as f64) + guv[1] * real::<T>(uv[1] as f64));
                         let h = la.best_hit.expect("a touched layer has a face");
                         let mut gc = [[zero; 2]; 3];
                         bary_vjp(gw, p, ctx.corners(la.best as usize), &h, &mut gc);
@@ -168,8 +182,7 @@ fn band_vjp<T: Real>(
                 for n in &px.near {
                     let la = &px.touched[n.slot as usize];
                     let om = one - n.d;
-                    let gd = ga[n.slot as usize] * product_without(la.prod, la.zeros, om)
-                        + gmask * product_without(px.prod, px.zeros, om);
+                    let gd = ga[n.slot as usize] * product_without(la.prod, la.zeros, om) + gmask * product_without(px.prod, px.zeros, om);
                     let gz = gd * n.d * om;
                     if gz == zero {
                         continue;
@@ -228,14 +241,25 @@ mod tests {
     /// Pixel weights: random, but only where `keep(mask)` holds.
     fn weights(mask: &[f64], seed: u64, keep: impl Fn(f64) -> bool) -> (Vec<f64>, Vec<f64>) {
         let mut rng = Rng::new(seed);
-        let gi = (0..mask.len() * 4).map(|i| if keep(mask[i / 4]) { rng.uniform(-1.0, 1.0) } else { 0.0 }).collect();
+        let gi = (0..mask.len() * 4)
+            .map(|i| if keep(mask[i / 4]) { rng.uniform(-1.0, 1.0) } else { 0.0 })
+            .collect();
         let gm = mask.iter().map(|&m| if keep(m) { rng.uniform(-1.0, 1.0) } else { 0.0 }).collect();
         (gi, gm)
     }
 
-    const ALL: Routes = Routes { coverage: true, texture: true };
-    const NO_COVERAGE: Routes = Routes { coverage: false, texture: true };
-    const NO_TEXTURE: Routes = Routes { coverage: true, texture: false };
+    const ALL: Routes = Routes {
+        coverage: true,
+        texture: true,
+    };
+    const NO_COVERAGE: Routes = Routes {
+        coverage: false,
+        texture: true,
+    };
+    const NO_TEXTURE: Routes = Routes {
+        coverage: true,
+        texture: false,
+    };
 
     fn vjp(raster: &SoftRasterizer, v: &[f64], p: &Params, gi: &[f64], gm: &[f64], routes: Routes) -> Vec<f64> {
         raster.vjp(v, 1, W, H, p, Some(gi), Some(gm), routes).unwrap()
@@ -252,18 +276,26 @@ mod tests {
         let raster = SoftRasterizer::new(&puppet).unwrap();
         for (k, sigma) in [0.3f32, 1.0, 3.0].into_iter().enumerate() {
             let v = jittered(&puppet.rest_vertices(), 10 + k as u64, 0.4);
-            let p = Params { sigma, cutoff: 1e-12, background: Background::Colour([0.9, 0.8, 0.7]) };
+            let p = Params {
+                sigma,
+                cutoff: 1e-12,
+                background: Background::Colour([0.9, 0.8, 0.7]),
+            };
             let mask = raster.forward(&v, 1, W, H, &p).unwrap().mask;
             // Edge pixels: partial silhouette coverage. Interior pixels: covered to within 1e-3.
             let edge = weights(&mask, 1, |m| m > 0.02 && m < 0.98);
             let interior = weights(&mask, 2, |m| m > 0.999);
-            for (name, (gi, gm), dropped, what) in
-                [("edge", &edge, NO_COVERAGE, "coverage"), ("interior", &interior, NO_TEXTURE, "texture")]
-            {
+            for (name, (gi, gm), dropped, what) in [
+                ("edge", &edge, NO_COVERAGE, "coverage"),
+                ("interior", &interior, NO_TEXTURE, "texture"),
+            ] {
                 let full = vjp(&raster, &v, &p, gi, gm, ALL);
                 let (bad, scale) = fd_violation(&raster, &v, &p, gi, gm, &full);
                 println!("σ {sigma} {name} pixels: max |vjp − fd| / allowance = {bad:.1e} (max |fd| {scale:.3})");
-                assert!(bad <= 1.0, "σ {sigma} {name}: gradient off the central differences ({bad} × allowance)");
+                assert!(
+                    bad <= 1.0,
+                    "σ {sigma} {name}: gradient off the central differences ({bad} × allowance)"
+                );
                 // Without the term that dominates these pixels the same check fails by far.
                 let partial = vjp(&raster, &v, &p, gi, gm, dropped);
                 let (bad, _) = fd_violation(&raster, &v, &p, gi, gm, &partial);
@@ -278,7 +310,10 @@ mod tests {
         let puppet = layered_puppet();
         let raster = SoftRasterizer::new(&puppet).unwrap();
         let v = jittered(&puppet.rest_vertices(), 21, 0.4);
-        let p = Params { sigma: 0.5, ..Params::default() };
+        let p = Params {
+            sigma: 0.5,
+            ..Params::default()
+        };
         let mask = raster.forward(&v, 1, W, H, &p).unwrap().mask;
         let (gi, gm) = weights(&mask, 3, |_| true);
         let full = vjp(&raster, &v, &p, &gi, &gm, ALL);
@@ -298,7 +333,10 @@ mod tests {
         let mask = raster.forward(&v, 1, W, H, &p).unwrap().mask;
         let (gi, gm) = weights(&mask, 4, |m| m > 0.5);
         let full = vjp(&raster, &v, &p, &gi, &gm, ALL);
-        assert!(full[2 * off[2]..2 * off[3]].iter().all(|&g| g == 0.0), "off-image head got a gradient");
+        assert!(
+            full[2 * off[2]..2 * off[3]].iter().all(|&g| g == 0.0),
+            "off-image head got a gradient"
+        );
         assert!(full.iter().any(|&g| g != 0.0), "crisp texture route is empty");
         // Central differences see the interiors (no pixel changes coverage for a 1e-6 step).
         let (bad, _) = fd_violation(&raster, &v, &p, &gi, &gm, &full);
@@ -309,7 +347,10 @@ mod tests {
     fn batched_backward_equals_per_pose_backward_and_f32_follows_f64() {
         let puppet = layered_puppet();
         let raster = SoftRasterizer::new(&puppet).unwrap();
-        let (a, b) = (jittered(&puppet.rest_vertices(), 30, 0.4), jittered(&puppet.rest_vertices(), 31, 0.4));
+        let (a, b) = (
+            jittered(&puppet.rest_vertices(), 30, 0.4),
+            jittered(&puppet.rest_vertices(), 31, 0.4),
+        );
         let p = Params::default();
         let mut rng = Rng::new(9);
         let gi: Vec<f64> = (0..2 * W * H * 4).map(|_| rng.uniform(-1.0, 1.0)).collect();
@@ -318,7 +359,11 @@ mod tests {
         let ga = raster.backward(&a, 1, W, H, &p, Some(&gi[..W * H * 4]), None).unwrap();
         let gb = raster.backward(&b, 1, W, H, &p, Some(&gi[W * H * 4..]), None).unwrap();
         let n = a.len();
-        assert!(g[..n].iter().zip(&ga).chain(g[n..].iter().zip(&gb)).all(|(x, y)| (x - y).abs() < 1e-9));
+        assert!(g[..n]
+            .iter()
+            .zip(&ga)
+            .chain(g[n..].iter().zip(&gb))
+            .all(|(x, y)| (x - y).abs() < 1e-9));
         let a32: Vec<f32> = a.iter().map(|&x| x as f32).collect();
         let gi32: Vec<f32> = gi[..W * H * 4].iter().map(|&x| x as f32).collect();
         let g32 = raster.backward(&a32, 1, W, H, &p, Some(&gi32), None).unwrap();

@@ -74,7 +74,12 @@ impl<T: Real> Bins<T> {
                 }
             }
         }
-        Bins { tiles_x, start, faces, boxes }
+        Bins {
+            tiles_x,
+            start,
+            faces,
+            boxes,
+        }
     }
 
     /// The faces of tile (tx, ty).

@@ -5,7 +5,7 @@
 use rayon::prelude::*;
 
 use super::bins::{Bins, TILE};
-use super::geometry::{hit, Hit};
+use super::geometry::{hit_within, Hit, Tri};
 use super::texture::sample;
 use super::{real, Params, Real, SoftRasterizer};
 use crate::error::Result;
@@ -31,9 +31,12 @@ pub(crate) struct Ctx<'a, T> {
     /// This pose's vertices, `V × 2`.
     pub verts: &'a [T],
     pub bins: Bins<T>,
-    /// σ (0: crisp), the cut distance², the background (premultiplied).
+    /// Every face's per-pose constants.
+    pub tris: Vec<Tri<T>>,
+    /// σ (0: crisp), the cut distance² and its root, the background (premultiplied).
     pub sigma: T,
     pub cut2: T,
+    pub reach: T,
     pub bg: [T; 4],
 }
 
@@ -42,13 +45,25 @@ impl<'a, T: Real> Ctx<'a, T> {
         let cut2: T = real(params.cut_distance2());
         let corners = |f: usize| raster.faces[f].vertices.map(|i| [verts[2 * i as usize], verts[2 * i as usize + 1]]);
         let bins = Bins::new(raster.faces.len(), corners, cut2.sqrt(), width, height);
+        let tris = (0..raster.faces.len()).map(|f| Tri::new(corners(f))).collect();
         let bg = params.background.premultiplied().map(|c| real(c as f64));
-        Ctx { raster, verts, bins, sigma: real(params.sigma as f64), cut2, bg }
+        Ctx {
+            raster,
+            verts,
+            bins,
+            tris,
+            sigma: real(params.sigma as f64),
+            cut2,
+            reach: cut2.sqrt(),
+            bg,
+        }
     }
 
     #[inline]
     pub fn corners(&self, f: usize) -> [[T; 2]; 3] {
-        self.raster.faces[f].vertices.map(|i| [self.verts[2 * i as usize], self.verts[2 * i as usize + 1]])
+        self.raster.faces[f]
+            .vertices
+            .map(|i| [self.verts[2 * i as usize], self.verts[2 * i as usize + 1]])
     }
 }
 
@@ -109,7 +124,12 @@ pub(crate) fn product_without<T: Real>(prod: T, zeros: u32, f_j: T) -> T {
 
 impl<T: Real> Pixel<T> {
     pub fn new() -> Self {
-        Pixel { near: Vec::new(), touched: Vec::new(), prod: T::one(), zeros: 0 }
+        Pixel {
+            near: Vec::new(),
+            touched: Vec::new(),
+            prod: T::one(),
+            zeros: 0,
+        }
     }
 
     /// Evaluates pixel centre `p` against the faces of its tile; returns (premultiplied RGBA, M).
@@ -126,11 +146,17 @@ impl<T: Real> Pixel<T> {
             if p[0] < b[0] || p[0] > b[2] || p[1] < b[1] || p[1] > b[3] {
                 continue;
             }
-            let h = hit(p, ctx.corners(f as usize));
+            let Some(h) = hit_within(p, &ctx.tris[f as usize], ctx.reach) else {
+                continue;
+            };
             if !h.inside && (crisp || h.dist2 > ctx.cut2) {
                 continue;
             }
-            let d = if crisp { one } else { one / (one + (-h.signed_dist2() / ctx.sigma).exp()) };
+            let d = if crisp {
+                one
+            } else {
+                one / (one + (-h.signed_dist2() / ctx.sigma).exp())
+            };
             let layer = ctx.raster.face_layer[f as usize];
             if self.touched.last().is_none_or(|t| t.layer != layer) {
                 self.touched.push(LayerAt {
@@ -162,7 +188,12 @@ impl<T: Real> Pixel<T> {
                 la.best = f;
                 la.best_hit = Some(h);
             }
-            self.near.push(Near { face: f, slot: slot as u32, d, hit: h });
+            self.near.push(Near {
+                face: f,
+                slot: slot as u32,
+                d,
+                hit: h,
+            });
         }
         let mut acc = ctx.bg;
         for la in &mut self.touched {
@@ -189,14 +220,7 @@ impl SoftRasterizer {
     /// # Errors
     /// [`crate::Error::Invalid`] if the sizes disagree, a coordinate is not finite, the image is
     /// empty, or `params` is invalid.
-    pub fn forward<T: Real>(
-        &self,
-        vertices: &[T],
-        batch: usize,
-        width: usize,
-        height: usize,
-        params: &Params,
-    ) -> Result<Frames<T>> {
+    pub fn forward<T: Real>(&self, vertices: &[T], batch: usize, width: usize, height: usize, params: &Params) -> Result<Frames<T>> {
         params.validate()?;
         self.validate_input(vertices, batch, width, height)?;
         let (mut image, mut mask) = (vec![T::zero(); batch * height * width * 4], vec![T::zero(); batch * height * width]);
@@ -210,7 +234,10 @@ impl SoftRasterizer {
             .zip(mask.par_chunks_mut(height * width))
             .zip(ctxs.par_iter())
             .flat_map(|((img, msk), ctx)| {
-                img.par_chunks_mut(TILE * width * 4).zip(msk.par_chunks_mut(TILE * width)).enumerate().map(move |(band, bm)| (band, bm, ctx))
+                img.par_chunks_mut(TILE * width * 4)
+                    .zip(msk.par_chunks_mut(TILE * width))
+                    .enumerate()
+                    .map(move |(band, bm)| (band, bm, ctx))
             })
             .for_each(|(band, (img, msk), ctx)| {
                 let mut px = Pixel::new();
@@ -233,7 +260,13 @@ impl SoftRasterizer {
                     }
                 }
             });
-        Ok(Frames { batch, width, height, image, mask })
+        Ok(Frames {
+            batch,
+            width,
+            height,
+            image,
+            mask,
+        })
     }
 }
 
@@ -251,7 +284,11 @@ mod tests {
     }
 
     fn params(sigma: f32, background: Background) -> Params {
-        Params { sigma, background, ..Params::default() }
+        Params {
+            sigma,
+            background,
+            ..Params::default()
+        }
     }
 
     #[test]
@@ -265,7 +302,11 @@ mod tests {
             let mut v = jittered(&puppet.rest_vertices(), seed, 0.4);
             let (dx, dy) = (rng.uniform(-4.0, 4.0), rng.uniform(-4.0, 4.0));
             v.chunks_mut(2).for_each(|p| (p[0], p[1]) = (p[0] + dx, p[1] + dy));
-            for (sigma, bg) in [(0.3, Background::Transparent), (1.0, Background::Colour([0.2, 0.9, 1.0])), (0.0, Background::Transparent)] {
+            for (sigma, bg) in [
+                (0.3, Background::Transparent),
+                (1.0, Background::Colour([0.2, 0.9, 1.0])),
+                (0.0, Background::Transparent),
+            ] {
                 let p = params(sigma, bg);
                 let fast = raster.forward(&v, 1, w, h, &p).unwrap();
                 let (img, mask) = reference::render(&raster, &v, w, h, &p);
@@ -274,7 +315,11 @@ mod tests {
                 // The f32 kernel agrees to single precision.
                 let v32: Vec<f32> = v.iter().map(|&x| x as f32).collect();
                 let f32img: Vec<f64> = raster.forward(&v32, 1, w, h, &p).unwrap().image.iter().map(|&x| x as f64).collect();
-                assert!(max_diff(&f32img, &img) < 2e-4, "f32 seed {seed} σ {sigma}: {:e}", max_diff(&f32img, &img));
+                assert!(
+                    max_diff(&f32img, &img) < 2e-4,
+                    "f32 seed {seed} σ {sigma}: {:e}",
+                    max_diff(&f32img, &img)
+                );
             }
         }
     }
@@ -282,11 +327,26 @@ mod tests {
     /// One layer of raw triangles (the renderer must survive what a bad pose produces).
     fn raw_puppet(tris: &[[[f32; 2]; 3]]) -> Puppet {
         let frame = (20, 16);
-        let mesh = Mesh { vertices: tris.iter().flatten().copied().collect(), triangles: (0..tris.len() as u32).map(|t| [3 * t, 3 * t + 1, 3 * t + 2]).collect() };
+        let mesh = Mesh {
+            vertices: tris.iter().flatten().copied().collect(),
+            triangles: (0..tris.len() as u32).map(|t| [3 * t, 3 * t + 1, 3 * t + 2]).collect(),
+        };
         let uvs = mesh.vertices.iter().map(|v| [v[0] / 20.0, v[1] / 16.0]).collect();
         let tex = texture(frame.0, frame.1, |_, _| true, stripes([0.7, 0.4, 0.9], 4.0));
-        let layer = Layer { name: "raw".into(), kind: LayerKind::Body, mesh, uvs, texture: tex };
-        Puppet { width: frame.0, height: frame.1, layers: vec![layer.clone(), layer], root: 0, joints: vec![] }
+        let layer = Layer {
+            name: "raw".into(),
+            kind: LayerKind::Body,
+            mesh,
+            uvs,
+            texture: tex,
+        };
+        Puppet {
+            width: frame.0,
+            height: frame.1,
+            layers: vec![layer.clone(), layer],
+            root: 0,
+            joints: vec![],
+        }
     }
 
     #[test]
@@ -295,7 +355,10 @@ mod tests {
             // zero-area face (collinear) beside a normal one
             &[[[2.0, 2.0], [8.0, 5.0], [14.0, 8.0]], [[3.0, 9.0], [12.0, 10.3], [6.0, 14.7]]],
             // off-screen and straddling the image border
-            &[[[-30.0, -30.0], [-20.0, -30.0], [-25.0, -22.0]], [[15.2, 10.1], [27.0, 12.0], [18.0, 25.0]]],
+            &[
+                [[-30.0, -30.0], [-20.0, -30.0], [-25.0, -22.0]],
+                [[15.2, 10.1], [27.0, 12.0], [18.0, 25.0]],
+            ],
             // coincident faces, one wound clockwise
             &[[[3.1, 2.2], [15.3, 4.1], [7.7, 13.9]], [[3.1, 2.2], [7.7, 13.9], [15.3, 4.1]]],
             // a point-like face and a sliver
@@ -318,7 +381,10 @@ mod tests {
                 // by the two codes; both give the same point, but the f32-rounded UVs make the
                 // colour differ by ~1e-8. Coverage has no such tie.
                 assert!(di < 1e-7 && dm < 1e-12, "scene {k} σ {sigma}: image {di:e}, mask {dm:e}");
-                assert!(fast.image.iter().chain(&fast.mask).all(|&x| (0.0..=1.0 + 1e-12).contains(&x)), "scene {k}: out of [0, 1]");
+                assert!(
+                    fast.image.iter().chain(&fast.mask).all(|&x| (0.0..=1.0 + 1e-12).contains(&x)),
+                    "scene {k}: out of [0, 1]"
+                );
             }
         }
     }
@@ -353,10 +419,18 @@ mod tests {
             for bg in [Background::Transparent, Background::Colour([1.0, 1.0, 1.0])] {
                 let crisp = raster.forward(&v, 1, 48, 40, &Params::crisp(bg)).unwrap();
                 let hard = reference::hard(&raster, &v, 48, 40, bg.premultiplied().map(|c| c as f64));
-                assert!(max_diff(&crisp.image, &hard) < 1e-12, "seed {seed}: {:e}", max_diff(&crisp.image, &hard));
+                assert!(
+                    max_diff(&crisp.image, &hard) < 1e-12,
+                    "seed {seed}: {:e}",
+                    max_diff(&crisp.image, &hard)
+                );
                 // σ → 0: a pixel differs only within ~√(37σ) px of an edge — none at σ = 1e-12.
                 let soft = raster.forward(&v, 1, 48, 40, &params(1e-12, bg)).unwrap();
-                assert!(max_diff(&soft.image, &crisp.image) < 1e-9, "seed {seed}: σ=1e-12 vs crisp {:e}", max_diff(&soft.image, &crisp.image));
+                assert!(
+                    max_diff(&soft.image, &crisp.image) < 1e-9,
+                    "seed {seed}: σ=1e-12 vs crisp {:e}",
+                    max_diff(&soft.image, &crisp.image)
+                );
             }
         }
     }
@@ -369,7 +443,11 @@ mod tests {
         assert!(raster.forward(&v[1..], 1, 8, 8, &Params::default()).is_err());
         let mut nan = v.clone();
         nan[5] = f32::NAN;
-        assert!(raster.forward(&nan, 1, 8, 8, &Params::default()).unwrap_err().to_string().contains("coordinate 5"));
+        assert!(raster
+            .forward(&nan, 1, 8, 8, &Params::default())
+            .unwrap_err()
+            .to_string()
+            .contains("coordinate 5"));
         assert!(raster.forward(&v, 1, 0, 8, &Params::default()).is_err());
         assert!(raster.forward(&v, 1, 8, 8, &params(-1.0, Background::Transparent)).is_err());
         let mut broken = puppet.clone();

@@ -52,22 +52,79 @@ fn area2_grad_ab<T: Real>(a: [T; 2], b: [T; 2], c: [T; 2]) -> ([T; 2], [T; 2]) {
     ([-db[0] - dc[0], -db[1] - dc[1]], db)
 }
 
+/// Per-pose constants of one triangle, computed once so the per-pixel test is cheap.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct Tri<T> {
+    pub v: [[T; 2]; 3],
+    /// Twice the signed area and its sign (0 for zero area).
+    pub area2: T,
+    pub sign: T,
+    /// Edge k runs from corner k to corner k + 1: its vector, 1/|e|, 1/|e|² (0 if |e| = 0).
+    pub e: [[T; 2]; 3],
+    pub inv_len: [T; 3],
+    pub inv_len2: [T; 3],
+}
+
+impl<T: Real> Tri<T> {
+    /// The constants of triangle `v`.
+    pub fn new(v: [[T; 2]; 3]) -> Self {
+        let zero = T::zero();
+        let a2 = area2(v[0], v[1], v[2]);
+        let sign = if a2 > zero {
+            T::one()
+        } else if a2 < zero {
+            -T::one()
+        } else {
+            zero
+        };
+        let e = [0, 1, 2].map(|k| [v[(k + 1) % 3][0] - v[k][0], v[(k + 1) % 3][1] - v[k][1]]);
+        let len2 = e.map(|d| d[0] * d[0] + d[1] * d[1]);
+        let inv_len2 = len2.map(|m| if m > zero { T::one() / m } else { zero });
+        let inv_len = len2.map(|m| if m > zero { T::one() / m.sqrt() } else { zero });
+        Tri {
+            v,
+            area2: a2,
+            sign,
+            e,
+            inv_len,
+            inv_len2,
+        }
+    }
+}
+
 /// Evaluates the triangle `v` (three corners) at pixel centre `p`.
-#[inline]
+#[cfg(test)]
 pub(crate) fn hit<T: Real>(p: [T; 2], v: [[T; 2]; 3]) -> Hit<T> {
+    hit_within(p, &Tri::new(v), T::infinity()).expect("nothing is farther than infinity")
+}
+
+/// Evaluates triangle `tri` at pixel centre `p`, or `None` when `p` is certainly farther than
+/// `reach` from it (outside some edge's line by more than `reach`; reach 0: not inside).
+#[inline]
+pub(crate) fn hit_within<T: Real>(p: [T; 2], tri: &Tri<T>, reach: T) -> Option<Hit<T>> {
     let zero = T::zero();
-    let a2 = area2(v[0], v[1], v[2]);
-    // e[k]: twice the area opposite corner k, i.e. its barycentric numerator.
-    let e = [area2(v[1], v[2], p), area2(v[2], v[0], p), area2(v[0], v[1], p)];
-    let inside = a2 != zero && e.iter().all(|&ek| if a2 > zero { ek >= zero } else { ek <= zero });
+    let v = &tri.v;
+    // Edge functions: f[k] = cross(e_k, p − v_k), twice the area of (v_k, v_k+1, p), which is
+    // the barycentric numerator of corner k + 2.
+    let ap = [0, 1, 2].map(|k| [p[0] - v[k][0], p[1] - v[k][1]]);
+    let f = [0, 1, 2].map(|k| tri.e[k][0] * ap[k][1] - tri.e[k][1] * ap[k][0]);
+    if tri.sign != zero {
+        let margin = reach * real::<T>(1e-6) + real::<T>(1e-9);
+        if (0..3).any(|k| tri.sign * f[k] * tri.inv_len[k] < -(reach + margin)) {
+            return None;
+        }
+    }
+    let inside = tri.sign != zero && f.iter().all(|&fk| tri.sign * fk >= zero);
     let mut best = (T::infinity(), 0, zero, true, [zero, zero]);
     for k in 0..3 {
-        let (a, b) = (v[k], v[(k + 1) % 3]);
-        let ed = [b[0] - a[0], b[1] - a[1]];
-        let ap = [p[0] - a[0], p[1] - a[1]];
-        let m = ed[0] * ed[0] + ed[1] * ed[1];
-        let (t, clamped) = if m > zero {
-            let t = (ap[0] * ed[0] + ap[1] * ed[1]) / m;
+        // Outside a triangle the closest boundary point lies on an edge whose line has p on
+        // its outer side (at a corner: on one of the two edges meeting there).
+        if !inside && tri.sign != zero && tri.sign * f[k] >= zero {
+            continue;
+        }
+        let ed = tri.e[k];
+        let (t, clamped) = if tri.inv_len2[k] > zero {
+            let t = (ap[k][0] * ed[0] + ap[k][1] * ed[1]) * tri.inv_len2[k];
             if t <= zero {
                 (zero, true)
             } else if t >= T::one() {
@@ -78,7 +135,7 @@ pub(crate) fn hit<T: Real>(p: [T; 2], v: [[T; 2]; 3]) -> Hit<T> {
         } else {
             (zero, true)
         };
-        let pq = [ap[0] - t * ed[0], ap[1] - t * ed[1]];
+        let pq = [ap[k][0] - t * ed[0], ap[k][1] - t * ed[1]];
         let d2 = pq[0] * pq[0] + pq[1] * pq[1];
         if d2 < best.0 {
             best = (d2, k, t, clamped, pq);
@@ -86,14 +143,23 @@ pub(crate) fn hit<T: Real>(p: [T; 2], v: [[T; 2]; 3]) -> Hit<T> {
     }
     let (dist2, edge, t, clamped, pq) = best;
     let w = if inside {
-        [e[0] / a2, e[1] / a2, e[2] / a2]
+        [f[1] / tri.area2, f[2] / tri.area2, f[0] / tri.area2]
     } else {
         let mut w = [zero; 3];
         w[edge] = T::one() - t;
         w[(edge + 1) % 3] = t;
         w
     };
-    Hit { inside, dist2, edge, t, clamped, pq, area2: a2, w }
+    Some(Hit {
+        inside,
+        dist2,
+        edge,
+        t,
+        clamped,
+        pq,
+        area2: tri.area2,
+        w,
+    })
 }
 
 /// Adds `g · ∂(dist²)/∂corners` to `grads`. With `q = v_i + t (v_j − v_i)` the closest point,
@@ -185,7 +251,11 @@ mod tests {
                 vp[k][c] += h;
                 vm[k][c] -= h;
                 let fd = (f(vp) - f(vm)) / (2.0 * h);
-                assert!((fd - analytic[k][c]).abs() < 1e-6 * (1.0 + fd.abs()), "corner {k}.{c}: {} vs fd {fd}", analytic[k][c]);
+                assert!(
+                    (fd - analytic[k][c]).abs() < 1e-6 * (1.0 + fd.abs()),
+                    "corner {k}.{c}: {} vs fd {fd}",
+                    analytic[k][c]
+                );
             }
         }
     }

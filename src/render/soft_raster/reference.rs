@@ -36,7 +36,11 @@ fn closest_boundary(p: [f64; 2], v: [[f64; 2]; 3]) -> (f64, [f64; 3]) {
         let (a, b) = (v[k], v[(k + 1) % 3]);
         let e = sub(b, a);
         let len2 = e[0] * e[0] + e[1] * e[1];
-        let t = if len2 > 0.0 { ((p[0] - a[0]) * e[0] + (p[1] - a[1]) * e[1]) / len2 } else { 0.0 };
+        let t = if len2 > 0.0 {
+            ((p[0] - a[0]) * e[0] + (p[1] - a[1]) * e[1]) / len2
+        } else {
+            0.0
+        };
         let t = t.clamp(0.0, 1.0);
         let q = [a[0] + t * e[0], a[1] + t * e[1]];
         let d2 = (p[0] - q[0]).powi(2) + (p[1] - q[1]).powi(2);
@@ -102,7 +106,11 @@ pub(crate) fn render(raster: &SoftRasterizer, verts: &[f64], width: usize, heigh
                 let l = raster.face_layer[f] as usize;
                 keep[l] *= 1.0 - d;
                 let key = if is_in { d2 } else { -d2 };
-                let w = if is_in { barycentric(p, v).expect("inside implies non-zero area") } else { wq };
+                let w = if is_in {
+                    barycentric(p, v).expect("inside implies non-zero area")
+                } else {
+                    wq
+                };
                 if best[l].is_none_or(|b| key > b.0) {
                     best[l] = Some((key, f, w));
                 }

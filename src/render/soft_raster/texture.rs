@@ -37,9 +37,23 @@ fn footprint<T: Real>(tex: &Texture, uv: [T; 2]) -> Footprint<T> {
     let (y0, cy0) = clampi(yf, h);
     let (y1, cy1) = clampi(yf + T::one(), h);
     // Both neighbours clamped to the same texel: the lookup is constant along that axis.
-    let sx = if (cx0 || cx1) && x0 == x1 { T::zero() } else { T::from(w).expect("fits") };
-    let sy = if (cy0 || cy1) && y0 == y1 { T::zero() } else { T::from(h).expect("fits") };
-    Footprint { idx: [y0 * w + x0, y0 * w + x1, y1 * w + x0, y1 * w + x1], fx, fy, sx, sy }
+    let sx = if (cx0 || cx1) && x0 == x1 {
+        T::zero()
+    } else {
+        T::from(w).expect("fits")
+    };
+    let sy = if (cy0 || cy1) && y0 == y1 {
+        T::zero()
+    } else {
+        T::from(h).expect("fits")
+    };
+    Footprint {
+        idx: [y0 * w + x0, y0 * w + x1, y1 * w + x0, y1 * w + x1],
+        fx,
+        fy,
+        sx,
+        sy,
+    }
 }
 
 /// The bilinear sample at `uv`.
@@ -78,8 +92,14 @@ mod tests {
     use super::*;
 
     fn tex() -> Texture {
-        let texels = (0..12).map(|i| [i as f32 / 12.0, (i * i % 7) as f32 / 7.0, 0.5, ((i * 5) % 12) as f32 / 11.0]).collect();
-        Texture { width: 4, height: 3, texels }
+        let texels = (0..12)
+            .map(|i| [i as f32 / 12.0, (i * i % 7) as f32 / 7.0, 0.5, ((i * 5) % 12) as f32 / 11.0])
+            .collect();
+        Texture {
+            width: 4,
+            height: 3,
+            texels,
+        }
     }
 
     #[test]
