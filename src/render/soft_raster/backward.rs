@@ -1,7 +1,8 @@
 //! Backward pass: the exact vector-Jacobian product of [`SoftRasterizer::forward`] w.r.t. the
 //! vertex positions (neural-puppet.md §3.2: gradients of eq. 1, 10, 11 reach `V_pred` through
-//! the renderer). Two routes per pixel: through the coverages `D_j` (edges; the derivative of
-//! `d_j²`) and through the barycentric texture lookup of each layer's colour face (interiors).
+//! the renderer). Two routes per pixel: through each layer's coverage `A_l` (the derivative of
+//! `d_l²`, the squared distance to the nearest outline edge) and through the barycentric texture
+//! lookup of each layer's colour face (interiors).
 //! Per-pixel quantities are recomputed with the forward's own [`Pixel::shade`] instead of being
 //! stored: that keeps memory at O(B·V) and forward/backward identical by construction.
 
@@ -9,7 +10,7 @@ use rayon::prelude::*;
 
 use super::bins::TILE;
 use super::forward::{product_without, Ctx, Pixel};
-use super::geometry::{bary_vjp, dist2_vjp};
+use super::geometry::bary_vjp;
 use super::texture::sample_vjp;
 use super::{real, Params, Real, SoftRasterizer};
 use crate::error::{Error, Result};
@@ -132,6 +133,7 @@ fn band_vjp<T: Real>(
     let mut ga: Vec<T> = Vec::new();
     for tx in 0..width.div_ceil(TILE) {
         let faces = ctx.bins.tile(tx, band);
+        let edges = ctx.edge_bins.tile(tx, band);
         if faces.is_empty() {
             continue;
         }
@@ -144,8 +146,8 @@ fn band_vjp<T: Real>(
                     continue;
                 }
                 let p = [real::<T>(x as f64) + half, real::<T>(y as f64) + half];
-                px.shade(ctx, p, faces);
-                if px.near.is_empty() {
+                px.shade(ctx, p, faces, edges);
+                if px.touched.is_empty() {
                     continue;
                 }
                 // Compositing, front to back: out = Σ_l T_l X_l + …, X_l = A_l S_l, and α_l = A_l s_a
@@ -177,20 +179,25 @@ fn band_vjp<T: Real>(
                 if !soft {
                     continue;
                 }
-                // Coverage: ∂A_l/∂D_j = Π_{k∈l, k≠j}(1 − D_k), ∂M/∂D_j = Π_{k≠j}(1 − D_k);
-                // D = sigmoid(z), z = ±d²/σ.
-                for n in &px.near {
-                    let la = &px.touched[n.slot as usize];
-                    let om = one - n.d;
-                    let gd = ga[n.slot as usize] * product_without(la.prod, la.zeros, om) + gmask * product_without(px.prod, px.zeros, om);
-                    let gz = gd * n.d * om;
+                // Coverage: A_l = sigmoid(z), z = ±d²/σ, d² = |p − q|², q = a + t(b − a) the closest
+                // point of the outline edge; ∂M/∂A_l = Π_{k≠l}(1 − A_k). At the minimising t (or a
+                // clamped end) ∂d²/∂a = −2(1 − t)(p − q) and ∂d²/∂b = −2t(p − q).
+                for (slot, la) in px.touched.iter().enumerate() {
+                    let Some(o) = la.outline else { continue };
+                    let om = one - la.a;
+                    let gz = (ga[slot] + gmask * product_without(px.prod, px.zeros, om)) * la.a * om;
                     if gz == zero {
                         continue;
                     }
-                    let gd2 = if n.hit.inside { gz / ctx.sigma } else { -gz / ctx.sigma };
-                    let mut gc = [[zero; 2]; 3];
-                    dist2_vjp(gd2, &n.hit, &mut gc);
-                    scatter(g, ctx.raster.faces[n.face as usize].vertices, gc);
+                    let gd2 = if la.inside { gz / ctx.sigma } else { -gz / ctx.sigma };
+                    let [a, b] = ctx.raster.edges[o.edge as usize].vertices;
+                    let two = gd2 + gd2;
+                    let ga_end = [-two * (one - o.t) * o.pq[0], -two * (one - o.t) * o.pq[1]];
+                    let gb_end = [-two * o.t * o.pq[0], -two * o.t * o.pq[1]];
+                    for (v, gv) in [(a, ga_end), (b, gb_end)] {
+                        g[2 * v as usize] = g[2 * v as usize] + gv[0];
+                        g[2 * v as usize + 1] = g[2 * v as usize + 1] + gv[1];
+                    }
                 }
             }
         }

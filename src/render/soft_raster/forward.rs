@@ -31,6 +31,8 @@ pub(crate) struct Ctx<'a, T> {
     /// This pose's vertices, `V × 2`.
     pub verts: &'a [T],
     pub bins: Bins<T>,
+    /// Boundary edges binned the same way (an edge is binned as the degenerate triangle a, b, b).
+    pub edge_bins: Bins<T>,
     /// Every face's per-pose constants.
     pub tris: Vec<Tri<T>>,
     /// σ (0: crisp), the cut distance² and its root, the background (premultiplied).
@@ -45,12 +47,18 @@ impl<'a, T: Real> Ctx<'a, T> {
         let cut2: T = real(params.cut_distance2());
         let corners = |f: usize| raster.faces[f].vertices.map(|i| [verts[2 * i as usize], verts[2 * i as usize + 1]]);
         let bins = Bins::new(raster.faces.len(), corners, cut2.sqrt(), width, height);
+        let ends = |e: usize| {
+            let [a, b] = raster.edges[e].vertices.map(|i| [verts[2 * i as usize], verts[2 * i as usize + 1]]);
+            [a, b, b]
+        };
+        let edge_bins = Bins::new(raster.edges.len(), ends, cut2.sqrt(), width, height);
         let tris = (0..raster.faces.len()).map(|f| Tri::new(corners(f))).collect();
         let bg = params.background.premultiplied().map(|c| real(c as f64));
         Ctx {
             raster,
             verts,
             bins,
+            edge_bins,
             tris,
             sigma: real(params.sigma as f64),
             cut2,
@@ -67,24 +75,27 @@ impl<'a, T: Real> Ctx<'a, T> {
     }
 }
 
-/// One face that reaches the pixel.
+/// The nearest boundary edge of a layer within reach of the pixel.
 #[derive(Clone, Copy, Debug)]
-pub(crate) struct Near<T> {
-    pub face: u32,
-    /// Index into [`Pixel::touched`] of its layer.
-    pub slot: u32,
-    /// Coverage D_j.
-    pub d: T,
-    pub hit: Hit<T>,
+pub(crate) struct Outline<T> {
+    /// Index into [`SoftRasterizer::edges`].
+    pub edge: u32,
+    /// Closest point `q = a + t (b − a)`, t in [0, 1].
+    pub t: T,
+    /// `p − q`.
+    pub pq: [T; 2],
+    /// `|p − q|²`.
+    pub dist2: T,
 }
 
 /// One layer that some face reaches at the pixel.
 #[derive(Clone, Copy, Debug)]
 pub(crate) struct LayerAt<T> {
     pub layer: u32,
-    /// Π (1 − D_j) over the layer's faces with a non-zero factor, and the number of zero factors.
-    pub prod: T,
-    pub zeros: u32,
+    /// Some face of the layer contains the pixel centre.
+    pub inside: bool,
+    /// The nearest outline edge within reach (none: coverage is exactly 0 or 1).
+    pub outline: Option<Outline<T>>,
     /// The face giving the colour (largest signed distance) and its hit.
     pub best: u32,
     pub best_key: T,
@@ -97,11 +108,10 @@ pub(crate) struct LayerAt<T> {
     pub behind: [T; 4],
 }
 
-/// Reusable per-task buffers: one pixel's faces and layers (no allocation per pixel).
+/// Reusable per-task buffers: one pixel's layers (no allocation per pixel).
 pub(crate) struct Pixel<T> {
-    pub near: Vec<Near<T>>,
     pub touched: Vec<LayerAt<T>>,
-    /// Π (1 − D_j) over all faces (non-zero factors) and the count of zero factors.
+    /// Π_l (1 − A_l) over the touched layers with a non-zero factor, and the count of zero factors.
     pub prod: T,
     pub zeros: u32,
 }
@@ -125,19 +135,18 @@ pub(crate) fn product_without<T: Real>(prod: T, zeros: u32, f_j: T) -> T {
 impl<T: Real> Pixel<T> {
     pub fn new() -> Self {
         Pixel {
-            near: Vec::new(),
             touched: Vec::new(),
             prod: T::one(),
             zeros: 0,
         }
     }
 
-    /// Evaluates pixel centre `p` against the faces of its tile; returns (premultiplied RGBA, M).
+    /// Evaluates pixel centre `p` against the faces and outline edges of its tile; returns
+    /// (premultiplied RGBA, M).
     #[inline]
-    pub fn shade(&mut self, ctx: &Ctx<T>, p: [T; 2], faces: &[u32]) -> ([T; 4], T) {
+    pub fn shade(&mut self, ctx: &Ctx<T>, p: [T; 2], faces: &[u32], edges: &[u32]) -> ([T; 4], T) {
         let (zero, one) = (T::zero(), T::one());
         let crisp = ctx.sigma == zero;
-        self.near.clear();
         self.touched.clear();
         self.prod = one;
         self.zeros = 0;
@@ -152,17 +161,12 @@ impl<T: Real> Pixel<T> {
             if !h.inside && (crisp || h.dist2 > ctx.cut2) {
                 continue;
             }
-            let d = if crisp {
-                one
-            } else {
-                one / (one + (-h.signed_dist2() / ctx.sigma).exp())
-            };
             let layer = ctx.raster.face_layer[f as usize];
             if self.touched.last().is_none_or(|t| t.layer != layer) {
                 self.touched.push(LayerAt {
                     layer,
-                    prod: one,
-                    zeros: 0,
+                    inside: false,
+                    outline: None,
                     best: f,
                     best_key: T::neg_infinity(),
                     best_hit: None,
@@ -172,32 +176,50 @@ impl<T: Real> Pixel<T> {
                     behind: [zero; 4],
                 });
             }
-            let slot = self.touched.len() - 1;
-            let la = &mut self.touched[slot];
-            let om = one - d;
-            if om == zero {
-                la.zeros += 1;
-                self.zeros += 1;
-            } else {
-                la.prod = la.prod * om;
-                self.prod = self.prod * om;
-            }
+            let la = self.touched.last_mut().expect("pushed above");
+            la.inside |= h.inside;
             let key = h.signed_dist2();
             if key > la.best_key {
                 la.best_key = key;
                 la.best = f;
                 la.best_hit = Some(h);
             }
-            self.near.push(Near {
-                face: f,
-                slot: slot as u32,
-                d,
-                hit: h,
-            });
+        }
+        if !crisp && !self.touched.is_empty() {
+            for &e in edges {
+                let b = &ctx.edge_bins.boxes[e as usize];
+                if p[0] < b[0] || p[0] > b[2] || p[1] < b[1] || p[1] > b[3] {
+                    continue;
+                }
+                let edge = &ctx.raster.edges[e as usize];
+                // Layers are few and in order: a short scan finds the slot (none: the layer has
+                // no face within reach, so its outline is not within reach either).
+                let Some(la) = self.touched.iter_mut().find(|la| la.layer == edge.layer) else {
+                    continue;
+                };
+                let [a, b] = edge.vertices.map(|i| [ctx.verts[2 * i as usize], ctx.verts[2 * i as usize + 1]]);
+                let o = closest_on_segment(p, a, b, e);
+                if o.dist2 <= ctx.cut2 && la.outline.is_none_or(|best| o.dist2 < best.dist2) {
+                    la.outline = Some(o);
+                }
+            }
         }
         let mut acc = ctx.bg;
         for la in &mut self.touched {
-            la.a = if la.zeros > 0 { one } else { one - la.prod };
+            la.a = match (la.outline, la.inside) {
+                (Some(o), inside) if !crisp => {
+                    let z = if inside { o.dist2 / ctx.sigma } else { -o.dist2 / ctx.sigma };
+                    one / (one + (-z).exp())
+                }
+                (_, true) => one,
+                (_, false) => zero,
+            };
+            let om = one - la.a;
+            if om == zero {
+                self.zeros += 1;
+            } else {
+                self.prod = self.prod * om;
+            }
             let h = la.best_hit.expect("a touched layer has a face");
             let uvs = ctx.raster.faces[la.best as usize].uvs;
             la.uv = [0, 1].map(|c| (0..3).fold(zero, |s, k| s + h.w[k] * real::<T>(uvs[k][c] as f64)));
@@ -211,6 +233,18 @@ impl<T: Real> Pixel<T> {
         let mask = if self.zeros > 0 { one } else { one - self.prod };
         (acc, mask)
     }
+}
+
+/// The closest point to `p` on segment (a, b) (edge `edge`).
+#[inline]
+pub(crate) fn closest_on_segment<T: Real>(p: [T; 2], a: [T; 2], b: [T; 2], edge: u32) -> Outline<T> {
+    let (zero, one) = (T::zero(), T::one());
+    let e = [b[0] - a[0], b[1] - a[1]];
+    let ap = [p[0] - a[0], p[1] - a[1]];
+    let len2 = e[0] * e[0] + e[1] * e[1];
+    let t = if len2 > zero { ((ap[0] * e[0] + ap[1] * e[1]) / len2).max(zero).min(one) } else { zero };
+    let pq = [ap[0] - t * e[0], ap[1] - t * e[1]];
+    Outline { edge, t, pq, dist2: pq[0] * pq[0] + pq[1] * pq[1] }
 }
 
 impl SoftRasterizer {
@@ -244,6 +278,7 @@ impl SoftRasterizer {
                 let half = real::<T>(0.5);
                 for tx in 0..width.div_ceil(TILE) {
                     let faces = ctx.bins.tile(tx, band);
+                    let edges = ctx.edge_bins.tile(tx, band);
                     for ly in 0..TILE.min(height - band * TILE) {
                         let y = band * TILE + ly;
                         for x in tx * TILE..((tx + 1) * TILE).min(width) {
@@ -253,7 +288,7 @@ impl SoftRasterizer {
                                 continue;
                             }
                             let p = [real::<T>(x as f64) + half, real::<T>(y as f64) + half];
-                            let (rgba, m) = px.shade(ctx, p, faces);
+                            let (rgba, m) = px.shade(ctx, p, faces, edges);
                             img[4 * i..4 * i + 4].copy_from_slice(&rgba);
                             msk[i] = m;
                         }

@@ -17,8 +17,6 @@ pub(crate) struct Hit<T> {
     pub t: T,
     /// `t` was clamped to an end of the edge (its derivative is then 0).
     pub clamped: bool,
-    /// `p − q`, `q` the closest boundary point.
-    pub pq: [T; 2],
     /// Twice the signed area (positive counter-clockwise with y down).
     pub area2: T,
     /// Barycentric weights of the corners: exact inside, those of `q` outside.
@@ -115,7 +113,7 @@ pub(crate) fn hit_within<T: Real>(p: [T; 2], tri: &Tri<T>, reach: T) -> Option<H
         }
     }
     let inside = tri.sign != zero && f.iter().all(|&fk| tri.sign * fk >= zero);
-    let mut best = (T::infinity(), 0, zero, true, [zero, zero]);
+    let mut best = (T::infinity(), 0, zero, true);
     for k in 0..3 {
         // Outside a triangle the closest boundary point lies on an edge whose line has p on
         // its outer side (at a corner: on one of the two edges meeting there).
@@ -138,10 +136,10 @@ pub(crate) fn hit_within<T: Real>(p: [T; 2], tri: &Tri<T>, reach: T) -> Option<H
         let pq = [ap[k][0] - t * ed[0], ap[k][1] - t * ed[1]];
         let d2 = pq[0] * pq[0] + pq[1] * pq[1];
         if d2 < best.0 {
-            best = (d2, k, t, clamped, pq);
+            best = (d2, k, t, clamped);
         }
     }
-    let (dist2, edge, t, clamped, pq) = best;
+    let (dist2, edge, t, clamped) = best;
     let w = if inside {
         [f[1] / tri.area2, f[2] / tri.area2, f[0] / tri.area2]
     } else {
@@ -156,24 +154,9 @@ pub(crate) fn hit_within<T: Real>(p: [T; 2], tri: &Tri<T>, reach: T) -> Option<H
         edge,
         t,
         clamped,
-        pq,
         area2: tri.area2,
         w,
     })
-}
-
-/// Adds `g · ∂(dist²)/∂corners` to `grads`. With `q = v_i + t (v_j − v_i)` the closest point,
-/// `∂d²/∂v_i = −2(1 − t)(p − q)` and `∂d²/∂v_j = −2t(p − q)` (the `∂t` term vanishes: either t
-/// is clamped or `p − q ⊥ v_j − v_i`).
-#[inline]
-pub(crate) fn dist2_vjp<T: Real>(g: T, h: &Hit<T>, grads: &mut [[T; 2]; 3]) {
-    let two = real::<T>(2.0);
-    let (i, j) = (h.edge, (h.edge + 1) % 3);
-    let (ci, cj) = (-two * (T::one() - h.t) * g, -two * h.t * g);
-    for c in 0..2 {
-        grads[i][c] = grads[i][c] + ci * h.pq[c];
-        grads[j][c] = grads[j][c] + cj * h.pq[c];
-    }
 }
 
 /// Adds `Σ_k gw[k] · ∂w_k/∂corners` to `grads`.
@@ -261,14 +244,11 @@ mod tests {
     }
 
     #[test]
-    fn distance_and_barycentric_vjps_match_central_differences() {
+    fn barycentric_vjp_matches_central_differences() {
         let gw = [0.3, -1.2, 0.7];
         for p in [[3.5, 3.0], [8.0, 1.0], [4.0, 0.2], [-1.0, -2.0], [5.5, 5.0]] {
             let v = tri();
             let h = hit(p, v);
-            let mut g = [[0.0; 2]; 3];
-            dist2_vjp(1.0, &h, &mut g);
-            check(|v| hit(p, v).dist2, v, g);
             let mut g = [[0.0; 2]; 3];
             bary_vjp(gw, p, v, &h, &mut g);
             check(|v| (0..3).map(|k| gw[k] * hit(p, v).w[k]).sum(), v, g);

@@ -3,15 +3,19 @@
 //!
 //! # What is computed, per output pixel p (centre at (x + 0.5, y + 0.5), y down)
 //!
-//! * **Face coverage** `D_j = sigmoid(δ_j · d_j² / σ)`: `d_j` is the Euclidean distance from p to
-//!   the boundary of triangle j, `δ_j = +1` if p lies inside (or on) the triangle, −1 outside;
-//!   `σ` is in **px²** (0.3–1 px² is typical). Faces with `D_j` below [`Params::cutoff`] (outside
-//!   and `d_j² > σ·ln((1 − ε)/ε)`) are treated as `D_j = 0` in forward *and* backward: the
-//!   derivative is exact for the function computed, which differs from the untruncated sigmoid
-//!   by at most ε per face. That radius also grows each face's bounding box when faces are
-//!   binned into 8×8-pixel tiles, so cost is ∝ pixels × nearby faces. Zero-area faces are never
-//!   inside; they cover at most 1/2 along their segment.
-//! * **Layer coverage** `A_l = 1 − Π_{j ∈ l} (1 − D_j)`.
+//! * **Layer coverage** `A_l = sigmoid(δ_l · d_l² / σ)`: `d_l` is the Euclidean distance from p
+//!   to the *boundary* of layer l — its boundary edges, those used by one triangle only — and
+//!   `δ_l = +1` if p lies inside (or on) any triangle of the layer, −1 outside; `σ` is in **px²**
+//!   (0.3–1 px² is typical). This is SoftRas's `sigmoid(±d²/σ)` with the distance taken to the
+//!   layer's outline instead of to each triangle: SoftRas's per-face product
+//!   `1 − Π_j (1 − D_j)` leaves every interior edge of a 2D mesh at coverage ≈ 0.75–0.8 (a
+//!   visible wireframe in every soft render, which no pose can fit away), while the outline
+//!   distance is continuous, has no seams, and coincides with it at the outline. When
+//!   `d_l² > σ·ln((1 − ε)/ε)` the coverage is within ε ([`Params::cutoff`]) of 0 or 1 and is
+//!   taken as exactly that, in forward *and* backward: the derivative is exact for the function
+//!   computed. That radius also grows the bounding boxes of faces and boundary edges when they
+//!   are binned into 8×8-pixel tiles, so cost is ∝ pixels × nearby faces, and interior pixels
+//!   (no outline within reach) cost only their texture lookup.
 //! * **Layer colour**: the layer's face with the largest signed distance (the face containing p,
 //!   else the nearest one) gives barycentric weights — exact inside, the *clamped* ones of the
 //!   closest boundary point outside — which interpolate its per-vertex UVs; the layer texture is
@@ -24,13 +28,13 @@
 //! * **Silhouette** (eq. 10–11, white texture on black): `M = 1 − Π_l (1 − A_l)`, from the same
 //!   pass.
 //!
-//! `σ = 0` is the crisp mode: `D_j = 1` inside (edges included), 0 outside — a plain hard
+//! `σ = 0` is the crisp mode: `A_l = 1` inside (edges included), 0 outside — a plain hard
 //! rasterizer; [`crate::render::render_crisp`] uses it for every preview and export.
 //!
 //! # Layout
 //! `forward.rs` renders (rayon over batch × bands of tiles) and holds the per-pixel evaluation
 //! that `backward.rs` reuses for the exact vector-Jacobian product w.r.t. vertex positions:
-//! through coverage (edges: `d_j`) and through barycentric texture lookup (interiors).
+//! through coverage (outline edges: `d_l`) and through barycentric texture lookup (interiors).
 //! `geometry.rs` holds the triangle quantities and their derivatives, `texture.rs` the bilinear
 //! sample, `bins.rs` the tiles; `reference.rs` (tests only) is the every-face × every-pixel
 //! version. Kernels are generic over `f32`/`f64` ([`Real`]).
@@ -150,6 +154,16 @@ pub(crate) struct Face {
     pub uvs: [[f32; 2]; 3],
 }
 
+/// A boundary edge of a layer's mesh (used by exactly one of its triangles), oriented as in
+/// that triangle.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct Edge {
+    /// Global vertex indices of its ends.
+    pub vertices: [u32; 2],
+    /// The layer it bounds.
+    pub layer: u32,
+}
+
 /// A layer texture, premultiplied RGBA, row-major.
 #[derive(Clone, Debug)]
 pub(crate) struct Texture {
@@ -166,6 +180,8 @@ pub struct SoftRasterizer {
     pub(crate) faces: Vec<Face>,
     /// Layer of each face (non-decreasing).
     pub(crate) face_layer: Vec<u32>,
+    /// Every layer's boundary edges, layer by layer (non-decreasing `layer`).
+    pub(crate) edges: Vec<Edge>,
     pub(crate) textures: Vec<Texture>,
     pub(crate) vertex_count: usize,
 }
@@ -178,7 +194,7 @@ impl SoftRasterizer {
     /// differs from the vertex count, a UV is not finite, or the texture is empty.
     pub fn new(puppet: &Puppet) -> Result<Self> {
         let offsets = puppet.vertex_offsets();
-        let (mut faces, mut face_layer, mut textures, mut errors) = (Vec::new(), Vec::new(), Vec::new(), Vec::new());
+        let (mut faces, mut face_layer, mut edges, mut textures, mut errors) = (Vec::new(), Vec::new(), Vec::new(), Vec::new(), Vec::new());
         for (l, layer) in puppet.layers.iter().enumerate() {
             let n = layer.mesh.vertices.len();
             let bad = |problem: String| Error::Invalid(format!("render: layer {:?}: {problem}", layer.name));
@@ -206,6 +222,10 @@ impl SoftRasterizer {
                 });
                 face_layer.push(l as u32);
             }
+            edges.extend(boundary_edges(&layer.mesh.triangles).into_iter().map(|[a, b]| Edge {
+                vertices: [(offsets[l] + a as usize) as u32, (offsets[l] + b as usize) as u32],
+                layer: l as u32,
+            }));
             let texels = layer.texture.pixels.iter().map(|&[r, g, b, a]| [r * a, g * a, b * a, a]).collect();
             textures.push(Texture {
                 width: tw,
@@ -217,6 +237,7 @@ impl SoftRasterizer {
         Ok(SoftRasterizer {
             faces,
             face_layer,
+            edges,
             textures,
             vertex_count: puppet.vertex_count(),
         })
@@ -259,10 +280,37 @@ impl SoftRasterizer {
     }
 }
 
+/// The edges used by exactly one triangle, as (from, to) in their triangle's winding, in a
+/// deterministic order.
+fn boundary_edges(triangles: &[[u32; 3]]) -> Vec<[u32; 2]> {
+    let mut all: Vec<([u32; 2], [u32; 2])> = triangles
+        .iter()
+        .flat_map(|t| (0..3).map(move |k| (t[k], t[(k + 1) % 3])))
+        .map(|(a, b)| ([a.min(b), a.max(b)], [a, b]))
+        .collect();
+    all.sort_unstable();
+    let mut out = Vec::new();
+    let mut i = 0;
+    while i < all.len() {
+        let j = (i..all.len()).find(|&j| all[j].0 != all[i].0).unwrap_or(all.len());
+        if j - i == 1 {
+            out.push(all[i].1);
+        }
+        i = j;
+    }
+    out
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
     use crate::test_util::layered_puppet;
+
+    #[test]
+    fn boundary_edges_of_two_triangles_skip_the_shared_one() {
+        let edges = boundary_edges(&[[0, 1, 2], [0, 2, 3]]);
+        assert_eq!(edges, [[0, 1], [3, 0], [1, 2], [2, 3]]);
+    }
 
     /// Rotates `v[range]` (pairs) by `deg` degrees about `c`.
     fn rotate(v: &mut [f32], range: std::ops::Range<usize>, c: [f32; 2], deg: f32, keep: impl Fn(f32, f32) -> bool) {
@@ -302,7 +350,7 @@ mod tests {
         let v0 = v.clone();
 
         // Coarse to fine: a wide σ first widens the basin (the stripes repeat every 5–9 px).
-        let (schedule, lr) = ([(4.0f32, 600), (1.0, 600), (0.3, 600)], 0.05);
+        let (schedule, lr) = ([(4.0f32, 600), (1.0, 600), (0.3, 600)], 0.1);
         let mut losses = Vec::new();
         for &(sigma, steps) in &schedule {
             let p = Params {
@@ -350,11 +398,12 @@ mod tests {
             visible.len(),
             visible.iter().filter(|&&x| x).count()
         );
-        // Most visible vertices return to within 0.1 px; a few get stuck in local minima (no
-        // regulariser here), and hidden ones cannot move for want of signal. Measured: visible
-        // 1.615 → 0.376 px (0.23×), all 1.645 → 0.552 px (0.34×).
+        // Outline vertices return closely; interior ones are held only by the texture, and the
+        // stripes leave them free to slide along a stripe (no regulariser here — training adds
+        // ARAP), and hidden ones cannot move for want of signal. Measured: visible 1.615 → 0.515
+        // px (0.32×), all 1.645 → 0.684 px (0.42×).
         assert!(
-            end_vis < 0.3 * start_vis && end < 0.4 * start,
+            end_vis < 0.4 * start_vis && end < 0.5 * start,
             "vertex error {start} → {end}, visible {start_vis} → {end_vis}"
         );
     }

@@ -78,33 +78,19 @@ pub(crate) fn render(raster: &SoftRasterizer, verts: &[f64], width: usize, heigh
     for y in 0..height {
         for x in 0..width {
             let p = [x as f64 + 0.5, y as f64 + 0.5];
-            // Per layer: Π(1 − D), best (signed d², face, weights).
-            let mut keep = vec![1.0; layers];
+            // Per layer: inside any face?, best (signed d², face, weights) for the colour.
+            let mut is_inside = vec![false; layers];
             let mut best: Vec<Option<(f64, usize, [f64; 3])>> = vec![None; layers];
             for (f, face) in raster.faces.iter().enumerate() {
                 let v = face.vertices.map(|i| [verts[2 * i as usize], verts[2 * i as usize + 1]]);
                 let is_in = inside(p, v);
                 let (d2, wq) = closest_boundary(p, v);
-                let d = if sigma == 0.0 {
-                    if is_in {
-                        1.0
-                    } else {
-                        0.0
-                    }
-                } else {
-                    let s = if is_in { d2 } else { -d2 };
-                    let d = 1.0 / (1.0 + (-s / sigma).exp());
-                    if !is_in && d < params.cutoff as f64 {
-                        0.0
-                    } else {
-                        d
-                    }
-                };
-                if d == 0.0 {
+                // A face counts for the colour when it contains p or lies within the cut radius.
+                if !is_in && (sigma == 0.0 || d2 > params.cut_distance2()) {
                     continue;
                 }
                 let l = raster.face_layer[f] as usize;
-                keep[l] *= 1.0 - d;
+                is_inside[l] |= is_in;
                 let key = if is_in { d2 } else { -d2 };
                 let w = if is_in {
                     barycentric(p, v).expect("inside implies non-zero area")
@@ -115,11 +101,29 @@ pub(crate) fn render(raster: &SoftRasterizer, verts: &[f64], width: usize, heigh
                     best[l] = Some((key, f, w));
                 }
             }
+            // Per layer: distance² to the outline (the edges used by one triangle only).
+            let mut outline = vec![f64::INFINITY; layers];
+            for edge in &raster.edges {
+                let [a, b] = edge.vertices.map(|i| [verts[2 * i as usize], verts[2 * i as usize + 1]]);
+                let (d2, _) = closest_boundary(p, [a, b, b]);
+                let l = edge.layer as usize;
+                outline[l] = outline[l].min(d2);
+            }
             let mut acc = bg;
             let mut all = 1.0;
             for l in 0..layers {
                 let Some((_, f, w)) = best[l] else { continue };
-                let a = 1.0 - keep[l];
+                // Beyond the cut radius the sigmoid is within ε of 0 or 1 and is taken as that.
+                let a = if sigma == 0.0 || outline[l] > params.cut_distance2() {
+                    if is_inside[l] {
+                        1.0
+                    } else {
+                        0.0
+                    }
+                } else {
+                    let z = if is_inside[l] { outline[l] } else { -outline[l] };
+                    1.0 / (1.0 + (-z / sigma).exp())
+                };
                 all *= 1.0 - a;
                 let uvs = raster.faces[f].uvs;
                 let uv = [0, 1].map(|c| (0..3).map(|k| w[k] * uvs[k][c] as f64).sum::<f64>());
