@@ -11,6 +11,7 @@
 pub mod atomic_file;
 pub mod backend;
 pub mod error;
+pub mod geom;
 pub mod picture;
 pub mod progress;
 pub mod puppet;
