@@ -176,7 +176,9 @@ def run_ours(problem, result):
 
 def main():
     write_data = "--write-data" in sys.argv
-    print(f"libigl {getattr(igl, '__version__', '?')}, triangle, numpy {np.__version__}; median of {REPEATS} runs")
+    from importlib.metadata import version
+
+    print(f"libigl {version('libigl')}, triangle {version('triangle')}, numpy {np.__version__}; median of {REPEATS} runs")
     rows = []
     with tempfile.TemporaryDirectory() as tmp:
         for label, target in (("1k", 1000), ("5k", 5000)):
