@@ -1,1 +1,18 @@
-fn main() {}
+//! The `puppet` command line: parsing and reporting only; every command is a library call.
+
+use std::process::ExitCode;
+
+use clap::Parser;
+
+mod cli;
+
+fn main() -> ExitCode {
+    let args = cli::Cli::parse();
+    match cli::run(args) {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(err) => {
+            eprintln!("puppet: error: {err:#}");
+            ExitCode::FAILURE
+        }
+    }
+}

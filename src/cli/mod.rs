@@ -1,0 +1,46 @@
+//! Subcommands, one file each: parse → validated library options → library call → report.
+
+use clap::{Parser, Subcommand};
+
+mod build;
+mod info;
+mod render;
+mod ui;
+
+pub use ui::Ui;
+
+/// Learn a layered 2D puppet of a cartoon character from a few drawn frames, then make new frames.
+#[derive(Debug, Parser)]
+#[command(name = "puppet", version, about)]
+pub struct Cli {
+    #[command(flatten)]
+    common: Common,
+    #[command(subcommand)]
+    command: Command,
+}
+
+/// Flags every subcommand takes.
+#[derive(Debug, clap::Args)]
+pub struct Common {
+    /// Print no progress bars or summaries (errors still go to stderr).
+    #[arg(long, short, global = true)]
+    pub quiet: bool,
+}
+
+/// The subcommands.
+#[derive(Debug, Subcommand)]
+enum Command {
+    Build(build::BuildArgs),
+    Info(info::InfoArgs),
+    Render(render::RenderArgs),
+}
+
+/// Runs the parsed command line.
+pub fn run(cli: Cli) -> anyhow::Result<()> {
+    let ui = Ui::new(cli.common.quiet);
+    match cli.command {
+        Command::Build(args) => build::run(args, &ui),
+        Command::Info(args) => info::run(args, &ui),
+        Command::Render(args) => render::run(args, &ui),
+    }
+}
