@@ -34,6 +34,8 @@ import numpy as np
 import triangle
 
 REPEATS = 20
+# Same iteration in double precision on both sides: only rounding may differ.
+TOLERANCE_PX = 1e-6
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 
 
@@ -200,6 +202,10 @@ def main():
     print("|---|---|---|---|---|---|---|")
     for v, f, ip, op, isl, osl, d, m, he in rows:
         print(f"| {v} | {f} | {ip:.2f} / {op:.2f} | {isl:.2f} / {osl:.2f} | {d:.2e} | {m:.1f} | {he:.1e} |")
+    bad = [r for r in rows if not (r[6] <= TOLERANCE_PX and r[8] == 0.0)]
+    if bad:
+        print(f"FAIL: positions differ by more than {TOLERANCE_PX} px or a handle is missed: {bad}")
+        sys.exit(1)
 
 
 if __name__ == "__main__":
