@@ -21,26 +21,14 @@ struct Problem {
 fn load(name: &str) -> Problem {
     let path = format!("{}/benches/data/{name}", env!("CARGO_MANIFEST_DIR"));
     let text = std::fs::read_to_string(&path).unwrap_or_else(|e| panic!("{path}: {e}"));
-    let mut lines = text
-        .lines()
-        .map(|l| l.split_whitespace().collect::<Vec<_>>());
+    let mut lines = text.lines().map(|l| l.split_whitespace().collect::<Vec<_>>());
     let head = lines.next().expect("header");
     let [v, f, h] = [0, 1, 2].map(|k| head[k].parse::<usize>().expect("count"));
     let rest = (0..v)
-        .map(|_| {
-            lines
-                .next()
-                .map(|l| [l[0].parse().unwrap(), l[1].parse().unwrap()])
-                .unwrap()
-        })
+        .map(|_| lines.next().map(|l| [l[0].parse().unwrap(), l[1].parse().unwrap()]).unwrap())
         .collect();
     let tris = (0..f)
-        .map(|_| {
-            lines
-                .next()
-                .map(|l| [0, 1, 2].map(|k| l[k].parse().unwrap()))
-                .unwrap()
-        })
+        .map(|_| lines.next().map(|l| [0, 1, 2].map(|k| l[k].parse().unwrap())).unwrap())
         .collect();
     let (mut handles, mut targets) = (Vec::new(), Vec::new());
     for _ in 0..h {
@@ -62,10 +50,9 @@ fn bench_solver(c: &mut Criterion) {
     for name in ["character_1k.txt", "character_5k.txt"] {
         let p = load(name);
         let n = p.rest.len();
-        group.bench_function(
-            BenchmarkId::new("precompute", format!("vertices={n}")),
-            |b| b.iter(|| ArapSolver::new(black_box(&p.rest), &p.tris, &p.handles).unwrap()),
-        );
+        group.bench_function(BenchmarkId::new("precompute", format!("vertices={n}")), |b| {
+            b.iter(|| ArapSolver::new(black_box(&p.rest), &p.tris, &p.handles).unwrap())
+        });
         let mut solver = ArapSolver::new(&p.rest, &p.tris, &p.handles).unwrap();
         let mut initial = p.rest.clone();
         for (&h, t) in p.handles.iter().zip(&p.targets) {
@@ -87,26 +74,16 @@ fn bench_energy(c: &mut Criterion) {
         // A smooth non-rigid deformation of every item (a shear that grows with the index).
         let deformed: Vec<f32> = (0..batch)
             .flat_map(|b| {
-                rest32.iter().flat_map(move |v| {
-                    [
-                        v[0] + 0.01 * (b as f32 + 1.0) * v[1],
-                        v[1] + 0.1 * (v[0] * 0.05).sin(),
-                    ]
-                })
+                rest32
+                    .iter()
+                    .flat_map(move |v| [v[0] + 0.01 * (b as f32 + 1.0) * v[1], v[1] + 0.1 * (v[0] * 0.05).sin()])
             })
             .collect();
         let mut grad = vec![0.0f32; deformed.len()];
         group.throughput(Throughput::Elements((batch * rest32.len()) as u64));
-        group.bench_function(
-            BenchmarkId::new("energy_grad", format!("batch={batch}")),
-            |b| {
-                b.iter(|| {
-                    energy
-                        .energy_and_gradient(black_box(&deformed), &mut grad)
-                        .unwrap()
-                })
-            },
-        );
+        group.bench_function(BenchmarkId::new("energy_grad", format!("batch={batch}")), |b| {
+            b.iter(|| energy.energy_and_gradient(black_box(&deformed), &mut grad).unwrap())
+        });
     }
     group.finish();
 }

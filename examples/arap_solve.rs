@@ -17,9 +17,7 @@ fn read_problem(path: &str) -> Result<Problem, String> {
     let text = std::fs::read_to_string(path).map_err(|e| format!("{path}: {e}"))?;
     let mut lines = text.lines().enumerate();
     let mut next = |what: &str| -> Result<Vec<String>, String> {
-        let (n, line) = lines
-            .next()
-            .ok_or_else(|| format!("{path}: ends before {what}"))?;
+        let (n, line) = lines.next().ok_or_else(|| format!("{path}: ends before {what}"))?;
         let fields: Vec<String> = line.split_whitespace().map(str::to_owned).collect();
         if fields.is_empty() {
             return Err(format!("{path}: line {}: empty, expected {what}", n + 1));
@@ -27,23 +25,15 @@ fn read_problem(path: &str) -> Result<Problem, String> {
         Ok(fields)
     };
     fn num<T: std::str::FromStr>(path: &str, s: &str) -> Result<T, String> {
-        s.parse()
-            .map_err(|_| format!("{path}: {s:?} is not a number"))
+        s.parse().map_err(|_| format!("{path}: {s:?} is not a number"))
     }
     let head = next("the header")?;
     let [v, f, h] = [0, 1, 2].map(|k| head.get(k).map(|s| num::<usize>(path, s)));
-    let (v, f, h) = (
-        v.ok_or("missing V")??,
-        f.ok_or("missing F")??,
-        h.ok_or("missing H")??,
-    );
+    let (v, f, h) = (v.ok_or("missing V")??, f.ok_or("missing F")??, h.ok_or("missing H")??);
     let mut rest = Vec::with_capacity(v);
     for _ in 0..v {
         let l = next("a vertex")?;
-        rest.push([
-            num(path, &l[0])?,
-            num(path, l.get(1).ok_or("short vertex line")?)?,
-        ]);
+        rest.push([num(path, &l[0])?, num(path, l.get(1).ok_or("short vertex line")?)?]);
     }
     let mut tris = Vec::with_capacity(f);
     for _ in 0..f {
@@ -75,12 +65,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     if args.len() < 3 {
         return Err("usage: arap_solve <problem.txt> <result.txt> [repeats]".into());
     }
-    let repeats: usize = args
-        .get(3)
-        .map(|s| s.parse())
-        .transpose()?
-        .unwrap_or(20)
-        .max(1);
+    let repeats: usize = args.get(3).map(|s| s.parse()).transpose()?.unwrap_or(20).max(1);
     let (rest, tris, handles, targets) = read_problem(&args[1])?;
     let mut initial = rest.clone();
     for (&h, t) in handles.iter().zip(&targets) {
@@ -97,10 +82,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         pre.push((t1 - t0).as_secs_f64() * 1e3);
         sol.push((t2 - t1).as_secs_f64() * 1e3);
     }
-    let text: String = result
-        .iter()
-        .map(|p| format!("{:.17e} {:.17e}\n", p[0], p[1]))
-        .collect();
+    let text: String = result.iter().map(|p| format!("{:.17e} {:.17e}\n", p[0], p[1])).collect();
     std::fs::write(&args[2], text)?;
     println!(
         "vertices={} precompute_ms={:.4} solve10_ms={:.4}",

@@ -87,8 +87,7 @@ impl<T: Float + Send + Sync> ArapEnergy<T> {
     }
 
     fn from_weights(p: &[[f64; 2]], edges: &[super::CotanEdge]) -> Self {
-        let cast =
-            |v: f64| T::from(v).expect("Float can represent any finite f64 (possibly as inf)");
+        let cast = |v: f64| T::from(v).expect("Float can represent any finite f64 (possibly as inf)");
         let edges = edges
             .iter()
             .map(|e| {
@@ -208,14 +207,8 @@ impl<T: Float + Send + Sync> ArapEnergy<T> {
             let d = [x[2 * i] - x[2 * j], x[2 * i + 1] - x[2 * j + 1]];
             let ([ci, si], [cj, sj]) = (rot[i], rot[j]);
             // r_i = ê − R_i e;  q_j = ê − R_j e = −r_j.
-            let ri = [
-                d[0] - (ci * e.e[0] - si * e.e[1]),
-                d[1] - (si * e.e[0] + ci * e.e[1]),
-            ];
-            let qj = [
-                d[0] - (cj * e.e[0] - sj * e.e[1]),
-                d[1] - (sj * e.e[0] + cj * e.e[1]),
-            ];
+            let ri = [d[0] - (ci * e.e[0] - si * e.e[1]), d[1] - (si * e.e[0] + ci * e.e[1])];
+            let qj = [d[0] - (cj * e.e[0] - sj * e.e[1]), d[1] - (sj * e.e[0] + cj * e.e[1])];
             energy = energy + e.w * (ri[0] * ri[0] + ri[1] * ri[1] + qj[0] * qj[0] + qj[1] * qj[1]);
             if let Some(g) = grad.as_deref_mut() {
                 let gx = two * e.w * (ri[0] + qj[0]);
@@ -235,11 +228,7 @@ impl<T: Float + Send + Sync> ArapEnergy<T> {
 ///
 /// # Errors
 /// As [`ArapEnergy::new`], and [`Error::Invalid`] if `deformed` and `rest` differ in length.
-pub fn arap_energy(
-    rest: &[[f64; 2]],
-    deformed: &[[f64; 2]],
-    triangles: &[[u32; 3]],
-) -> Result<f64> {
+pub fn arap_energy(rest: &[[f64; 2]], deformed: &[[f64; 2]], triangles: &[[u32; 3]]) -> Result<f64> {
     check_same_len(rest.len(), deformed.len())?;
     Ok(ArapEnergy::new(rest, triangles)?.energy(deformed))
 }
@@ -248,11 +237,7 @@ pub fn arap_energy(
 ///
 /// # Errors
 /// As [`arap_energy`].
-pub fn best_fit_rotations(
-    rest: &[[f64; 2]],
-    deformed: &[[f64; 2]],
-    triangles: &[[u32; 3]],
-) -> Result<Vec<[f64; 2]>> {
+pub fn best_fit_rotations(rest: &[[f64; 2]], deformed: &[[f64; 2]], triangles: &[[u32; 3]]) -> Result<Vec<[f64; 2]>> {
     check_same_len(rest.len(), deformed.len())?;
     Ok(ArapEnergy::new(rest, triangles)?.rotations(deformed))
 }
@@ -310,11 +295,7 @@ impl ArapSolver {
         let p = positions_f64(rest)?;
         let edges = cotan_weights(&p, triangles)?;
         let energy = ArapEnergy::from_weights(&p, &edges);
-        if let Some((k, &h)) = handles
-            .iter()
-            .enumerate()
-            .find(|&(_, &h)| h as usize >= rest.len())
-        {
+        if let Some((k, &h)) = handles.iter().enumerate().find(|&(_, &h)| h as usize >= rest.len()) {
             return Err(Error::Invalid(format!(
                 "arap: handle {k} is vertex {h}, past the {} vertices",
                 rest.len()
@@ -365,12 +346,7 @@ impl ArapSolver {
     /// # Panics
     /// If `targets.len()` differs from the number of handles or `initial.len()` from `#V` (caller
     /// bugs).
-    pub fn solve(
-        &mut self,
-        targets: &[[f64; 2]],
-        iterations: usize,
-        initial: &[[f64; 2]],
-    ) -> Vec<[f64; 2]> {
+    pub fn solve(&mut self, targets: &[[f64; 2]], iterations: usize, initial: &[[f64; 2]]) -> Vec<[f64; 2]> {
         assert_eq!(
             targets.len(),
             self.system.fixed().len(),
@@ -402,11 +378,7 @@ impl ArapSolver {
 }
 
 /// Union-find over triangles: every connected component must contain a handle.
-fn check_every_component_has_a_handle(
-    n: usize,
-    triangles: &[[u32; 3]],
-    handles: &[u32],
-) -> Result<()> {
+fn check_every_component_has_a_handle(n: usize, triangles: &[[u32; 3]], handles: &[u32]) -> Result<()> {
     let mut parent: Vec<u32> = (0..n as u32).collect();
     fn find(parent: &mut [u32], mut v: u32) -> u32 {
         while parent[v as usize] != v {
@@ -479,12 +451,7 @@ mod tests {
     fn jitter(p: &[[f64; 2]], amount: f64, seed: u64) -> Vec<[f64; 2]> {
         let mut rng = StdRng::seed_from_u64(seed);
         p.iter()
-            .map(|v| {
-                [
-                    v[0] + rng.random_range(-amount..amount),
-                    v[1] + rng.random_range(-amount..amount),
-                ]
-            })
+            .map(|v| [v[0] + rng.random_range(-amount..amount), v[1] + rng.random_range(-amount..amount)])
             .collect()
     }
 
@@ -497,11 +464,7 @@ mod tests {
             let (mut xp, mut xm) = (x.to_vec(), x.to_vec());
             (xp[i], xm[i]) = (x[i] + h, x[i] - h);
             let fd = (l(&xp) - l(&xm)) / (2.0 * h);
-            assert!(
-                (vjp[i] - fd).abs() <= 1e-6 * (1.0 + fd.abs()),
-                "x[{i}]: {} vs fd {fd}",
-                vjp[i]
-            );
+            assert!((vjp[i] - fd).abs() <= 1e-6 * (1.0 + fd.abs()), "x[{i}]: {} vs fd {fd}", vjp[i]);
         }
     }
 
@@ -516,21 +479,13 @@ mod tests {
                 .map(|v| [c * v[0] - s * v[1] + 17.5, s * v[0] + c * v[1] - 40.0])
                 .collect();
             for (i, r) in energy.rotations(&moved).iter().enumerate() {
-                assert!(
-                    (r[0] - c).abs() < 1e-12 && (r[1] - s).abs() < 1e-12,
-                    "θ={theta} vertex {i}: {r:?}"
-                );
+                assert!((r[0] - c).abs() < 1e-12 && (r[1] - s).abs() < 1e-12, "θ={theta} vertex {i}: {r:?}");
             }
             let e = energy.energy(&moved);
             assert!(e.abs() < 1e-10, "θ={theta}: energy {e}");
             let mut g = vec![0.0; 2 * rest.len()];
-            energy
-                .energy_and_gradient(moved.as_flattened(), &mut g)
-                .unwrap();
-            assert!(
-                g.iter().all(|v| v.abs() < 1e-9),
-                "rigid motion has non-zero gradient"
-            );
+            energy.energy_and_gradient(moved.as_flattened(), &mut g).unwrap();
+            assert!(g.iter().all(|v| v.abs() < 1e-9), "rigid motion has non-zero gradient");
         }
         // A non-rigid deformation does cost energy.
         assert!(energy.energy(&jitter(&rest, 3.0, 2)) > 1.0);
@@ -554,10 +509,7 @@ mod tests {
                 .iter()
                 .map(|&(j, w)| {
                     let e = [rest[i][0] - rest[j][0], rest[i][1] - rest[j][1]];
-                    let d = [
-                        deformed[i][0] - deformed[j][0],
-                        deformed[i][1] - deformed[j][1],
-                    ];
+                    let d = [deformed[i][0] - deformed[j][0], deformed[i][1] - deformed[j][1]];
                     let r = [d[0] - (c * e[0] - s * e[1]), d[1] - (s * e[0] + c * e[1])];
                     w * (r[0] * r[0] + r[1] * r[1])
                 })
@@ -587,10 +539,7 @@ mod tests {
             total += best.0;
         }
         let ours = arap_energy(&rest, &deformed, &tris).unwrap();
-        assert!(
-            (ours - total).abs() <= 1e-9 * total,
-            "closed form {ours} vs brute force {total}"
-        );
+        assert!((ours - total).abs() <= 1e-9 * total, "closed form {ours} vs brute force {total}");
     }
 
     #[test]
@@ -615,13 +564,8 @@ mod tests {
         let e64 = ArapEnergy::new(&rest, &tris).unwrap();
         let rest32: Vec<[f32; 2]> = rest.iter().map(|v| [v[0] as f32, v[1] as f32]).collect();
         let e32 = ArapEnergy::new(&rest32, &tris).unwrap();
-        let items: Vec<Vec<[f64; 2]>> = (0..5)
-            .map(|b| jitter(&rest, 2.0 + b as f64, 10 + b))
-            .collect();
-        let flat32: Vec<f32> = items
-            .iter()
-            .flat_map(|it| it.as_flattened().iter().map(|&v| v as f32))
-            .collect();
+        let items: Vec<Vec<[f64; 2]>> = (0..5).map(|b| jitter(&rest, 2.0 + b as f64, 10 + b)).collect();
+        let flat32: Vec<f32> = items.iter().flat_map(|it| it.as_flattened().iter().map(|&v| v as f32)).collect();
         let mut g32 = vec![0.0f32; flat32.len()];
         let energies = e32.energy_and_gradient(&flat32, &mut g32).unwrap();
         assert_eq!(energies.len(), items.len());
@@ -633,21 +577,10 @@ mod tests {
                 .collect();
             let mut g = vec![0.0; x.len()];
             let e = e64.energy_and_gradient(&x, &mut g).unwrap()[0];
-            assert!(
-                (energies[b] as f64 - e).abs() <= 1e-4 * e,
-                "item {b}: {} vs {e}",
-                energies[b]
-            );
+            assert!((energies[b] as f64 - e).abs() <= 1e-4 * e, "item {b}: {} vs {e}", energies[b]);
             let gmax = g.iter().fold(0.0f64, |m, v| m.max(v.abs()));
-            for (k, (&a, &r)) in g32[b * x.len()..(b + 1) * x.len()]
-                .iter()
-                .zip(&g)
-                .enumerate()
-            {
-                assert!(
-                    (a as f64 - r).abs() <= 1e-3 * gmax,
-                    "item {b} grad[{k}]: {a} vs {r}"
-                );
+            for (k, (&a, &r)) in g32[b * x.len()..(b + 1) * x.len()].iter().zip(&g).enumerate() {
+                assert!((a as f64 - r).abs() <= 1e-3 * gmax, "item {b} grad[{k}]: {a} vs {r}");
             }
             assert_eq!(item.len(), rest.len());
         }
@@ -658,13 +591,7 @@ mod tests {
     /// A dense reference of the same iteration: rotations from the 2×2 covariance matrix
     /// S_i = Σ_j w_ij ê_ij e_ijᵀ (closest rotation of a 2×2 matrix), the full 2V×... system
     /// assembled densely and solved by Gaussian elimination with partial pivoting.
-    fn dense_reference(
-        rest: &[[f64; 2]],
-        tris: &[[u32; 3]],
-        handles: &[u32],
-        targets: &[[f64; 2]],
-        iterations: usize,
-    ) -> Vec<[f64; 2]> {
+    fn dense_reference(rest: &[[f64; 2]], tris: &[[u32; 3]], handles: &[u32], targets: &[[f64; 2]], iterations: usize) -> Vec<[f64; 2]> {
         let n = rest.len();
         let edges = cotan_weights(rest, tris).unwrap();
         let mut w = vec![vec![0.0; n]; n];
@@ -717,15 +644,14 @@ mod tests {
                     }
                 }
                 for col in 0..n {
-                    let piv = (col..n)
-                        .max_by(|&p, &q| a[p][col].abs().total_cmp(&a[q][col].abs()))
-                        .unwrap();
+                    let piv = (col..n).max_by(|&p, &q| a[p][col].abs().total_cmp(&a[q][col].abs())).unwrap();
                     a.swap(col, piv);
-                    for r in 0..n {
+                    let pivot = a[col].clone();
+                    for (r, row) in a.iter_mut().enumerate() {
                         if r != col {
-                            let f = a[r][col] / a[col][col];
-                            for k in col..=n {
-                                a[r][k] -= f * a[col][k];
+                            let f = row[col] / pivot[col];
+                            for (v, p) in row[col..].iter_mut().zip(&pivot[col..]) {
+                                *v -= f * p;
                             }
                         }
                     }
@@ -749,22 +675,13 @@ mod tests {
     fn solver_matches_dense_reference() {
         let (rest, tris) = grid(5, 4, 20.0, 11);
         let handles = [0u32, 5, 24, 29, 14];
-        let targets = [
-            [0.0, 0.0],
-            [120.0, -30.0],
-            [-10.0, 90.0],
-            [90.0, 110.0],
-            [60.0, 40.0],
-        ];
+        let targets = [[0.0, 0.0], [120.0, -30.0], [-10.0, 90.0], [90.0, 110.0], [60.0, 40.0]];
         let mut solver = ArapSolver::new(&rest, &tris, &handles).unwrap();
         for iterations in [1, 4, 10] {
             let ours = solver.solve(&targets, iterations, &rest);
             let reference = dense_reference(&rest, &tris, &handles, &targets, iterations);
             let d = max_diff(&ours, &reference);
-            assert!(
-                d < 1e-9,
-                "{iterations} iterations: max |ours − dense| = {d} px"
-            );
+            assert!(d < 1e-9, "{iterations} iterations: max |ours − dense| = {d} px");
         }
     }
 
@@ -787,10 +704,7 @@ mod tests {
         for iterations in 0..15 {
             let x = solver.solve(&targets, iterations, &rest);
             for (&h, t) in handles.iter().zip(&targets) {
-                assert_eq!(
-                    x[h as usize], *t,
-                    "handle {h} after {iterations} iterations"
-                );
+                assert_eq!(x[h as usize], *t, "handle {h} after {iterations} iterations");
             }
             let e = solver.energy().energy(&x);
             assert!(
@@ -815,37 +729,21 @@ mod tests {
         let mut solver = ArapSolver::new(&rest, &tris, &handles).unwrap();
         let x = solver.solve(&targets, 200, &rest);
         let expected: Vec<[f64; 2]> = rest.iter().map(|&v| motion(v)).collect();
-        assert!(
-            max_diff(&x, &expected) < 1e-6,
-            "max diff {}",
-            max_diff(&x, &expected)
-        );
+        assert!(max_diff(&x, &expected) < 1e-6, "max diff {}", max_diff(&x, &expected));
     }
 
     #[test]
     fn components_without_handles_are_reported() {
         // Two separate triangles; an isolated vertex 6.
-        let rest = [
-            [0.0, 0.0],
-            [1.0, 0.0],
-            [0.0, 1.0],
-            [5.0, 0.0],
-            [6.0, 0.0],
-            [5.0, 1.0],
-            [9.0, 9.0],
-        ];
+        let rest = [[0.0, 0.0], [1.0, 0.0], [0.0, 1.0], [5.0, 0.0], [6.0, 0.0], [5.0, 1.0], [9.0, 9.0]];
         let tris = [[0, 1, 2], [3, 4, 5]];
         let err = ArapSolver::new(&rest, &tris, &[1]).unwrap_err().to_string();
         assert!(
-            err.contains("2 connected component(s) have no handle")
-                && err.contains("vertices 3, 6"),
+            err.contains("2 connected component(s) have no handle") && err.contains("vertices 3, 6"),
             "{err}"
         );
         assert!(ArapSolver::new(&rest, &tris, &[1, 4, 6]).is_ok());
-        assert!(ArapSolver::new(&rest, &tris, &[1, 4, 9])
-            .unwrap_err()
-            .to_string()
-            .contains("past"));
+        assert!(ArapSolver::new(&rest, &tris, &[1, 4, 9]).unwrap_err().to_string().contains("past"));
         assert!(ArapSolver::new(&rest, &tris, &[1, 4, 6, 4])
             .unwrap_err()
             .to_string()

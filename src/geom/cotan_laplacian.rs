@@ -34,10 +34,7 @@ pub struct CotanEdge {
 /// # Errors
 /// [`Error::Invalid`] naming the first bad input: a non-finite position, a triangle index past
 /// `#V`, or a degenerate triangle (repeated index or zero area), for which cot is undefined.
-pub fn cotan_weights<T: Float>(
-    positions: &[[T; 2]],
-    triangles: &[[u32; 3]],
-) -> Result<Vec<CotanEdge>> {
+pub fn cotan_weights<T: Float>(positions: &[[T; 2]], triangles: &[[u32; 3]]) -> Result<Vec<CotanEdge>> {
     let p = positions_f64(positions)?;
     let mut half_edges: Vec<(u64, f64)> = Vec::with_capacity(3 * triangles.len());
     for (t, &tri) in triangles.iter().enumerate() {
@@ -46,9 +43,7 @@ pub fn cotan_weights<T: Float>(
         let cross = (corners[1][0] - corners[0][0]) * (corners[2][1] - corners[0][1])
             - (corners[2][0] - corners[0][0]) * (corners[1][1] - corners[0][1]);
         let twice_area = cross.abs();
-        let scale = (0..3)
-            .map(|k| dist2(corners[k], corners[(k + 1) % 3]))
-            .fold(0.0, f64::max);
+        let scale = (0..3).map(|k| dist2(corners[k], corners[(k + 1) % 3])).fold(0.0, f64::max);
         // Relative test: the cotangents depend on shape only, so the threshold must too.
         if twice_area <= 1e-14 * scale || scale == 0.0 {
             return Err(Error::Invalid(format!(
@@ -84,19 +79,13 @@ pub fn cotan_weights<T: Float>(
 ///
 /// # Errors
 /// As [`cotan_weights`].
-pub fn cotan_laplacian<T: Float>(
-    positions: &[[T; 2]],
-    triangles: &[[u32; 3]],
-) -> Result<SparseColMat<usize, f64>> {
+pub fn cotan_laplacian<T: Float>(positions: &[[T; 2]], triangles: &[[u32; 3]]) -> Result<SparseColMat<usize, f64>> {
     let edges = cotan_weights(positions, triangles)?;
     laplacian_from_edges(positions.len(), &edges)
 }
 
 /// Assembles L (sign as in [`cotan_laplacian`]) from an edge list over `n` vertices.
-pub(crate) fn laplacian_from_edges(
-    n: usize,
-    edges: &[CotanEdge],
-) -> Result<SparseColMat<usize, f64>> {
+pub(crate) fn laplacian_from_edges(n: usize, edges: &[CotanEdge]) -> Result<SparseColMat<usize, f64>> {
     let mut diagonal = vec![0.0; n];
     let mut triplets = Vec::with_capacity(2 * edges.len() + n);
     for e in edges {
@@ -106,17 +95,9 @@ pub(crate) fn laplacian_from_edges(
         diagonal[i] -= e.w;
         diagonal[j] -= e.w;
     }
-    triplets.extend(
-        diagonal
-            .iter()
-            .enumerate()
-            .map(|(i, &d)| Triplet::new(i, i, d)),
-    );
-    SparseColMat::try_new_from_triplets(n, n, &triplets).map_err(|e| {
-        Error::Invalid(format!(
-            "cotangent laplacian: cannot assemble {n}×{n} sparse matrix: {e:?}"
-        ))
-    })
+    triplets.extend(diagonal.iter().enumerate().map(|(i, &d)| Triplet::new(i, i, d)));
+    SparseColMat::try_new_from_triplets(n, n, &triplets)
+        .map_err(|e| Error::Invalid(format!("cotangent laplacian: cannot assemble {n}×{n} sparse matrix: {e:?}")))
 }
 
 /// Converts positions to f64, rejecting non-finite ones.
@@ -167,10 +148,7 @@ mod tests {
         let mut p = Vec::new();
         for y in 0..=ny {
             for x in 0..=nx {
-                p.push([
-                    x as f64 + rng.random_range(-0.2..0.2),
-                    y as f64 + rng.random_range(-0.2..0.2),
-                ]);
+                p.push([x as f64 + rng.random_range(-0.2..0.2), y as f64 + rng.random_range(-0.2..0.2)]);
             }
         }
         let id = |x: usize, y: usize| (y * (nx + 1) + x) as u32;
@@ -214,9 +192,7 @@ mod tests {
         let mut rng = StdRng::seed_from_u64(3);
         for _ in 0..20 {
             let x: Vec<f64> = (0..p.len()).map(|_| rng.random_range(-1.0..1.0)).collect();
-            let q: f64 = (0..p.len())
-                .map(|i| x[i] * (0..p.len()).map(|j| l[i][j] * x[j]).sum::<f64>())
-                .sum();
+            let q: f64 = (0..p.len()).map(|i| x[i] * (0..p.len()).map(|j| l[i][j] * x[j]).sum::<f64>()).sum();
             assert!(q <= 1e-12, "xᵀLx = {q} > 0");
         }
     }

@@ -61,14 +61,8 @@ impl MinQuadWithFixed {
         let mut free_index = vec![0u32; n];
         for (k, &c) in fixed.iter().enumerate() {
             match free_index.get_mut(c as usize) {
-                None => {
-                    return Err(Error::Invalid(format!(
-                        "fixed unknown {c} (entry {k}) is past the {n} unknowns"
-                    )))
-                }
-                Some(slot) if *slot == FIXED => {
-                    return Err(Error::Invalid(format!("fixed unknown {c} is listed twice")))
-                }
+                None => return Err(Error::Invalid(format!("fixed unknown {c} (entry {k}) is past the {n} unknowns"))),
+                Some(slot) if *slot == FIXED => return Err(Error::Invalid(format!("fixed unknown {c} is listed twice"))),
                 Some(slot) => *slot = FIXED,
             }
         }
@@ -97,10 +91,8 @@ impl MinQuadWithFixed {
             None
         } else {
             let m = free.len();
-            let q_ff =
-                SparseColMat::<usize, f64>::try_new_from_triplets(m, m, &ff).map_err(|e| {
-                    Error::Invalid(format!("min_quad_with_fixed: cannot assemble Q_ff: {e:?}"))
-                })?;
+            let q_ff = SparseColMat::<usize, f64>::try_new_from_triplets(m, m, &ff)
+                .map_err(|e| Error::Invalid(format!("min_quad_with_fixed: cannot assemble Q_ff: {e:?}")))?;
             Some(q_ff.sp_cholesky(Side::Lower).map_err(|e| {
                 Error::Invalid(format!(
                     "min_quad_with_fixed: Q restricted to the {m} free unknowns is not positive definite ({e:?}); \
@@ -148,20 +140,8 @@ impl MinQuadWithFixed {
     /// # Panics
     /// If `b.len() != n`, `x.len() != n` or `y.len() != fixed.len()` (caller bugs).
     pub fn solve<const D: usize>(&mut self, b: &[[f64; D]], y: &[[f64; D]], x: &mut [[f64; D]]) {
-        assert_eq!(
-            b.len(),
-            self.n,
-            "min_quad_with_fixed: b has {} rows, expected {}",
-            b.len(),
-            self.n
-        );
-        assert_eq!(
-            x.len(),
-            self.n,
-            "min_quad_with_fixed: x has {} rows, expected {}",
-            x.len(),
-            self.n
-        );
+        assert_eq!(b.len(), self.n, "min_quad_with_fixed: b has {} rows, expected {}", b.len(), self.n);
+        assert_eq!(x.len(), self.n, "min_quad_with_fixed: x has {} rows, expected {}", x.len(), self.n);
         assert_eq!(
             y.len(),
             self.fixed.len(),
@@ -178,19 +158,19 @@ impl MinQuadWithFixed {
             self.rhs = Mat::zeros(m, D);
         }
         for (r, &i) in self.free.iter().enumerate() {
-            for d in 0..D {
-                self.rhs[(r, d)] = b[i as usize][d];
+            for (d, &v) in b[i as usize].iter().enumerate() {
+                self.rhs[(r, d)] = v;
             }
         }
         for &(r, k, q) in &self.coupling {
-            for d in 0..D {
-                self.rhs[(r as usize, d)] -= q * y[k as usize][d];
+            for (d, &v) in y[k as usize].iter().enumerate() {
+                self.rhs[(r as usize, d)] -= q * v;
             }
         }
         llt.solve_in_place(self.rhs.as_mut());
         for (r, &i) in self.free.iter().enumerate() {
-            for d in 0..D {
-                x[i as usize][d] = self.rhs[(r, d)];
+            for (d, v) in x[i as usize].iter_mut().enumerate() {
+                *v = self.rhs[(r, d)];
             }
         }
     }
@@ -201,10 +181,7 @@ mod tests {
     use super::*;
 
     fn sparse(n: usize, entries: &[(usize, usize, f64)]) -> SparseColMat<usize, f64> {
-        let t: Vec<_> = entries
-            .iter()
-            .map(|&(i, j, v)| Triplet::new(i, j, v))
-            .collect();
+        let t: Vec<_> = entries.iter().map(|&(i, j, v)| Triplet::new(i, j, v)).collect();
         SparseColMat::try_new_from_triplets(n, n, &t).unwrap()
     }
 
@@ -226,17 +203,10 @@ mod tests {
         );
         let mut solver = MinQuadWithFixed::new(q.as_ref(), &[2, 0]).unwrap();
         let mut x = [[0.0; 2]; 3];
-        solver.solve(
-            &[[0.0, 0.0], [0.0, 1.0], [0.0, 0.0]],
-            &[[3.0, 3.0], [0.0, 0.0]],
-            &mut x,
-        );
+        solver.solve(&[[0.0, 0.0], [0.0, 1.0], [0.0, 0.0]], &[[3.0, 3.0], [0.0, 0.0]], &mut x);
         assert_eq!(x[0], [0.0, 0.0]);
         assert_eq!(x[2], [3.0, 3.0]);
-        assert!(
-            (x[1][0] - 1.5).abs() < 1e-14 && (x[1][1] - 2.0).abs() < 1e-14,
-            "{x:?}"
-        );
+        assert!((x[1][0] - 1.5).abs() < 1e-14 && (x[1][1] - 2.0).abs() < 1e-14, "{x:?}");
     }
 
     #[test]
@@ -255,9 +225,7 @@ mod tests {
                 (3, 2, -1.0),
             ],
         );
-        let err = MinQuadWithFixed::new(q.as_ref(), &[0])
-            .unwrap_err()
-            .to_string();
+        let err = MinQuadWithFixed::new(q.as_ref(), &[0]).unwrap_err().to_string();
         assert!(err.contains("not positive definite"), "{err}");
         assert!(MinQuadWithFixed::new(q.as_ref(), &[0, 3]).is_ok());
     }
@@ -265,10 +233,7 @@ mod tests {
     #[test]
     fn bad_fixed_lists_are_errors() {
         let q = sparse(2, &[(0, 0, 1.0), (1, 1, 1.0)]);
-        assert!(MinQuadWithFixed::new(q.as_ref(), &[5])
-            .unwrap_err()
-            .to_string()
-            .contains("past"));
+        assert!(MinQuadWithFixed::new(q.as_ref(), &[5]).unwrap_err().to_string().contains("past"));
         assert!(MinQuadWithFixed::new(q.as_ref(), &[1, 1])
             .unwrap_err()
             .to_string()
