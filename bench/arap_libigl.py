@@ -18,8 +18,9 @@ pre-set both run exactly the same iteration.
 Times are the median of REPEATS runs each (wall clock, one process, warm). Prints a table:
 vertices, precompute ms, 10-iteration solve ms (libigl / ours), max |ours - libigl| in pixels.
 
-Usage (from the repository root): python3 bench/arap_libigl.py [--write-data]
-  --write-data also (re)writes benches/data/character_{1k,5k}.txt for the criterion bench.
+Usage (from the repository root): python3 bench/arap_libigl.py [--write-data] [--png out.png]
+  --write-data also (re)writes benches/data/character_{1k,5k}.txt for the criterion bench;
+  --png draws the 1k rest mesh and our deformed result side by side (needs Pillow).
 """
 
 import math
@@ -176,8 +177,26 @@ def run_ours(problem, result):
     return U, float(fields["precompute_ms"]), float(fields["solve10_ms"])
 
 
+def draw_png(path, V, F, handles, U, targets):
+    """Rest mesh (left) and our 10-iteration result (right), handles in red (needs Pillow)."""
+    from PIL import Image, ImageDraw
+
+    lo = np.minimum(V.min(0), U.min(0)) - 10
+    w, h = (np.maximum(V.max(0), U.max(0)) - lo + 10).astype(int)
+    img = Image.new("RGB", (2 * w, h), "white")
+    d = ImageDraw.Draw(img)
+    for off, P, H in ((0, V, V[handles]), (w, U, targets)):
+        for t in F:
+            d.polygon([(P[i][0] - lo[0] + off, P[i][1] - lo[1]) for i in t], outline=(60, 90, 200))
+        for x, y in H:
+            cx, cy = x - lo[0] + off, y - lo[1]
+            d.ellipse([cx - 4, cy - 4, cx + 4, cy + 4], fill="red")
+    img.save(path)
+
+
 def main():
     write_data = "--write-data" in sys.argv
+    png = sys.argv[sys.argv.index("--png") + 1] if "--png" in sys.argv else None
     from importlib.metadata import version
 
     print(f"libigl {version('libigl')}, triangle {version('triangle')}, numpy {np.__version__}; median of {REPEATS} runs")
@@ -193,6 +212,8 @@ def main():
                 write_problem(os.path.join(ROOT, "benches", "data", f"character_{label}.txt"), V, F, handles, targets)
             U_igl, igl_pre, igl_sol = run_libigl(V, F, handles, targets)
             U_ours, our_pre, our_sol = run_ours(problem, os.path.join(tmp, f"result_{label}.txt"))
+            if png and label == "1k":
+                draw_png(png, V, F, handles, U_ours, targets)
             diff = float(np.abs(U_ours - U_igl).max())
             moved = float(np.abs(U_igl - V).max())
             handle_err = float(np.abs(U_ours[handles] - targets).max())
