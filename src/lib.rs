@@ -12,6 +12,7 @@ pub mod atomic_file;
 pub mod backend;
 pub mod model;
 pub mod error;
+pub mod geom;
 pub mod picture;
 pub mod progress;
 pub mod puppet;
