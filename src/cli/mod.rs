@@ -2,6 +2,7 @@
 
 use clap::{Parser, Subcommand};
 
+mod synth;
 mod ui;
 
 pub use ui::Ui;
@@ -25,10 +26,14 @@ pub struct Common {
 }
 
 #[derive(Debug, Subcommand)]
-enum Command {}
+enum Command {
+    Synth(synth::SynthArgs),
+}
 
 /// Runs the parsed command line.
 pub fn run(cli: Cli) -> anyhow::Result<()> {
     let ui = Ui::new(cli.common.quiet);
-    match cli.command {}
+    match cli.command {
+        Command::Synth(args) => synth::run(args, &ui),
+    }
 }
