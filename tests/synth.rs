@@ -11,7 +11,14 @@ use puppet::synth::pose::Animator;
 use puppet::synth::{generate, true_positions, write_sequence, Motion, Sequence, SynthOptions, Truth};
 
 fn opts(seed: u64, frames: usize, size: u32, motion: Motion) -> SynthOptions {
-    SynthOptions { seed, frames, width: size, height: size, motion, ..SynthOptions::default() }
+    SynthOptions {
+        seed,
+        frames,
+        width: size,
+        height: size,
+        motion,
+        ..SynthOptions::default()
+    }
 }
 
 /// Every file under `dir`, relative path → bytes, sorted.
@@ -78,12 +85,21 @@ fn point_puppet(seq: &Sequence, points: &[Vec<[f32; 2]>]) -> Puppet {
         .map(|(p, v)| Layer {
             name: p.name.clone(),
             kind: LayerKind::Body,
-            mesh: Mesh { vertices: v.clone(), triangles: Vec::new() },
+            mesh: Mesh {
+                vertices: v.clone(),
+                triangles: Vec::new(),
+            },
             uvs: vec![[0.0, 0.0]; v.len()],
             texture: Picture::filled(1, 1, [0.0; 4]),
         })
         .collect();
-    Puppet { width: seq.truth.width, height: seq.truth.height, layers, root: 0, joints: Vec::new() }
+    Puppet {
+        width: seq.truth.width,
+        height: seq.truth.height,
+        layers,
+        root: 0,
+        joints: Vec::new(),
+    }
 }
 
 /// Maps every rest-mask point of every part into every frame and looks up the frame's label
@@ -113,7 +129,10 @@ fn check_truth_against_labels(seq: &Sequence, margin: i64) -> (usize, usize, usi
                     deep_total += 1;
                     if !ok {
                         deep_bad += 1;
-                        eprintln!("frame {t}: part {:?}: rest point {:?} -> ({x}, {y}) is not on it", seq.truth.parts[part].name, mask[k].0);
+                        eprintln!(
+                            "frame {t}: part {:?}: rest point {:?} -> ({x}, {y}) is not on it",
+                            seq.truth.parts[part].name, mask[k].0
+                        );
                     }
                 }
             }
@@ -135,7 +154,10 @@ fn true_positions_land_on_the_drawn_part_in_every_frame() {
         assert_eq!(deep_bad, 0, "seed {seed}: interior points off their part");
         // Points on the anti-aliased rim may land a pixel off (label maps are per pixel
         // centre, and the line wobbles); measured well under 1 %.
-        assert!((all_bad as f64) < 0.01 * all as f64, "seed {seed}: {all_bad}/{all} mask points off their part");
+        assert!(
+            (all_bad as f64) < 0.01 * all as f64,
+            "seed {seed}: {all_bad}/{all} mask points off their part"
+        );
     }
 }
 
@@ -143,7 +165,11 @@ fn true_positions_land_on_the_drawn_part_in_every_frame() {
 fn rigid_poses_map_rest_points_by_the_parts_rotation() {
     // No deformation, no wobble: each part must move exactly rigidly, rotated by the global
     // lean plus the joint-angle deltas along its chain to the root, scaled by the pose scale.
-    let o = SynthOptions { deform_sigma: 0.0, wobble: 0.0, ..opts(5, 6, 128, Motion::Random) };
+    let o = SynthOptions {
+        deform_sigma: 0.0,
+        wobble: 0.0,
+        ..opts(5, 6, 128, Motion::Random)
+    };
     let seq = generate(&o, &Silent).unwrap();
     let c = &seq.character;
     let anim = Animator::new(Motion::Random, o.frames, o.seed, o.width, o.height);
@@ -165,7 +191,11 @@ fn rigid_poses_map_rest_points_by_the_parts_rotation() {
                 let diff = (got - angle).sin().abs() + ((got - angle).cos() - 1.0).abs();
                 assert!(diff < 1e-4, "frame {t} part {:?}: rotation {got} vs expected {angle}", part.name);
                 let ratio = norm(dq) / norm(dr);
-                assert!((ratio - scale).abs() < 1e-4, "frame {t} part {:?}: scale {ratio} vs {scale}", part.name);
+                assert!(
+                    (ratio - scale).abs() < 1e-4,
+                    "frame {t} part {:?}: scale {ratio} vs {scale}",
+                    part.name
+                );
             }
         }
         // The torso's map is the pose's root placement after the rest placement's inverse.
@@ -190,7 +220,14 @@ fn deformation_is_small_and_non_rigid() {
     // With the default σ (2 % of the image), parts bend: the best rigid fit leaves a residual,
     // but a small one compared with the part.
     let seq = generate(&opts(4, 8, 128, Motion::Walk), &Silent).unwrap();
-    let rigid = generate(&SynthOptions { deform_sigma: 0.0, ..opts(4, 8, 128, Motion::Walk) }, &Silent).unwrap();
+    let rigid = generate(
+        &SynthOptions {
+            deform_sigma: 0.0,
+            ..opts(4, 8, 128, Motion::Walk)
+        },
+        &Silent,
+    )
+    .unwrap();
     let mut max_dev: f32 = 0.0;
     let mut sum = 0.0f64;
     let mut n = 0;
@@ -204,7 +241,10 @@ fn deformation_is_small_and_non_rigid() {
             }
         }
     }
-    eprintln!("deformed vs rigid placement: mean {:.3} px, max {max_dev:.3} px over {n} points", sum / n as f64);
+    eprintln!(
+        "deformed vs rigid placement: mean {:.3} px, max {max_dev:.3} px over {n} points",
+        sum / n as f64
+    );
     assert!(sum / n as f64 > 0.1, "the deformation does nothing");
     assert!(max_dev < 0.1 * 128.0, "the deformation is not small: {max_dev} px");
 }
@@ -251,7 +291,9 @@ fn truth_json_round_trips_and_rejects_another_version() {
     let written = write_sequence(&seq, dir.path(), &Silent).unwrap();
     let truth = Truth::load(&written.truth).unwrap();
     assert_eq!(truth, seq.truth);
-    let text = std::fs::read_to_string(&written.truth).unwrap().replacen("\"version\":1", "\"version\":99", 1);
+    let text = std::fs::read_to_string(&written.truth)
+        .unwrap()
+        .replacen("\"version\":1", "\"version\":99", 1);
     std::fs::write(&written.truth, text).unwrap();
     let err = Truth::load(&written.truth).unwrap_err().to_string();
     assert!(err.contains("truth.json") && err.contains("version 99"), "{err}");
@@ -272,21 +314,37 @@ fn true_positions_names_unknown_layers_and_frames() {
 fn shipped_sample_matches_its_documented_command() {
     let data = Path::new(env!("CARGO_MANIFEST_DIR")).join("data/synth/walk-7");
     let shipped = Truth::load(&data.join("truth.json")).unwrap();
-    let o = SynthOptions { seed: 7, frames: 16, width: 128, height: 128, motion: Motion::Walk, ..SynthOptions::default() };
+    let o = SynthOptions {
+        seed: 7,
+        frames: 16,
+        width: 128,
+        height: 128,
+        motion: Motion::Walk,
+        ..SynthOptions::default()
+    };
     let seq = generate(&o, &Silent).unwrap();
     assert_eq!(shipped.parts, seq.truth.parts);
     for (t, (a, b)) in shipped.frames.iter().zip(&seq.truth.frames).enumerate() {
         for (pa, pb) in a.parts.iter().zip(&b.parts) {
-            assert!((pa.world.tx - pb.world.tx).abs() < 1e-3 && (pa.world.a - pb.world.a).abs() < 1e-5, "frame {t}");
+            assert!(
+                (pa.world.tx - pb.world.tx).abs() < 1e-3 && (pa.world.a - pb.world.a).abs() < 1e-5,
+                "frame {t}"
+            );
             if let (Some(da), Some(db)) = (&pa.deformed, &pb.deformed) {
-                let worst = da.iter().zip(db).map(|(x, y)| (x[0] - y[0]).abs().max((x[1] - y[1]).abs())).fold(0.0, f32::max);
+                let worst = da
+                    .iter()
+                    .zip(db)
+                    .map(|(x, y)| (x[0] - y[0]).abs().max((x[1] - y[1]).abs()))
+                    .fold(0.0, f32::max);
                 assert!(worst < 0.01, "frame {t}: deformation differs by {worst}");
             }
         }
         let frame = Picture::load(&data.join(&a.file)).unwrap();
-        let worst = frame.pixels.iter().zip(&seq.frames[t].image.to_rgba8().pixels().collect::<Vec<_>>()).map(|(p, q)| {
-            (0..4).map(|k| ((p[k] * 255.0).round() as i32 - q.0[k] as i32).abs()).max().unwrap()
-        });
+        let worst = frame
+            .pixels
+            .iter()
+            .zip(&seq.frames[t].image.to_rgba8().pixels().collect::<Vec<_>>())
+            .map(|(p, q)| (0..4).map(|k| ((p[k] * 255.0).round() as i32 - q.0[k] as i32).abs()).max().unwrap());
         assert!(worst.max().unwrap() <= 2, "frame {t} differs from the shipped file");
     }
 }
@@ -302,11 +360,30 @@ fn cli_writes_a_sequence_and_rejects_bad_input() {
         .output()
         .unwrap();
     assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
-    for f in ["frames/frame_000.png", "frames/frame_001.png", "labels/label_001.png", "masks/mask_000.png", "template/character.toml", "truth.json", "contact_sheet.png"] {
+    for f in [
+        "frames/frame_000.png",
+        "frames/frame_001.png",
+        "labels/label_001.png",
+        "masks/mask_000.png",
+        "template/character.toml",
+        "truth.json",
+        "contact_sheet.png",
+    ] {
         assert!(dir.path().join(f).is_file(), "{f} missing");
     }
     let sheet = std::process::Command::new(exe)
-        .args(["-q", "synth", "--sprite-sheet", "--frames", "6", "--columns", "3", "--size", "64x64", "-o"])
+        .args([
+            "-q",
+            "synth",
+            "--sprite-sheet",
+            "--frames",
+            "6",
+            "--columns",
+            "3",
+            "--size",
+            "64x64",
+            "-o",
+        ])
         .arg(dir.path().join("sheet"))
         .output()
         .unwrap();
@@ -318,7 +395,12 @@ fn cli_writes_a_sequence_and_rejects_bad_input() {
         (vec!["--size", "16x16"], 1, "width 16 px is out of range"),
         (vec!["--motion", "dance"], 2, "dance"),
     ] {
-        let out = std::process::Command::new(exe).args(["synth", "-o"]).arg(dir.path()).args(&args).output().unwrap();
+        let out = std::process::Command::new(exe)
+            .args(["synth", "-o"])
+            .arg(dir.path())
+            .args(&args)
+            .output()
+            .unwrap();
         let err = String::from_utf8_lossy(&out.stderr);
         assert_eq!(out.status.code(), Some(code), "{args:?}: {err}");
         assert!(err.contains(needle), "{args:?}: {err}");

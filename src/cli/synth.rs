@@ -80,7 +80,9 @@ fn parse_size(text: &str) -> anyhow::Result<(u32, u32)> {
             let side = |s: &str| s.trim().parse::<u32>().ok();
             match (side(w), side(h)) {
                 (Some(w), Some(h)) => Ok((w, h)),
-                _ => anyhow::bail!("--size {text:?}: expected WIDTHxHEIGHT in pixels, e.g. 256x256"),
+                _ => {
+                    anyhow::bail!("--size {text:?}: expected WIDTHxHEIGHT in pixels, e.g. 256x256")
+                }
             }
         }
         _ => anyhow::bail!("--size {text:?}: expected WIDTHxHEIGHT in pixels, e.g. 256x256"),
@@ -92,7 +94,15 @@ impl SynthArgs {
     fn options(&self) -> anyhow::Result<SynthOptions> {
         let (width, height) = parse_size(&self.size)?;
         let motion = if self.sprite_sheet { Motion::Random } else { self.motion.into() };
-        let opts = SynthOptions { seed: self.seed, frames: self.frames, width, height, motion, deform_sigma: self.deform, wobble: self.wobble };
+        let opts = SynthOptions {
+            seed: self.seed,
+            frames: self.frames,
+            width,
+            height,
+            motion,
+            deform_sigma: self.deform,
+            wobble: self.wobble,
+        };
         opts.validate()?;
         if self.sprite_sheet && self.columns == 0 {
             anyhow::bail!("--columns 0: a sprite sheet needs at least one column");
@@ -117,7 +127,11 @@ pub fn run(args: SynthArgs, ui: &Ui) -> anyhow::Result<()> {
         opts.frames,
         opts.width,
         opts.height,
-        if args.sprite_sheet { "poses in a sprite sheet".to_string() } else { format!("frames, {}", opts.motion.name()) },
+        if args.sprite_sheet {
+            "poses in a sprite sheet".to_string()
+        } else {
+            format!("frames, {}", opts.motion.name())
+        },
         seq.character.parts.len(),
         written.images,
         written.template.display(),
@@ -149,7 +163,10 @@ mod tests {
 
     #[test]
     fn size_and_motion_are_parsed() {
-        let opts = parse(&["-o", "x", "--size", "128x96", "--motion", "jump", "--frames", "5"]).unwrap().options().unwrap();
+        let opts = parse(&["-o", "x", "--size", "128x96", "--motion", "jump", "--frames", "5"])
+            .unwrap()
+            .options()
+            .unwrap();
         assert_eq!((opts.width, opts.height, opts.frames, opts.motion), (128, 96, 5, Motion::Jump));
     }
 

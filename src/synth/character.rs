@@ -124,7 +124,12 @@ fn lighten(c: Rgb, t: f32) -> Rgb {
 }
 
 fn circle(center: [f32; 2], r: f32) -> Primitive {
-    Primitive::Superellipse { center, radii: [r, r], exponent: 2.0, angle: 0.0 }
+    Primitive::Superellipse {
+        center,
+        radii: [r, r],
+        exponent: 2.0,
+        angle: 0.0,
+    }
 }
 
 /// The character's colours.
@@ -144,7 +149,13 @@ impl Palette {
         let skin = if animal {
             hsv(rng.unit(), rng.range(0.25, 0.6), rng.range(0.7, 0.95))
         } else {
-            rng.pick(&[[1.0, 0.86, 0.72], [0.96, 0.76, 0.6], [0.78, 0.56, 0.4], [0.55, 0.38, 0.26], [0.99, 0.9, 0.8]])
+            rng.pick(&[
+                [1.0, 0.86, 0.72],
+                [0.96, 0.76, 0.6],
+                [0.78, 0.56, 0.4],
+                [0.55, 0.38, 0.26],
+                [0.99, 0.9, 0.8],
+            ])
         };
         let h = rng.unit();
         let shirt = hsv(h, rng.range(0.45, 0.85), rng.range(0.6, 0.95));
@@ -153,7 +164,15 @@ impl Palette {
         let hair = hsv(rng.range(0.0, 0.12), rng.range(0.4, 0.9), rng.range(0.15, 0.7));
         let accent = lighten(hsv(h + 0.5, rng.range(0.5, 0.9), 0.95), rng.range(0.0, 0.5));
         let outline = hsv(h, 0.5, rng.range(0.08, 0.18));
-        Palette { skin, shirt, pants, shoes, hair, accent, outline }
+        Palette {
+            skin,
+            shirt,
+            pants,
+            shoes,
+            hair,
+            accent,
+            outline,
+        }
     }
 }
 
@@ -185,7 +204,11 @@ impl Character {
             foot: [rng.range(9.0, 13.0), 0.0],
             outline_px: (0.011 * width.min(height) as f32).max(1.3),
         };
-        let b = Build { hand: b.arm[2] * rng.range(1.2, 1.6), foot: [b.foot[0], b.leg[2] * rng.range(1.0, 1.3)], ..b };
+        let b = Build {
+            hand: b.arm[2] * rng.range(1.2, 1.6),
+            foot: [b.foot[0], b.leg[2] * rng.range(1.0, 1.3)],
+            ..b
+        };
         let mut parts: Vec<Part> = Vec::new();
         let mut add = |p: Part| {
             parts.push(p);
@@ -225,7 +248,11 @@ impl Character {
             let tag = if side == Side::Back { "back" } else { "front" };
             // Back limbs are a little darker, as if in the shade of the body.
             let shade = if side == Side::Back { 0.85 } else { 1.0 };
-            let shoulder = inset(&torso_shape, [sign * 0.25 * tw, -0.5 * th + 0.22 * th.max(4.0 * b.arm[2])], 1.2 * b.arm[2]);
+            let shoulder = inset(
+                &torso_shape,
+                [sign * 0.25 * tw, -0.5 * th + 0.22 * th.max(4.0 * b.arm[2])],
+                1.2 * b.arm[2],
+            );
             let upper = add(limb_upper(
                 &format!("arm_{tag}_upper"),
                 Role::UpperArm,
@@ -238,7 +265,17 @@ impl Character {
             ));
             let lower_fill = if long_sleeves { pal.shirt } else { pal.skin };
             let hand_color = if rng.chance(0.3) { lighten(pal.accent, 0.6) } else { pal.skin };
-            add(arm_lower(&format!("arm_{tag}_lower"), side, upper, &b, -rng.range(0.2, 0.5), lower_fill, hand_color, shade, &pal));
+            add(arm_lower(
+                &format!("arm_{tag}_lower"),
+                side,
+                upper,
+                &b,
+                -rng.range(0.2, 0.5),
+                lower_fill,
+                hand_color,
+                shade,
+                &pal,
+            ));
             let hip = inset(&torso_shape, [sign * 0.16 * tw, 0.5 * th - 1.2 * b.leg[2]], 1.2 * b.leg[2]);
             let thigh = add(limb_upper(
                 &format!("leg_{tag}_upper"),
@@ -251,19 +288,43 @@ impl Character {
                 plain_look(scale_rgb(pal.pants, shade), &pal, b.outline_px, b.leg[2]),
             ));
             let shin_fill = if shorts { pal.skin } else { pal.pants };
-            add(leg_lower(&format!("leg_{tag}_lower"), side, thigh, &b, rng.range(0.0, 0.12), shin_fill, shade, &pal, &mut rng));
+            add(leg_lower(
+                &format!("leg_{tag}_lower"),
+                side,
+                thigh,
+                &b,
+                rng.range(0.0, 0.12),
+                shin_fill,
+                shade,
+                &pal,
+                &mut rng,
+            ));
         }
         if rng.chance(0.45) {
             let base = inset(&torso_shape, [-0.45 * tw, 0.2 * th], 2.5);
             let len = rng.range(14.0, 24.0);
             let (r0, r1) = (rng.range(2.5, 4.5), rng.range(1.2, 2.5));
-            let mut prims = vec![Primitive::Capsule { a: [0.0, 0.0], b: [0.0, len], ra: r0, rb: r1 }];
+            let mut prims = vec![Primitive::Capsule {
+                a: [0.0, 0.0],
+                b: [0.0, len],
+                ra: r0,
+                rb: r1,
+            }];
             let mut look = plain_look(pal.skin, &pal, b.outline_px, r0);
             if rng.chance(0.5) {
                 prims.push(circle([0.0, len], r1 * 2.0));
-                look.features.push(Feature { shape: FeatureShape::Fill(circle([0.0, len], r1 * 2.0)), color: lighten(pal.skin, 0.6), ink: 0.0 });
+                look.features.push(Feature {
+                    shape: FeatureShape::Fill(circle([0.0, len], r1 * 2.0)),
+                    color: lighten(pal.skin, 0.6),
+                    ink: 0.0,
+                });
             } else {
-                look.pattern = Pattern::Stripes { angle: PI / 2.0, period: rng.range(4.0, 6.0), width: 2.0, color: scale_rgb(pal.skin, 0.7) };
+                look.pattern = Pattern::Stripes {
+                    angle: PI / 2.0,
+                    period: rng.range(4.0, 6.0),
+                    width: 2.0,
+                    color: scale_rgb(pal.skin, 0.7),
+                };
             }
             add(Part {
                 name: "tail".into(),
@@ -281,10 +342,24 @@ impl Character {
             let (len, wid, n) = (rng.range(8.0, 14.0), rng.range(3.5, 6.0), rng.range(1.5, 2.5));
             for (side, tag, dx, tilt) in [(Side::Back, "back", -0.4, 0.35), (Side::Front, "front", 0.15, -0.25)] {
                 let base = [head_center[0] + dx * hw, head_center[1] - 0.7 * hh];
-                let ear = Primitive::Superellipse { center: [0.0, 0.45 * len], radii: [wid, 0.55 * len], exponent: n, angle: 0.0 };
-                let inner = Primitive::Superellipse { center: [0.0, 0.5 * len], radii: [0.5 * wid, 0.35 * len], exponent: n, angle: 0.0 };
+                let ear = Primitive::Superellipse {
+                    center: [0.0, 0.45 * len],
+                    radii: [wid, 0.55 * len],
+                    exponent: n,
+                    angle: 0.0,
+                };
+                let inner = Primitive::Superellipse {
+                    center: [0.0, 0.5 * len],
+                    radii: [0.5 * wid, 0.35 * len],
+                    exponent: n,
+                    angle: 0.0,
+                };
                 let mut look = plain_look(pal.skin, &pal, b.outline_px, wid);
-                look.features.push(Feature { shape: FeatureShape::Fill(inner), color: lighten([0.95, 0.5, 0.6], 0.3), ink: 0.0 });
+                look.features.push(Feature {
+                    shape: FeatureShape::Fill(inner),
+                    color: lighten([0.95, 0.5, 0.6], 0.3),
+                    ink: 0.0,
+                });
                 add(Part {
                     name: format!("ear_{tag}"),
                     role: Role::Ear,
@@ -298,7 +373,11 @@ impl Character {
             }
         }
         let parts = reorder(parts);
-        let mut c = Character { name: format!("synth-{seed}"), parts, rest_root: Similarity::IDENTITY };
+        let mut c = Character {
+            name: format!("synth-{seed}"),
+            parts,
+            rest_root: Similarity::IDENTITY,
+        };
         c.rest_root = fit(&c, width, height);
         c
     }
@@ -338,7 +417,10 @@ impl Character {
 
     /// Pairs of parts joined at a pivot (parent name, child name).
     pub fn joints(&self) -> Vec<[String; 2]> {
-        self.parts.iter().filter_map(|p| p.parent.map(|q| [self.parts[q].name.clone(), p.name.clone()])).collect()
+        self.parts
+            .iter()
+            .filter_map(|p| p.parent.map(|q| [self.parts[q].name.clone(), p.name.clone()]))
+            .collect()
     }
 }
 
@@ -356,13 +438,33 @@ fn inset(shape: &Shape, p: [f32; 2], depth: f32) -> [f32; 2] {
 
 fn torso_shape(rng: &mut Rng, [w, h]: [f32; 2]) -> Shape {
     let prim = match rng.below(4) {
-        0 => Primitive::Superellipse { center: [0.0, 0.0], radii: [0.5 * w, 0.5 * h], exponent: 2.0, angle: 0.0 },
-        1 => Primitive::Superellipse { center: [0.0, 0.0], radii: [0.5 * w, 0.5 * h], exponent: rng.range(2.6, 4.0), angle: 0.0 },
-        2 => Primitive::RoundedBox { center: [0.0, 0.0], half: [0.5 * w, 0.5 * h], radius: rng.range(0.3, 0.5) * w.min(h), angle: 0.0 },
+        0 => Primitive::Superellipse {
+            center: [0.0, 0.0],
+            radii: [0.5 * w, 0.5 * h],
+            exponent: 2.0,
+            angle: 0.0,
+        },
+        1 => Primitive::Superellipse {
+            center: [0.0, 0.0],
+            radii: [0.5 * w, 0.5 * h],
+            exponent: rng.range(2.6, 4.0),
+            angle: 0.0,
+        },
+        2 => Primitive::RoundedBox {
+            center: [0.0, 0.0],
+            half: [0.5 * w, 0.5 * h],
+            radius: rng.range(0.3, 0.5) * w.min(h),
+            angle: 0.0,
+        },
         _ => {
             // A pear: narrow shoulders, wide hips.
             let (rt, rb) = (rng.range(0.3, 0.4) * w, 0.5 * w);
-            Primitive::Capsule { a: [0.0, -0.5 * h + rt], b: [0.0, 0.5 * h - rb], ra: rt, rb }
+            Primitive::Capsule {
+                a: [0.0, -0.5 * h + rt],
+                b: [0.0, 0.5 * h - rb],
+                ra: rt,
+                rb,
+            }
         }
     };
     Shape { primitives: vec![prim] }
@@ -385,9 +487,22 @@ fn torso_look(rng: &mut Rng, pal: &Palette, b: &Build, shape: &Shape) -> Look {
     let mut look = plain_look(pal.shirt, pal, b.outline_px, 0.4 * w);
     look.shadow_offset = [-0.12 * w, -0.08 * h];
     look.pattern = match rng.below(4) {
-        0 => Pattern::Stripes { angle: PI / 2.0 + rng.range(-0.3, 0.3), period: rng.range(5.0, 8.0), width: rng.range(1.8, 3.0), color: pal.accent },
-        1 => Pattern::Dots { period: rng.range(6.0, 9.0), radius: rng.range(1.2, 2.0), color: pal.accent },
-        2 => Pattern::Gradient { from: [0.0, -0.5 * h], to: [0.0, 0.5 * h], color: scale_rgb(pal.shirt, 0.6) },
+        0 => Pattern::Stripes {
+            angle: PI / 2.0 + rng.range(-0.3, 0.3),
+            period: rng.range(5.0, 8.0),
+            width: rng.range(1.8, 3.0),
+            color: pal.accent,
+        },
+        1 => Pattern::Dots {
+            period: rng.range(6.0, 9.0),
+            radius: rng.range(1.2, 2.0),
+            color: pal.accent,
+        },
+        2 => Pattern::Gradient {
+            from: [0.0, -0.5 * h],
+            to: [0.0, 0.5 * h],
+            color: scale_rgb(pal.shirt, 0.6),
+        },
         _ => Pattern::Plain,
     };
     if rng.chance(0.6) {
@@ -396,13 +511,22 @@ fn torso_look(rng: &mut Rng, pal: &Palette, b: &Build, shape: &Shape) -> Look {
         for k in 0..3 {
             let y = -0.2 * h + k as f32 * 0.18 * h;
             if shape.sdf([x, y]) < -2.5 {
-                look.features.push(Feature { shape: FeatureShape::Fill(circle([x, y], 1.4)), color: lighten(pal.accent, 0.5), ink: 0.8 * b.outline_px });
+                look.features.push(Feature {
+                    shape: FeatureShape::Fill(circle([x, y], 1.4)),
+                    color: lighten(pal.accent, 0.5),
+                    ink: 0.8 * b.outline_px,
+                });
             }
         }
     } else {
         // A belly patch.
         look.features.push(Feature {
-            shape: FeatureShape::Fill(Primitive::Superellipse { center: [0.12 * w, 0.08 * h], radii: [0.25 * w, 0.3 * h], exponent: 2.0, angle: 0.0 }),
+            shape: FeatureShape::Fill(Primitive::Superellipse {
+                center: [0.12 * w, 0.08 * h],
+                radii: [0.25 * w, 0.3 * h],
+                exponent: 2.0,
+                angle: 0.0,
+            }),
             color: lighten(pal.shirt, 0.55),
             ink: 0.0,
         });
@@ -410,7 +534,12 @@ fn torso_look(rng: &mut Rng, pal: &Palette, b: &Build, shape: &Shape) -> Look {
     if rng.chance(0.5) {
         // A belt.
         look.features.push(Feature {
-            shape: FeatureShape::Fill(Primitive::RoundedBox { center: [0.0, 0.32 * h], half: [w, 0.06 * h], radius: 0.0, angle: 0.0 }),
+            shape: FeatureShape::Fill(Primitive::RoundedBox {
+                center: [0.0, 0.32 * h],
+                half: [w, 0.06 * h],
+                radius: 0.0,
+                angle: 0.0,
+            }),
             color: pal.shoes,
             ink: 0.0,
         });
@@ -422,8 +551,17 @@ fn torso_look(rng: &mut Rng, pal: &Palette, b: &Build, shape: &Shape) -> Look {
 fn sleeve_look(pal: &Palette, shirt: &Pattern, shade: f32, outline_px: f32, r: f32) -> Look {
     let mut look = plain_look(scale_rgb(pal.shirt, shade), pal, outline_px, r);
     look.pattern = match shirt.clone() {
-        Pattern::Stripes { period, width, color, .. } => Pattern::Stripes { angle: PI / 2.0, period, width, color: scale_rgb(color, shade) },
-        Pattern::Dots { period, radius, color } => Pattern::Dots { period, radius, color: scale_rgb(color, shade) },
+        Pattern::Stripes { period, width, color, .. } => Pattern::Stripes {
+            angle: PI / 2.0,
+            period,
+            width,
+            color: scale_rgb(color, shade),
+        },
+        Pattern::Dots { period, radius, color } => Pattern::Dots {
+            period,
+            radius,
+            color: scale_rgb(color, shade),
+        },
         _ => Pattern::Plain,
     };
     look
@@ -437,7 +575,14 @@ fn limb_upper(name: &str, role: Role, side: Side, parent: usize, pivot: [f32; 2]
         parent: Some(parent),
         pivot,
         rest_angle,
-        shape: Shape { primitives: vec![Primitive::Capsule { a: [0.0, 0.0], b: [0.0, len], ra: r, rb: 0.9 * r }] },
+        shape: Shape {
+            primitives: vec![Primitive::Capsule {
+                a: [0.0, 0.0],
+                b: [0.0, len],
+                ra: r,
+                rb: 0.9 * r,
+            }],
+        },
         look,
     }
 }
@@ -447,7 +592,11 @@ fn arm_lower(name: &str, side: Side, parent: usize, b: &Build, rest_angle: f32, 
     let [upper, len, r] = b.arm;
     let hc = [0.0, len + 0.5 * b.hand];
     let mut look = plain_look(scale_rgb(fill, shade), pal, b.outline_px, r);
-    look.features.push(Feature { shape: FeatureShape::Fill(circle(hc, b.hand)), color: scale_rgb(hand, shade), ink: b.outline_px });
+    look.features.push(Feature {
+        shape: FeatureShape::Fill(circle(hc, b.hand)),
+        color: scale_rgb(hand, shade),
+        ink: b.outline_px,
+    });
     Part {
         name: name.into(),
         role: Role::LowerArm,
@@ -455,25 +604,64 @@ fn arm_lower(name: &str, side: Side, parent: usize, b: &Build, rest_angle: f32, 
         parent: Some(parent),
         pivot: [0.0, upper],
         rest_angle,
-        shape: Shape { primitives: vec![Primitive::Capsule { a: [0.0, 0.0], b: [0.0, len], ra: 0.9 * r, rb: 0.8 * r }, circle(hc, b.hand)] },
+        shape: Shape {
+            primitives: vec![
+                Primitive::Capsule {
+                    a: [0.0, 0.0],
+                    b: [0.0, len],
+                    ra: 0.9 * r,
+                    rb: 0.8 * r,
+                },
+                circle(hc, b.hand),
+            ],
+        },
         look,
     }
 }
 
 #[allow(clippy::too_many_arguments)]
-fn leg_lower(name: &str, side: Side, parent: usize, b: &Build, rest_angle: f32, fill: Rgb, shade: f32, pal: &Palette, rng: &mut Rng) -> Part {
+fn leg_lower(
+    name: &str,
+    side: Side,
+    parent: usize,
+    b: &Build,
+    rest_angle: f32,
+    fill: Rgb,
+    shade: f32,
+    pal: &Palette,
+    rng: &mut Rng,
+) -> Part {
     let [upper, len, r] = b.leg;
     let [fl, fh] = b.foot;
     let foot = if rng.chance(0.5) {
-        Primitive::Superellipse { center: [0.3 * fl, len + 0.2 * fh], radii: [0.5 * fl, 0.5 * fh + 1.0], exponent: 2.5, angle: 0.0 }
+        Primitive::Superellipse {
+            center: [0.3 * fl, len + 0.2 * fh],
+            radii: [0.5 * fl, 0.5 * fh + 1.0],
+            exponent: 2.5,
+            angle: 0.0,
+        }
     } else {
-        Primitive::RoundedBox { center: [0.3 * fl, len + 0.2 * fh], half: [0.5 * fl, 0.5 * fh + 1.0], radius: 0.45 * fh, angle: 0.0 }
+        Primitive::RoundedBox {
+            center: [0.3 * fl, len + 0.2 * fh],
+            half: [0.5 * fl, 0.5 * fh + 1.0],
+            radius: 0.45 * fh,
+            angle: 0.0,
+        }
     };
     let mut look = plain_look(scale_rgb(fill, shade), pal, b.outline_px, r);
     if rng.chance(0.5) {
-        look.pattern = Pattern::Stripes { angle: PI / 2.0, period: rng.range(3.5, 5.5), width: 1.6, color: scale_rgb(lighten(pal.accent, 0.3), shade) };
+        look.pattern = Pattern::Stripes {
+            angle: PI / 2.0,
+            period: rng.range(3.5, 5.5),
+            width: 1.6,
+            color: scale_rgb(lighten(pal.accent, 0.3), shade),
+        };
     }
-    look.features.push(Feature { shape: FeatureShape::Fill(foot.clone()), color: scale_rgb(pal.shoes, shade), ink: b.outline_px });
+    look.features.push(Feature {
+        shape: FeatureShape::Fill(foot.clone()),
+        color: scale_rgb(pal.shoes, shade),
+        ink: b.outline_px,
+    });
     Part {
         name: name.into(),
         role: Role::LowerLeg,
@@ -481,7 +669,17 @@ fn leg_lower(name: &str, side: Side, parent: usize, b: &Build, rest_angle: f32, 
         parent: Some(parent),
         pivot: [0.0, upper],
         rest_angle,
-        shape: Shape { primitives: vec![Primitive::Capsule { a: [0.0, 0.0], b: [0.0, len], ra: 0.9 * r, rb: 0.75 * r }, foot] },
+        shape: Shape {
+            primitives: vec![
+                Primitive::Capsule {
+                    a: [0.0, 0.0],
+                    b: [0.0, len],
+                    ra: 0.9 * r,
+                    rb: 0.75 * r,
+                },
+                foot,
+            ],
+        },
         look,
     }
 }
@@ -491,9 +689,24 @@ fn head(rng: &mut Rng, pal: &Palette, b: &Build) -> (Shape, Look, [f32; 2]) {
     let [hw, hh] = b.head;
     let c = [rng.range(0.0, 0.2) * hw, -0.8 * hh];
     let prim = match rng.below(3) {
-        0 => Primitive::Superellipse { center: c, radii: [hw, hh], exponent: 2.0, angle: 0.0 },
-        1 => Primitive::Superellipse { center: c, radii: [hw, hh], exponent: rng.range(2.5, 3.5), angle: 0.0 },
-        _ => Primitive::RoundedBox { center: c, half: [hw, hh], radius: rng.range(0.45, 0.7) * hw.min(hh), angle: 0.0 },
+        0 => Primitive::Superellipse {
+            center: c,
+            radii: [hw, hh],
+            exponent: 2.0,
+            angle: 0.0,
+        },
+        1 => Primitive::Superellipse {
+            center: c,
+            radii: [hw, hh],
+            exponent: rng.range(2.5, 3.5),
+            angle: 0.0,
+        },
+        _ => Primitive::RoundedBox {
+            center: c,
+            half: [hw, hh],
+            radius: rng.range(0.45, 0.7) * hw.min(hh),
+            angle: 0.0,
+        },
     };
     let mut look = plain_look(pal.skin, pal, b.outline_px, hw);
     look.shadow_offset = [-0.25 * hw, -0.2 * hh];
@@ -519,25 +732,51 @@ fn head(rng: &mut Rng, pal: &Palette, b: &Build) -> (Shape, Look, [f32; 2]) {
         let r = if k == 0 { [0.8 * eye_r[0], eye_r[1]] } else { eye_r };
         let e = [c[0] + dx * hw, eye_y];
         look.features.push(Feature {
-            shape: FeatureShape::Fill(Primitive::Superellipse { center: e, radii: r, exponent: 2.0, angle: 0.0 }),
+            shape: FeatureShape::Fill(Primitive::Superellipse {
+                center: e,
+                radii: r,
+                exponent: 2.0,
+                angle: 0.0,
+            }),
             color: white,
             ink: 0.7 * b.outline_px,
         });
         let pupil = [e[0] + 0.35 * r[0], e[1] + 0.1 * r[1]];
-        look.features.push(Feature { shape: FeatureShape::Fill(circle(pupil, 0.5 * r[0].min(r[1]))), color: dark, ink: 0.0 });
-        look.features.push(Feature { shape: FeatureShape::Fill(circle([pupil[0] + 0.2 * r[0], pupil[1] - 0.25 * r[1]], 0.18 * r[0].min(r[1]))), color: white, ink: 0.0 });
+        look.features.push(Feature {
+            shape: FeatureShape::Fill(circle(pupil, 0.5 * r[0].min(r[1]))),
+            color: dark,
+            ink: 0.0,
+        });
+        look.features.push(Feature {
+            shape: FeatureShape::Fill(circle([pupil[0] + 0.2 * r[0], pupil[1] - 0.25 * r[1]], 0.18 * r[0].min(r[1]))),
+            color: white,
+            ink: 0.0,
+        });
     }
     look.features.push(Feature {
-        shape: FeatureShape::Smile { center: [c[0] + 0.42 * hw, c[1] + 0.3 * hh], radius: rng.range(0.15, 0.25) * hw, thickness: 0.06 * hw + 0.6 },
+        shape: FeatureShape::Smile {
+            center: [c[0] + 0.42 * hw, c[1] + 0.3 * hh],
+            radius: rng.range(0.15, 0.25) * hw,
+            thickness: 0.06 * hw + 0.6,
+        },
         color: dark,
         ink: 0.0,
     });
     if rng.chance(0.6) {
-        look.features.push(Feature { shape: FeatureShape::Fill(circle([c[0] + 0.75 * hw, c[1] + 0.25 * hh], 0.12 * hw)), color: lighten([0.95, 0.45, 0.5], 0.35), ink: 0.0 });
+        look.features.push(Feature {
+            shape: FeatureShape::Fill(circle([c[0] + 0.75 * hw, c[1] + 0.25 * hh], 0.12 * hw)),
+            color: lighten([0.95, 0.45, 0.5], 0.35),
+            ink: 0.0,
+        });
     }
     if rng.chance(0.5) {
         look.features.push(Feature {
-            shape: FeatureShape::Fill(Primitive::Superellipse { center: [c[0] + 0.9 * hw, c[1] + 0.05 * hh], radii: [0.14 * hw, 0.1 * hh], exponent: 2.0, angle: 0.0 }),
+            shape: FeatureShape::Fill(Primitive::Superellipse {
+                center: [c[0] + 0.9 * hw, c[1] + 0.05 * hh],
+                radii: [0.14 * hw, 0.1 * hh],
+                exponent: 2.0,
+                angle: 0.0,
+            }),
             color: scale_rgb(pal.skin, 0.8),
             ink: 0.6 * b.outline_px,
         });
@@ -560,8 +799,8 @@ fn reorder(parts: Vec<Part>) -> Vec<Part> {
         .collect()
 }
 
-/// The rest placement: scale so the character's rest bounding box is 72 % of the frame height
-/// (and at most 70 % of its width), feet toward the bottom, centred horizontally.
+/// The rest placement: scale so the character's rest bounding box is 78 % of the frame height
+/// (and at most 80 % of its width), feet toward the bottom, centred horizontally.
 fn fit(c: &Character, width: u32, height: u32) -> Similarity {
     let world = c.world_transforms(&Similarity::IDENTITY, &vec![0.0; c.parts.len()]);
     let mut lo = [f32::INFINITY; 2];
@@ -575,7 +814,7 @@ fn fit(c: &Character, width: u32, height: u32) -> Similarity {
         }
     }
     let (w, h) = (width as f32, height as f32);
-    let k = (0.72 * h / (hi[1] - lo[1])).min(0.7 * w / (hi[0] - lo[0]));
+    let k = (0.78 * h / (hi[1] - lo[1])).min(0.8 * w / (hi[0] - lo[0]));
     let centre = [0.5 * (lo[0] + hi[0]), 0.5 * (lo[1] + hi[1])];
     Similarity::new(0.0, k, [0.5 * w - k * centre[0], 0.54 * h - k * centre[1]])
 }

@@ -26,13 +26,21 @@ impl Grid {
     /// `max_spacing` and at least 3 cells along the shorter side.
     pub fn covering(bounds: [[f32; 2]; 2], margin: f32, max_spacing: f32) -> Grid {
         let lo = [bounds[0][0] - margin, bounds[0][1] - margin];
-        let size = [bounds[1][0] - bounds[0][0] + 2.0 * margin, bounds[1][1] - bounds[0][1] + 2.0 * margin];
+        let size = [
+            bounds[1][0] - bounds[0][0] + 2.0 * margin,
+            bounds[1][1] - bounds[0][1] + 2.0 * margin,
+        ];
         let spacing = max_spacing.min(size[0].min(size[1]) / 3.0).max(1e-3);
         let cols = (size[0] / spacing).ceil() as u32 + 1;
         let rows = (size[1] / spacing).ceil() as u32 + 1;
         // Centre the (slightly larger) grid on the box.
         let extra = [(cols - 1) as f32 * spacing - size[0], (rows - 1) as f32 * spacing - size[1]];
-        Grid { origin: [lo[0] - 0.5 * extra[0], lo[1] - 0.5 * extra[1]], spacing, cols: cols.max(2), rows: rows.max(2) }
+        Grid {
+            origin: [lo[0] - 0.5 * extra[0], lo[1] - 0.5 * extra[1]],
+            spacing,
+            cols: cols.max(2),
+            rows: rows.max(2),
+        }
     }
 
     /// Number of vertices.
@@ -131,7 +139,15 @@ impl<'a> InverseMap<'a> {
                 }
             }
         }
-        InverseMap { rest: grid.vertices(), deformed, triangles, lo, cell, dims, buckets }
+        InverseMap {
+            rest: grid.vertices(),
+            deformed,
+            triangles,
+            lo,
+            cell,
+            dims,
+            buckets,
+        }
     }
 
     /// The rest point that maps to `q`, or `None` if `q` is outside the deformed grid.
@@ -176,7 +192,10 @@ mod tests {
         assert!(g.spacing <= 2.0);
         assert!(v.iter().any(|p| p[0] <= -4.0) && v.iter().any(|p| p[0] >= 6.0));
         assert!(v.iter().any(|p| p[1] <= -2.0) && v.iter().any(|p| p[1] >= 10.0));
-        let mesh = crate::puppet::Mesh { vertices: v, triangles: g.triangles() };
+        let mesh = crate::puppet::Mesh {
+            vertices: v,
+            triangles: g.triangles(),
+        };
         mesh.check_invariants().unwrap();
     }
 
@@ -193,14 +212,20 @@ mod tests {
     #[test]
     fn inverse_map_undoes_a_smooth_deformation() {
         let g = grid();
-        let deformed: Vec<[f32; 2]> =
-            g.vertices().iter().map(|p| [p[0] + 0.4 * (0.3 * p[1]).sin(), p[1] + 0.3 * (0.2 * p[0]).cos() + 0.5]).collect();
+        let deformed: Vec<[f32; 2]> = g
+            .vertices()
+            .iter()
+            .map(|p| [p[0] + 0.4 * (0.3 * p[1]).sin(), p[1] + 0.3 * (0.2 * p[0]).cos() + 0.5])
+            .collect();
         let inv = InverseMap::new(&g, &deformed);
         for k in 0..200 {
             let p = [-3.5 + (k % 20) as f32 * 0.45, -1.5 + (k / 20) as f32 * 1.1];
             let q = g.map(&deformed, p);
             let back = inv.rest_of(q).expect("inside the grid");
-            assert!((back[0] - p[0]).abs() < 1e-3 && (back[1] - p[1]).abs() < 1e-3, "{p:?} -> {q:?} -> {back:?}");
+            assert!(
+                (back[0] - p[0]).abs() < 1e-3 && (back[1] - p[1]).abs() < 1e-3,
+                "{p:?} -> {q:?} -> {back:?}"
+            );
         }
         assert_eq!(inv.rest_of([100.0, 100.0]), None);
     }

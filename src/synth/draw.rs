@@ -125,7 +125,10 @@ fn paint_part(
     };
     let rows = pixels[y0 * w..y1 * w].par_chunks_mut(w);
     match labels {
-        Some(labels) => rows.zip(labels[y0 * w..y1 * w].par_chunks_mut(w)).enumerate().for_each(|(k, (out, lab))| row(y0 + k, out, Some(lab))),
+        Some(labels) => rows
+            .zip(labels[y0 * w..y1 * w].par_chunks_mut(w))
+            .enumerate()
+            .for_each(|(k, (out, lab))| row(y0 + k, out, Some(lab))),
         None => rows.enumerate().for_each(|(k, out)| row(y0 + k, out, None)),
     }
 }

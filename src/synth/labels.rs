@@ -44,8 +44,16 @@ pub fn label_picture(character: &Character, drawing: &Drawing) -> Picture {
             [r as f32 / 255.0, g as f32 / 255.0, b as f32 / 255.0, 1.0]
         })
         .collect();
-    let pixels = drawing.labels.iter().map(|&l| if l == BACKGROUND { [0.0; 4] } else { colors[l as usize] }).collect();
-    Picture { width: w, height: h, pixels }
+    let pixels = drawing
+        .labels
+        .iter()
+        .map(|&l| if l == BACKGROUND { [0.0; 4] } else { colors[l as usize] })
+        .collect();
+    Picture {
+        width: w,
+        height: h,
+        pixels,
+    }
 }
 
 #[cfg(test)]

@@ -106,7 +106,10 @@ pub struct Wobble {
 
 impl Wobble {
     /// No wobble.
-    pub const NONE: Wobble = Wobble { amplitude: 0.0, waves: [[0.0; 3]; 3] };
+    pub const NONE: Wobble = Wobble {
+        amplitude: 0.0,
+        waves: [[0.0; 3]; 3],
+    };
 
     fn wave(&self, k: usize, p: [f32; 2]) -> f32 {
         let [fx, fy, phase] = self.waves[k];
@@ -161,7 +164,12 @@ impl Pattern {
     fn sample(&self, fill: Rgb, p: [f32; 2], px: f32) -> Rgb {
         match *self {
             Pattern::Plain => fill,
-            Pattern::Stripes { angle, period, width, color } => {
+            Pattern::Stripes {
+                angle,
+                period,
+                width,
+                color,
+            } => {
                 let u = p[0] * libm::cosf(angle) + p[1] * libm::sinf(angle);
                 let f = u / period - libm::floorf(u / period);
                 let d = ((f - 0.5).abs() * period - 0.5 * width) * px;
@@ -202,7 +210,11 @@ pub fn paint(look: &Look, shape: &Shape, p: [f32; 2], px: f32, wobble: &Wobble) 
         let df = f.shape.sdf(p) * px;
         let cf = coverage(df);
         if cf > 0.0 {
-            let fc = if f.ink > 0.0 { mix(f.color, look.outline, coverage(-(df + f.ink))) } else { f.color };
+            let fc = if f.ink > 0.0 {
+                mix(f.color, look.outline, coverage(-(df + f.ink)))
+            } else {
+                f.color
+            };
             c = mix(c, fc, cf);
         }
     }
@@ -217,7 +229,12 @@ mod tests {
 
     fn disc_look() -> (Look, Shape) {
         let shape = Shape {
-            primitives: vec![Primitive::Superellipse { center: [0.0, 0.0], radii: [10.0, 10.0], exponent: 2.0, angle: 0.0 }],
+            primitives: vec![Primitive::Superellipse {
+                center: [0.0, 0.0],
+                radii: [10.0, 10.0],
+                exponent: 2.0,
+                angle: 0.0,
+            }],
         };
         let look = Look {
             fill: [1.0, 0.0, 0.0],
@@ -225,7 +242,12 @@ mod tests {
             shadow: [0.5, 0.0, 0.0],
             shadow_offset: [0.0, 0.0],
             features: vec![Feature {
-                shape: FeatureShape::Fill(Primitive::Superellipse { center: [0.0, 0.0], radii: [3.0, 3.0], exponent: 2.0, angle: 0.0 }),
+                shape: FeatureShape::Fill(Primitive::Superellipse {
+                    center: [0.0, 0.0],
+                    radii: [3.0, 3.0],
+                    exponent: 2.0,
+                    angle: 0.0,
+                }),
                 color: [0.0, 0.0, 1.0],
                 ink: 0.0,
             }],
@@ -244,7 +266,7 @@ mod tests {
         assert_eq!(paint(&look, &shape, [9.0, 0.0], 1.0, &none), [0.0, 0.0, 0.0, 1.0]); // outline
         assert_eq!(paint(&look, &shape, [11.0, 0.0], 1.0, &none)[3], 0.0); // outside
         assert_eq!(paint(&look, &shape, [10.0, 0.0], 1.0, &none)[3], 0.5); // on the edge
-        // At scale 2 the same local point is 2 px from the edge: fully inside.
+                                                                           // At scale 2 the same local point is 2 px from the edge: fully inside.
         assert_eq!(paint(&look, &shape, [9.0, 0.0], 2.0, &none)[3], 1.0);
     }
 
@@ -252,10 +274,19 @@ mod tests {
     fn stripes_and_dots_alternate() {
         let red = [1.0, 0.0, 0.0];
         let white = [1.0, 1.0, 1.0];
-        let stripes = Pattern::Stripes { angle: 0.0, period: 10.0, width: 4.0, color: white };
+        let stripes = Pattern::Stripes {
+            angle: 0.0,
+            period: 10.0,
+            width: 4.0,
+            color: white,
+        };
         assert_eq!(stripes.sample(red, [5.0, 3.0], 1.0), white);
         assert_eq!(stripes.sample(red, [0.0, 3.0], 1.0), red);
-        let dots = Pattern::Dots { period: 10.0, radius: 2.0, color: white };
+        let dots = Pattern::Dots {
+            period: 10.0,
+            radius: 2.0,
+            color: white,
+        };
         assert_eq!(dots.sample(red, [5.0, 5.0], 1.0), white);
         assert_eq!(dots.sample(red, [0.0, 5.0], 1.0), red);
         assert_eq!(dots.sample(red, [10.0, 15.0], 1.0), white); // odd rows are staggered
@@ -264,7 +295,10 @@ mod tests {
     #[test]
     fn wobble_moves_the_edge_by_at_most_its_amplitude() {
         let (look, shape) = disc_look();
-        let w = Wobble { amplitude: 0.4, waves: [[0.5, 0.2, 1.0], [-0.3, 0.6, 2.0], [0.1, 0.1, 0.0]] };
+        let w = Wobble {
+            amplitude: 0.4,
+            waves: [[0.5, 0.2, 1.0], [-0.3, 0.6, 2.0], [0.1, 0.1, 0.0]],
+        };
         for k in 0..64 {
             let t = k as f32 / 64.0 * std::f32::consts::TAU;
             let inside = paint(&look, &shape, [9.0 * t.cos(), 9.0 * t.sin()], 1.0, &w)[3];

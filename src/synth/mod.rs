@@ -29,5 +29,5 @@ pub mod truth;
 
 pub use output::{contact_sheet, write_sequence, write_sprite_sheet, Written};
 pub use pose::Motion;
-pub use sequence::{generate, SynthOptions, Sequence};
+pub use sequence::{generate, Sequence, SynthOptions};
 pub use truth::{true_positions, Truth};

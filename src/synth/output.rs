@@ -51,7 +51,11 @@ pub fn write_template(seq: &Sequence, dir: &Path) -> Result<PathBuf> {
 
 /// The alpha channel as an opaque grey picture (white = covered).
 pub fn mask_picture(image: &Picture) -> Picture {
-    Picture { width: image.width, height: image.height, pixels: image.pixels.iter().map(|p| [p[3], p[3], p[3], 1.0]).collect() }
+    Picture {
+        width: image.width,
+        height: image.height,
+        pixels: image.pixels.iter().map(|p| [p[3], p[3], p[3], 1.0]).collect(),
+    }
 }
 
 /// Frames composited on white in a grid of `columns`, 2-pixel light grey gutters.
@@ -120,7 +124,12 @@ pub fn write_sequence(seq: &Sequence, dir: &Path, progress: &dyn Progress) -> Re
     contact_sheet(&frames, 8).save_png(&dir.join("contact_sheet.png"))?;
     let truth = dir.join("truth.json");
     seq.truth.save(&truth)?;
-    Ok(Written { dir: dir.to_path_buf(), images: 3 * n + seq.template.len() + 1, truth, template })
+    Ok(Written {
+        dir: dir.to_path_buf(),
+        images: 3 * n + seq.template.len() + 1,
+        truth,
+        template,
+    })
 }
 
 /// Writes the sequence as a sprite sheet into `dir`: `sheet.png` (poses in a grid of `columns`),
@@ -153,5 +162,10 @@ pub fn write_sprite_sheet(seq: &Sequence, dir: &Path, columns: usize) -> Result<
     });
     let path = dir.join("truth.json");
     truth.save(&path)?;
-    Ok(Written { dir: dir.to_path_buf(), images: 2 + seq.template.len(), truth: path, template })
+    Ok(Written {
+        dir: dir.to_path_buf(),
+        images: 2 + seq.template.len(),
+        truth: path,
+        template,
+    })
 }

@@ -52,8 +52,15 @@ impl PartArap {
         for _ in 0..free {
             // Inside the part, at least 30 % of its extent from every other handle; else the
             // inside vertex farthest from them.
-            let far = |v: usize| handles.iter().map(|&h| dist2(vertices[v], vertices[h as usize])).fold(f32::INFINITY, f32::min);
-            let inside: Vec<usize> = (0..vertices.len()).filter(|&v| shape.sdf(vertices[v]) < 0.0 && !handles.contains(&(v as u32))).collect();
+            let far = |v: usize| {
+                handles
+                    .iter()
+                    .map(|&h| dist2(vertices[v], vertices[h as usize]))
+                    .fold(f32::INFINITY, f32::min)
+            };
+            let inside: Vec<usize> = (0..vertices.len())
+                .filter(|&v| shape.sdf(vertices[v]) < 0.0 && !handles.contains(&(v as u32)))
+                .collect();
             let good: Vec<usize> = inside.iter().copied().filter(|&v| far(v) >= (0.3 * reach).powi(2)).collect();
             let pick = if !good.is_empty() {
                 good[rng.below(good.len())]
@@ -66,12 +73,23 @@ impl PartArap {
             handles.push(pick as u32);
         }
         let gains = (pinned..handles.len())
-            .map(|_| [[rng.normal(), rng.normal()], [rng.normal(), rng.normal()], [rng.normal(), rng.normal()]])
+            .map(|_| {
+                [
+                    [rng.normal(), rng.normal()],
+                    [rng.normal(), rng.normal()],
+                    [rng.normal(), rng.normal()],
+                ]
+            })
             .collect();
         let rest: Vec<[f64; 2]> = vertices.iter().map(|p| [p[0] as f64, p[1] as f64]).collect();
-        let solver = ArapSolver::new(&rest, &grid.triangles(), &handles)
-            .map_err(|e| Error::Invalid(format!("synthetic part deformation: {e}")))?;
-        Ok(PartArap { solver, rest, pinned, gains })
+        let solver =
+            ArapSolver::new(&rest, &grid.triangles(), &handles).map_err(|e| Error::Invalid(format!("synthetic part deformation: {e}")))?;
+        Ok(PartArap {
+            solver,
+            rest,
+            pinned,
+            gains,
+        })
     }
 
     /// Deformed grid vertices for handle offsets of scale `sigma` (local units): smooth in the
@@ -92,7 +110,10 @@ impl PartArap {
                     Some(phi) => {
                         let (c, s) = (libm::cosf(phi), libm::sinf(phi));
                         let k3 = 1.0 / 3f32.sqrt();
-                        [k3 * (g[0][0] + g[1][0] * c + g[2][0] * s), k3 * (g[0][1] + g[1][1] * c + g[2][1] * s)]
+                        [
+                            k3 * (g[0][0] + g[1][0] * c + g[2][0] * s),
+                            k3 * (g[0][1] + g[1][1] * c + g[2][1] * s),
+                        ]
                     }
                     None => [rng.normal(), rng.normal()],
                 };

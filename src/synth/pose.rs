@@ -127,7 +127,11 @@ impl Animator {
         let mut phase = Some(phi);
         match self.motion {
             Motion::Walk => {
-                let progress = if self.frames > 1 { t as f32 / (self.frames - 1) as f32 - 0.5 } else { 0.0 };
+                let progress = if self.frames > 1 {
+                    t as f32 / (self.frames - 1) as f32 - 0.5
+                } else {
+                    0.0
+                };
                 dx = self.drift * progress;
                 dy = -self.bob * (0.5 + 0.5 * libm::cosf(2.0 * phi)) + 0.5 * self.bob;
                 lean = 0.05 + 0.02 * libm::sinf(2.0 * phi);
@@ -137,7 +141,8 @@ impl Animator {
                     delta[i] = match part.role {
                         Role::UpperLeg => self.hip * libm::cosf(psi),
                         Role::LowerLeg => self.knee * libm::sinf(psi).max(0.0).powi(2) + 0.05,
-                        Role::UpperArm => -self.arm * libm::cosf(psi),
+                        // Arms hang closer to the body than in the spread rest pose.
+                        Role::UpperArm => -0.7 * part.rest_angle - self.arm * libm::cosf(psi),
                         Role::LowerArm => -self.elbow * (0.5 - 0.5 * libm::cosf(psi)) - 0.1,
                         Role::Head => 0.05 * libm::sinf(2.0 * phi),
                         Role::Tail => 0.35 * libm::sinf(phi),
@@ -167,7 +172,11 @@ impl Animator {
             Motion::Jump => {
                 let u = u - libm::floorf(u);
                 let crouch = bump(u, 0.0, 0.3).max(bump(u, 0.72, 1.0));
-                let air = if u > 0.25 && u < 0.78 { libm::sinf(PI * (u - 0.25) / 0.53) } else { 0.0 };
+                let air = if u > 0.25 && u < 0.78 {
+                    libm::sinf(PI * (u - 0.25) / 0.53)
+                } else {
+                    0.0
+                };
                 dy = 0.05 * self.height * crouch - 0.11 * self.height * air;
                 lean = 0.15 * crouch;
                 for (i, part) in character.parts.iter().enumerate() {

@@ -45,7 +45,15 @@ pub struct SynthOptions {
 
 impl Default for SynthOptions {
     fn default() -> Self {
-        SynthOptions { seed: 42, frames: 24, width: 256, height: 256, motion: Motion::Walk, deform_sigma: 0.02, wobble: 0.35 }
+        SynthOptions {
+            seed: 42,
+            frames: 24,
+            width: 256,
+            height: 256,
+            motion: Motion::Walk,
+            deform_sigma: 0.02,
+            wobble: 0.35,
+        }
     }
 }
 
@@ -61,11 +69,16 @@ impl SynthOptions {
         }
         for (name, v) in [("width", self.width), ("height", self.height)] {
             if !(MIN_SIDE..=MAX_SIDE).contains(&v) {
-                problems.push(Error::Invalid(format!("size: {name} {v} px is out of range (expected {MIN_SIDE} to {MAX_SIDE})")));
+                problems.push(Error::Invalid(format!(
+                    "size: {name} {v} px is out of range (expected {MIN_SIDE} to {MAX_SIDE})"
+                )));
             }
         }
         if !(0.0..=0.1).contains(&self.deform_sigma) {
-            problems.push(Error::Invalid(format!("deformation σ {} (expected 0 to 0.1 of the image size)", self.deform_sigma)));
+            problems.push(Error::Invalid(format!(
+                "deformation σ {} (expected 0 to 0.1 of the image size)",
+                self.deform_sigma
+            )));
         }
         if !(0.0..=2.0).contains(&self.wobble) {
             problems.push(Error::Invalid(format!("wobble {} px (expected 0 to 2)", self.wobble)));
@@ -104,8 +117,8 @@ pub fn generate(opts: &SynthOptions, progress: &dyn Progress) -> Result<Sequence
     let character = Character::generate(opts.seed, w, h);
     let n = character.parts.len();
     let k = character.rest_root.scale(); // rest-frame pixels per local unit
-    // Grids: 3 px of margin (anti-aliasing and wobble stay inside), cells of ≤ 3.5 % of the
-    // frame's smaller side.
+                                         // Grids: 3 px of margin (anti-aliasing and wobble stay inside), cells of ≤ 3.5 % of the
+                                         // frame's smaller side.
     let grids: Vec<Grid> = character
         .parts
         .iter()
@@ -126,7 +139,12 @@ pub fn generate(opts: &SynthOptions, progress: &dyn Progress) -> Result<Sequence
     progress.stage("template", n as u64);
     let template = (0..n)
         .map(|i| {
-            let placed = Placed { world: rest_world[i], grid: &grids[i], deformed: None, wobble: Wobble::NONE };
+            let placed = Placed {
+                world: rest_world[i],
+                grid: &grids[i],
+                deformed: None,
+                wobble: Wobble::NONE,
+            };
             let layer = draw_part(&character, i, &placed, w, h);
             progress.advance(1);
             layer
@@ -141,17 +159,31 @@ pub fn generate(opts: &SynthOptions, progress: &dyn Progress) -> Result<Sequence
         let pose = animator.pose(&character, t);
         let world = character.world_transforms(&pose.root, &pose.delta);
         let mut rng = root_rng.fork(1000 + t as u64);
-        let deformed: Vec<Option<Vec<[f32; 2]>>> =
-            deformers.iter_mut().map(|d| Some(d.deform(sigma, pose.phase, &mut rng))).chain(std::iter::repeat(None)).take(n).collect();
+        let deformed: Vec<Option<Vec<[f32; 2]>>> = deformers
+            .iter_mut()
+            .map(|d| Some(d.deform(sigma, pose.phase, &mut rng)))
+            .chain(std::iter::repeat(None))
+            .take(n)
+            .collect();
         let wobbles: Vec<Wobble> = (0..n).map(|_| wobble(&mut rng, opts.wobble)).collect();
         let placed: Vec<Placed> = (0..n)
-            .map(|i| Placed { world: world[i], grid: &grids[i], deformed: deformed[i].as_deref(), wobble: wobbles[i] })
+            .map(|i| Placed {
+                world: world[i],
+                grid: &grids[i],
+                deformed: deformed[i].as_deref(),
+                wobble: wobbles[i],
+            })
             .collect();
         frames.push(draw(&character, &placed, w, h));
         frame_truth.push(FrameTruth {
             file: format!("frames/{}", frame_name("frame", t, opts.frames)),
             labels: format!("labels/{}", frame_name("label", t, opts.frames)),
-            parts: (0..n).map(|i| PartFrame { world: world[i], deformed: deformed[i].clone() }).collect(),
+            parts: (0..n)
+                .map(|i| PartFrame {
+                    world: world[i],
+                    deformed: deformed[i].clone(),
+                })
+                .collect(),
         });
         progress.advance(1);
     }
@@ -179,7 +211,12 @@ pub fn generate(opts: &SynthOptions, progress: &dyn Progress) -> Result<Sequence
         frames: frame_truth,
         sheet: None,
     };
-    Ok(Sequence { character, template, frames, truth })
+    Ok(Sequence {
+        character,
+        template,
+        frames,
+        truth,
+    })
 }
 
 /// A fresh wobble: two silhouette waves and one width wave, wavelengths 8–16 local units in
@@ -189,7 +226,11 @@ fn wobble(rng: &mut Rng, amplitude: f32) -> Wobble {
     for wave in &mut waves {
         let dir = rng.range(0.0, std::f32::consts::TAU);
         let freq = std::f32::consts::TAU / rng.range(8.0, 16.0);
-        *wave = [freq * libm::cosf(dir), freq * libm::sinf(dir), rng.range(0.0, std::f32::consts::TAU)];
+        *wave = [
+            freq * libm::cosf(dir),
+            freq * libm::sinf(dir),
+            rng.range(0.0, std::f32::consts::TAU),
+        ];
     }
     Wobble { amplitude, waves }
 }

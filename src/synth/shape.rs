@@ -57,10 +57,18 @@ impl Primitive {
     /// Signed distance from `p` to the primitive's boundary (negative inside).
     pub fn sdf(&self, p: [f32; 2]) -> f32 {
         match *self {
-            Primitive::Superellipse { center, radii, exponent, angle } => {
-                superellipse_sdf(to_frame(p, center, angle), radii, exponent)
-            }
-            Primitive::RoundedBox { center, half, radius, angle } => {
+            Primitive::Superellipse {
+                center,
+                radii,
+                exponent,
+                angle,
+            } => superellipse_sdf(to_frame(p, center, angle), radii, exponent),
+            Primitive::RoundedBox {
+                center,
+                half,
+                radius,
+                angle,
+            } => {
                 let q = to_frame(p, center, angle);
                 let r = radius.min(half[0]).min(half[1]).max(0.0);
                 let dx = q[0].abs() - half[0] + r;
@@ -75,7 +83,13 @@ impl Primitive {
     /// An axis-aligned box `[min, max]` that contains the primitive.
     pub fn bounds(&self) -> [[f32; 2]; 2] {
         match *self {
-            Primitive::Superellipse { center, radii, angle, .. } | Primitive::RoundedBox { center, half: radii, angle, .. } => {
+            Primitive::Superellipse { center, radii, angle, .. }
+            | Primitive::RoundedBox {
+                center,
+                half: radii,
+                angle,
+                ..
+            } => {
                 // The rotated box of half extents `radii` contains both shapes.
                 let (s, c) = (libm::sinf(angle).abs(), libm::cosf(angle).abs());
                 let ex = c * radii[0] + s * radii[1];
@@ -190,9 +204,24 @@ mod tests {
     #[test]
     fn exact_distances_match_brute_force() {
         let prims = [
-            Primitive::RoundedBox { center: [1.0, 2.0], half: [6.0, 3.0], radius: 1.5, angle: 0.4 },
-            Primitive::Capsule { a: [0.0, 0.0], b: [3.0, 10.0], ra: 4.0, rb: 2.0 },
-            Primitive::Superellipse { center: [0.0, 0.0], radii: [5.0, 5.0], exponent: 2.0, angle: 0.0 },
+            Primitive::RoundedBox {
+                center: [1.0, 2.0],
+                half: [6.0, 3.0],
+                radius: 1.5,
+                angle: 0.4,
+            },
+            Primitive::Capsule {
+                a: [0.0, 0.0],
+                b: [3.0, 10.0],
+                ra: 4.0,
+                rb: 2.0,
+            },
+            Primitive::Superellipse {
+                center: [0.0, 0.0],
+                radii: [5.0, 5.0],
+                exponent: 2.0,
+                angle: 0.0,
+            },
         ];
         let inner = [[1.0, 2.0], [0.5, 1.0], [0.0, 0.0]];
         for (prim, inner) in prims.iter().zip(inner) {
@@ -206,7 +235,12 @@ mod tests {
 
     #[test]
     fn superellipse_distance_is_exact_on_axes_and_accurate_near_the_boundary() {
-        let prim = Primitive::Superellipse { center: [0.0, 0.0], radii: [8.0, 4.0], exponent: 3.0, angle: 0.0 };
+        let prim = Primitive::Superellipse {
+            center: [0.0, 0.0],
+            radii: [8.0, 4.0],
+            exponent: 3.0,
+            angle: 0.0,
+        };
         assert!((prim.sdf([10.0, 0.0]) - 2.0).abs() < 1e-4);
         assert!((prim.sdf([0.0, 3.0]) + 1.0).abs() < 1e-4);
         // Within ±1 unit of the boundary (the outline band) the estimate is within 5 %.
@@ -229,8 +263,18 @@ mod tests {
     fn union_takes_the_nearest_and_bounds_contain_the_shape() {
         let shape = Shape {
             primitives: vec![
-                Primitive::Capsule { a: [0.0, 0.0], b: [0.0, 10.0], ra: 2.0, rb: 2.0 },
-                Primitive::Superellipse { center: [3.0, 12.0], radii: [4.0, 2.0], exponent: 2.0, angle: 0.3 },
+                Primitive::Capsule {
+                    a: [0.0, 0.0],
+                    b: [0.0, 10.0],
+                    ra: 2.0,
+                    rb: 2.0,
+                },
+                Primitive::Superellipse {
+                    center: [3.0, 12.0],
+                    radii: [4.0, 2.0],
+                    exponent: 2.0,
+                    angle: 0.3,
+                },
             ],
         };
         assert!((shape.sdf([-5.0, 5.0]) - 3.0).abs() < 1e-5);

@@ -19,11 +19,21 @@ pub struct Similarity {
 
 impl Similarity {
     /// The identity.
-    pub const IDENTITY: Similarity = Similarity { a: 1.0, b: 0.0, tx: 0.0, ty: 0.0 };
+    pub const IDENTITY: Similarity = Similarity {
+        a: 1.0,
+        b: 0.0,
+        tx: 0.0,
+        ty: 0.0,
+    };
 
     /// Rotation by `angle` radians and scale `scale` about the origin, then translation `t`.
     pub fn new(angle: f32, scale: f32, t: [f32; 2]) -> Self {
-        Similarity { a: scale * libm::cosf(angle), b: scale * libm::sinf(angle), tx: t[0], ty: t[1] }
+        Similarity {
+            a: scale * libm::cosf(angle),
+            b: scale * libm::sinf(angle),
+            tx: t[0],
+            ty: t[1],
+        }
     }
 
     /// Maps a point.
@@ -34,7 +44,12 @@ impl Similarity {
     /// `self ∘ other`: first `other`, then `self`.
     pub fn compose(&self, other: &Similarity) -> Similarity {
         let [tx, ty] = self.apply([other.tx, other.ty]);
-        Similarity { a: self.a * other.a - self.b * other.b, b: self.b * other.a + self.a * other.b, tx, ty }
+        Similarity {
+            a: self.a * other.a - self.b * other.b,
+            b: self.b * other.a + self.a * other.b,
+            tx,
+            ty,
+        }
     }
 
     /// The inverse map.
@@ -45,7 +60,12 @@ impl Similarity {
         let d = self.a * self.a + self.b * self.b;
         assert!(d > 0.0, "inverse of a zero-scale similarity");
         let (a, b) = (self.a / d, -self.b / d);
-        Similarity { a, b, tx: -(a * self.tx - b * self.ty), ty: -(b * self.tx + a * self.ty) }
+        Similarity {
+            a,
+            b,
+            tx: -(a * self.tx - b * self.ty),
+            ty: -(b * self.tx + a * self.ty),
+        }
     }
 
     /// The scale factor.

@@ -130,7 +130,10 @@ impl Truth {
         let text = std::fs::read_to_string(path).map_err(|e| Error::io(path, e))?;
         let truth: Truth = serde_json::from_str(&text).map_err(|e| Error::format(path, format!("invalid truth.json: {e}")))?;
         if truth.version != TRUTH_VERSION {
-            return Err(Error::format(path, format!("truth.json version {} (this build reads version {TRUTH_VERSION})", truth.version)));
+            return Err(Error::format(
+                path,
+                format!("truth.json version {} (this build reads version {TRUTH_VERSION})", truth.version),
+            ));
         }
         truth.check().map_err(|problem| Error::format(path, problem))?;
         Ok(truth)
@@ -154,7 +157,11 @@ impl Truth {
                 let n = self.parts[p].grid.vertex_count();
                 if let Some(d) = &placed.deformed {
                     if d.len() != n {
-                        return Err(format!("frame {f}: part {:?}: {} deformed vertices, expected {n}", self.parts[p].name, d.len()));
+                        return Err(format!(
+                            "frame {f}: part {:?}: {} deformed vertices, expected {n}",
+                            self.parts[p].name,
+                            d.len()
+                        ));
                     }
                 }
                 if placed.world.scale() <= 0.0 || !placed.world.scale().is_finite() {
@@ -175,7 +182,10 @@ impl Truth {
 /// such layers are listed).
 pub fn true_positions(truth: &Truth, frame: usize, puppet: &Puppet) -> Result<Vec<[f32; 2]>> {
     if frame >= truth.frames.len() {
-        return Err(Error::Invalid(format!("truth: frame {frame} requested, the sequence has {} frames", truth.frames.len())));
+        return Err(Error::Invalid(format!(
+            "truth: frame {frame} requested, the sequence has {} frames",
+            truth.frames.len()
+        )));
     }
     let mut problems = Vec::new();
     let mut out = Vec::with_capacity(puppet.vertex_count());
