@@ -10,10 +10,15 @@
 
 pub mod atomic_file;
 pub mod backend;
+pub mod model;
 pub mod error;
+pub mod geom;
 pub mod picture;
 pub mod progress;
 pub mod puppet;
 pub mod render;
+pub mod synth;
+#[cfg(test)]
+pub(crate) mod test_util;
 
 pub use error::{Error, Result};

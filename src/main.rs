@@ -11,10 +11,6 @@ fn main() -> ExitCode {
     match cli::run(args) {
         Ok(()) => ExitCode::SUCCESS,
         Err(err) => {
-            // A closed pipe (`puppet info … | head`) is not an error worth reporting.
-            if err.chain().any(|c| c.downcast_ref::<std::io::Error>().is_some_and(|e| e.kind() == std::io::ErrorKind::BrokenPipe)) {
-                return ExitCode::SUCCESS;
-            }
             eprintln!("puppet: error: {err:#}");
             ExitCode::FAILURE
         }

@@ -2,6 +2,9 @@
 
 use clap::{Parser, Subcommand};
 
+mod build;
+mod info;
+mod render;
 mod synth;
 mod ui;
 
@@ -25,8 +28,12 @@ pub struct Common {
     pub quiet: bool,
 }
 
+/// The subcommands.
 #[derive(Debug, Subcommand)]
 enum Command {
+    Build(build::BuildArgs),
+    Info(info::InfoArgs),
+    Render(render::RenderArgs),
     Synth(synth::SynthArgs),
 }
 
@@ -34,6 +41,9 @@ enum Command {
 pub fn run(cli: Cli) -> anyhow::Result<()> {
     let ui = Ui::new(cli.common.quiet);
     match cli.command {
+        Command::Build(args) => build::run(args, &ui),
+        Command::Info(args) => info::run(args, &ui),
+        Command::Render(args) => render::run(args, &ui),
         Command::Synth(args) => synth::run(args, &ui),
     }
 }

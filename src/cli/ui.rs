@@ -1,6 +1,7 @@
 //! The terminal side of [`puppet::progress::Progress`]: indicatif bars with ETA on stderr, and
 //! the summary lines commands print on stdout.
 
+use std::io::Write;
 use std::sync::Mutex;
 
 use indicatif::{ProgressBar, ProgressStyle};
@@ -22,7 +23,8 @@ impl Ui {
     pub fn say(&self, text: impl AsRef<str>) {
         if !self.quiet {
             self.finish();
-            println!("{}", text.as_ref());
+            // A closed pipe (`puppet info … | head`) is not worth failing over.
+            let _ = writeln!(std::io::stdout().lock(), "{}", text.as_ref());
         }
     }
 

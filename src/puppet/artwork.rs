@@ -1,1 +1,318 @@
-//! TODO
+//! Artwork import: the three forms of DESIGN.md "Formats", all turned into same-size layer images.
+//!
+//! - a folder with `character.toml` and one RGBA PNG per layer;
+//! - a label map (one flat colour per part) + the reference image + a legend in `character.toml`;
+//! - an OpenRaster `.ora` file (see [`super::ora`]).
+//!
+//! Every bad layer of an import is reported at once ([`Error::Many`]).
+
+use std::path::{Path, PathBuf};
+
+use super::character::{parse_color, Character};
+use super::LayerKind;
+use crate::error::{Error, Result};
+use crate::picture::Picture;
+
+/// One layer of imported artwork, full reference-frame size, straight alpha.
+#[derive(Clone, Debug, PartialEq)]
+pub struct ArtLayer {
+    /// The layer's name as the artwork gives it.
+    pub name: String,
+    /// Body part or accessory.
+    pub kind: LayerKind,
+    /// The layer's pixels, same size as every other layer.
+    pub picture: Picture,
+}
+
+/// A character's artwork: layers back → front, the root, optional joint pairs.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Artwork {
+    /// Where it was read from (folder, `character.toml` or `.ora`), for messages.
+    pub source: PathBuf,
+    /// Display name.
+    pub name: String,
+    /// Layers back (index 0) → front.
+    pub layers: Vec<ArtLayer>,
+    /// Index of the root body layer.
+    pub root: usize,
+    /// Pairs of layer indices to join; `None` joins every overlapping pair.
+    pub joint_pairs: Option<Vec<[usize; 2]>>,
+}
+
+/// How the label-map form cuts parts out of the reference image.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ImportOptions {
+    /// Pixels each label-map part extends under the parts in front of it (colours copied from
+    /// its nearest own pixel), so parts overlap where they meet — which is where joints go —
+    /// and no gap opens when a limb rotates. Holes of a part that lie entirely under parts in
+    /// front of it are filled the same way.
+    pub label_overlap: u32,
+}
+
+impl Default for ImportOptions {
+    fn default() -> Self {
+        ImportOptions { label_overlap: 2 }
+    }
+}
+
+impl Artwork {
+    /// Width and height shared by every layer.
+    pub fn size(&self) -> (u32, u32) {
+        let p = &self.layers[0].picture;
+        (p.width, p.height)
+    }
+
+    /// The layers composited back → front ("over"), straight alpha: what the reference frame
+    /// looks like.
+    pub fn composite(&self) -> Picture {
+        let (w, h) = self.size();
+        let mut out = Picture::filled(w, h, [0.0; 4]);
+        for layer in &self.layers {
+            for (dst, src) in out.pixels.iter_mut().zip(&layer.picture.pixels) {
+                *dst = over(*src, *dst);
+            }
+        }
+        out
+    }
+}
+
+/// Straight-alpha "over": `top` composited onto `bottom`.
+pub fn over(top: [f32; 4], bottom: [f32; 4]) -> [f32; 4] {
+    let a = top[3] + bottom[3] * (1.0 - top[3]);
+    if a <= 0.0 {
+        return [0.0; 4];
+    }
+    let mix = |k: usize| (top[k] * top[3] + bottom[k] * bottom[3] * (1.0 - top[3])) / a;
+    [mix(0), mix(1), mix(2), a]
+}
+
+/// Reads artwork from a folder holding `character.toml`, a `character.toml` file, or a `.ora`.
+///
+/// # Errors
+/// A missing or unreadable file, a bad `character.toml`, layers of different sizes, a fully
+/// transparent layer, label-map colours missing from the legend or legend colours missing from
+/// the map, unlabelled opaque pixels, or a corrupt `.ora` — each naming the file and layer.
+pub fn load(path: &Path, opts: &ImportOptions) -> Result<Artwork> {
+    if !path.exists() {
+        return Err(Error::format(path, "no such file or folder (expected a folder with character.toml, a character.toml, or an .ora)"));
+    }
+    if path.extension().is_some_and(|e| e.eq_ignore_ascii_case("ora")) {
+        return super::ora::load(path);
+    }
+    let toml_path = if path.is_dir() { path.join("character.toml") } else { path.to_path_buf() };
+    let character = Character::load(&toml_path)?;
+    let dir = toml_path.parent().unwrap_or(Path::new("."));
+    let name = character.name.clone().unwrap_or_else(|| folder_name(dir));
+    let layers = match &character.labels {
+        Some(labels) => {
+            let map_path = dir.join(&labels.map);
+            let image_path = dir.join(&labels.image);
+            let (map, image) = (Picture::load(&map_path)?, Picture::load(&image_path)?);
+            cut_label_map(&character, &map, &map_path, &image, &image_path, opts)?
+        }
+        None => load_layer_pngs(&character, dir, &toml_path)?,
+    };
+    let index = |n: &str| character.layers.iter().position(|l| l.name == n).expect("validated joint names");
+    let joint_pairs = character.joints.as_ref().map(|pairs| pairs.iter().map(|[a, b]| [index(a), index(b)]).collect());
+    Ok(Artwork { source: toml_path.clone(), name, layers, root: character.root_index(), joint_pairs })
+}
+
+fn folder_name(dir: &Path) -> String {
+    let dir = dir.canonicalize().unwrap_or_else(|_| dir.to_path_buf());
+    dir.file_name().map_or_else(|| "character".into(), |n| n.to_string_lossy().into_owned())
+}
+
+/// Loads the layer-PNG form, checking sizes and emptiness of every layer.
+fn load_layer_pngs(character: &Character, dir: &Path, toml_path: &Path) -> Result<Vec<ArtLayer>> {
+    let mut layers = Vec::new();
+    let mut problems = Vec::new();
+    for spec in &character.layers {
+        let file = dir.join(spec.file.as_ref().expect("validated: layer-PNG form has files"));
+        match Picture::load(&file) {
+            Ok(picture) => layers.push((ArtLayer { name: spec.name.clone(), kind: spec.kind, picture }, file)),
+            Err(e) => problems.push(e),
+        }
+    }
+    if let Some((first, first_file)) = layers.first() {
+        let (w, h) = (first.picture.width, first.picture.height);
+        for (layer, file) in &layers[1..] {
+            if (layer.picture.width, layer.picture.height) != (w, h) {
+                problems.push(Error::layer(
+                    file,
+                    &layer.name,
+                    format!(
+                        "{}×{}, expected {w}×{h} like layer {:?} ({})",
+                        layer.picture.width,
+                        layer.picture.height,
+                        first.name,
+                        first_file.display()
+                    ),
+                ));
+            }
+        }
+    }
+    for (layer, file) in &layers {
+        if layer.picture.pixels.iter().all(|p| p[3] == 0.0) {
+            problems.push(Error::layer(file, &layer.name, "fully transparent (no pixel has alpha > 0)"));
+        }
+    }
+    if layers.is_empty() && problems.is_empty() {
+        problems.push(Error::format(toml_path, "no layers"));
+    }
+    Error::collect(problems)?;
+    Ok(layers.into_iter().map(|(l, _)| l).collect())
+}
+
+/// Cuts the reference image into one layer per label-map colour (label-map form).
+fn cut_label_map(
+    character: &Character,
+    map: &Picture,
+    map_path: &Path,
+    image: &Picture,
+    image_path: &Path,
+    opts: &ImportOptions,
+) -> Result<Vec<ArtLayer>> {
+    if (map.width, map.height) != (image.width, image.height) {
+        return Err(Error::format(
+            map_path,
+            format!("label map is {}×{}, expected {}×{} like {}", map.width, map.height, image.width, image.height, image_path.display()),
+        ));
+    }
+    let legend: Vec<[u8; 3]> =
+        character.layers.iter().map(|l| parse_color(l.color.as_deref().expect("validated: colours present")).expect("validated colour")).collect();
+    let labels = label_pixels(map, map_path, &legend)?;
+    let mut problems = Vec::new();
+    let unlabelled: Vec<usize> = (0..labels.len()).filter(|&i| labels[i].is_none() && image.pixels[i][3] > 0.5).collect();
+    if let Some(&first) = unlabelled.first() {
+        let (x, y) = (first as u32 % map.width, first as u32 / map.width);
+        problems.push(Error::format(
+            map_path,
+            format!("{} opaque pixels of {} have no label, first at ({x}, {y})", unlabelled.len(), image_path.display()),
+        ));
+    }
+    let mut layers = Vec::new();
+    for (k, spec) in character.layers.iter().enumerate() {
+        let own: Vec<bool> = labels.iter().map(|&l| l == Some(k)).collect();
+        if !own.iter().any(|&o| o) {
+            problems.push(Error::layer(
+                map_path,
+                &spec.name,
+                format!("its colour {} does not appear in the label map", spec.color.as_deref().unwrap_or_default()),
+            ));
+            continue;
+        }
+        // Where this part may extend: under parts drawn in front of it.
+        let under_front: Vec<bool> = labels.iter().map(|&l| l.is_some_and(|o| o > k)).collect();
+        let picture = extend_part(image, &own, &under_front, opts.label_overlap);
+        layers.push(ArtLayer { name: spec.name.clone(), kind: spec.kind, picture });
+    }
+    Error::collect(problems)?;
+    Ok(layers)
+}
+
+/// The legend index of every pixel (`None` for transparent background); unknown colours are
+/// reported with their pixel counts and first positions.
+fn label_pixels(map: &Picture, map_path: &Path, legend: &[[u8; 3]]) -> Result<Vec<Option<usize>>> {
+    let mut unknown: Vec<([u8; 3], usize, usize)> = Vec::new(); // colour, count, first pixel
+    let labels = map
+        .pixels
+        .iter()
+        .enumerate()
+        .map(|(i, p)| {
+            if p[3] == 0.0 {
+                return None;
+            }
+            let rgb = [p[0], p[1], p[2]].map(|c| (c * 255.0).round() as u8);
+            let found = legend.iter().position(|&c| c == rgb);
+            if found.is_none() {
+                match unknown.iter_mut().find(|u| u.0 == rgb) {
+                    Some(u) => u.1 += 1,
+                    None => unknown.push((rgb, 1, i)),
+                }
+            }
+            found
+        })
+        .collect();
+    if unknown.is_empty() {
+        return Ok(labels);
+    }
+    unknown.sort_by_key(|u| std::cmp::Reverse(u.1));
+    let listed: Vec<String> = unknown
+        .iter()
+        .take(5)
+        .map(|(c, n, i)| {
+            format!("#{:02x}{:02x}{:02x} ({n} px, first at ({}, {}))", c[0], c[1], c[2], *i as u32 % map.width, *i as u32 / map.width)
+        })
+        .collect();
+    let more = if unknown.len() > 5 { format!(" and {} more", unknown.len() - 5) } else { String::new() };
+    Err(Error::format(
+        map_path,
+        format!("colours not in the legend of character.toml: {}{more} (label maps need flat colours, no anti-aliasing)", listed.join(", ")),
+    ))
+}
+
+/// The part's own pixels, grown by up to `overlap` pixels into `allowed` (and filling holes made
+/// only of `allowed` pixels), new pixels opaque and coloured like their nearest own pixel.
+fn extend_part(image: &Picture, own: &[bool], allowed: &[bool], overlap: u32) -> Picture {
+    let (w, h) = (image.width as usize, image.height as usize);
+    let mut out = Picture::filled(image.width, image.height, [0.0; 4]);
+    for ((dst, src), &mine) in out.pixels.iter_mut().zip(&image.pixels).zip(own) {
+        if mine {
+            *dst = *src;
+        }
+    }
+    let holes = enclosed_holes(own, allowed, w, h);
+    // Breadth-first growth: each step takes the colour of an already-owned 4-neighbour.
+    let mut owned = own.to_vec();
+    let mut frontier: Vec<usize> = (0..own.len()).filter(|&i| own[i]).collect();
+    let mut step = 0;
+    while !frontier.is_empty() {
+        step += 1;
+        let mut next = Vec::new();
+        for &i in &frontier {
+            let (x, y) = (i % w, i / w);
+            let neighbours = [(x > 0).then(|| i - 1), (x + 1 < w).then(|| i + 1), (y > 0).then(|| i - w), (y + 1 < h).then(|| i + w)];
+            for j in neighbours.into_iter().flatten() {
+                let reachable = allowed[j] && (step <= overlap as usize || holes[j]);
+                if !owned[j] && reachable {
+                    owned[j] = true;
+                    let c = out.pixels[i];
+                    out.pixels[j] = [c[0], c[1], c[2], 1.0];
+                    next.push(j);
+                }
+            }
+        }
+        frontier = next;
+    }
+    out
+}
+
+/// Pixels not in `own` that cannot reach the image border without crossing `own`, in components
+/// made only of `allowed` pixels (a hole that is wholly covered by parts in front).
+fn enclosed_holes(own: &[bool], allowed: &[bool], w: usize, h: usize) -> Vec<bool> {
+    // Label 4-connected components of !own; a component is a fillable hole if it touches no
+    // border and all its pixels are allowed.
+    let mut component = vec![usize::MAX; own.len()];
+    let mut fillable = Vec::new();
+    for start in 0..own.len() {
+        if own[start] || component[start] != usize::MAX {
+            continue;
+        }
+        let id = fillable.len();
+        let (mut ok, mut stack) = (true, vec![start]);
+        component[start] = id;
+        while let Some(i) = stack.pop() {
+            let (x, y) = (i % w, i / w);
+            ok &= allowed[i] && x > 0 && y > 0 && x + 1 < w && y + 1 < h;
+            let neighbours = [(x > 0).then(|| i - 1), (x + 1 < w).then(|| i + 1), (y > 0).then(|| i - w), (y + 1 < h).then(|| i + w)];
+            for j in neighbours.into_iter().flatten() {
+                if !own[j] && component[j] == usize::MAX {
+                    component[j] = id;
+                    stack.push(j);
+                }
+            }
+        }
+        fillable.push(ok);
+    }
+    component.iter().map(|&c| c != usize::MAX && fillable[c]).collect()
+}

@@ -1,1 +1,157 @@
-//! TODO
+//! `puppet.json`: the puppet on disk (DESIGN.md "Formats"), versioned, beside one PNG texture per
+//! layer in `textures/`. Saving then loading gives back an identical [`Puppet`]: positions are
+//! f32 written in shortest round-trip form, textures are 8-bit like the artwork they came from.
+
+use std::path::{Path, PathBuf};
+
+use serde::{Deserialize, Serialize};
+
+use super::{Joint, Layer, LayerKind, Mesh, Puppet, VertexRef};
+use crate::error::{Error, Result};
+use crate::picture::Picture;
+
+/// The schema version this build writes and the newest it reads.
+pub const SCHEMA_VERSION: u32 = 1;
+
+/// The file name of a puppet inside its folder.
+pub const PUPPET_FILE: &str = "puppet.json";
+
+#[derive(Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct PuppetFile {
+    schema: u32,
+    width: u32,
+    height: u32,
+    root: String,
+    layers: Vec<LayerFile>,
+    joints: Vec<JointFile>,
+}
+
+#[derive(Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct LayerFile {
+    name: String,
+    kind: LayerKind,
+    texture: PathBuf,
+    vertices: Vec<[f32; 2]>,
+    triangles: Vec<[u32; 3]>,
+    uvs: Vec<[f32; 2]>,
+}
+
+#[derive(Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct JointFile {
+    a: JointEnd,
+    b: JointEnd,
+}
+
+/// A joint end by layer *name*, so the file reads well and survives layer reordering by hand.
+#[derive(Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct JointEnd {
+    layer: String,
+    vertex: u32,
+}
+
+/// Only the version, read first so a newer file gets a clear message instead of a field error.
+#[derive(Deserialize)]
+struct Version {
+    schema: u32,
+}
+
+/// Writes `puppet` into folder `dir` as `puppet.json` + `textures/NN_<layer>.png`.
+///
+/// # Errors
+/// [`Error::Io`]/[`Error::Image`] naming the file that could not be written.
+pub fn save(puppet: &Puppet, dir: &Path) -> Result<()> {
+    let mut layers = Vec::new();
+    for (i, layer) in puppet.layers.iter().enumerate() {
+        let texture = PathBuf::from("textures").join(format!("{i:02}_{}.png", file_safe(&layer.name)));
+        layer.texture.save_png(&dir.join(&texture))?;
+        layers.push(LayerFile {
+            name: layer.name.clone(),
+            kind: layer.kind,
+            texture,
+            vertices: layer.mesh.vertices.clone(),
+            triangles: layer.mesh.triangles.clone(),
+            uvs: layer.uvs.clone(),
+        });
+    }
+    let end = |v: VertexRef| JointEnd { layer: puppet.layers[v.layer].name.clone(), vertex: v.vertex };
+    let file = PuppetFile {
+        schema: SCHEMA_VERSION,
+        width: puppet.width,
+        height: puppet.height,
+        root: puppet.layers[puppet.root].name.clone(),
+        layers,
+        joints: puppet.joints.iter().map(|j| JointFile { a: end(j.a), b: end(j.b) }).collect(),
+    };
+    let json = serde_json::to_vec_pretty(&file).expect("puppet file serialises: plain data, string keys");
+    crate::atomic_file::write_atomic(&dir.join(PUPPET_FILE), &json)
+}
+
+/// Reads a puppet from a folder holding `puppet.json` (or from the `puppet.json` path itself).
+///
+/// # Errors
+/// [`Error::Io`] if missing; [`Error::Format`] for bad JSON, a schema newer than
+/// [`SCHEMA_VERSION`], or inconsistent content (index out of range, UV count, texture size,
+/// joint naming an unknown layer or vertex); [`Error::Layer`] for a bad texture.
+pub fn load(path: &Path) -> Result<Puppet> {
+    let json_path = if path.is_dir() { path.join(PUPPET_FILE) } else { path.to_path_buf() };
+    let dir = json_path.parent().unwrap_or(Path::new("."));
+    let text = std::fs::read_to_string(&json_path).map_err(|e| Error::io(&json_path, e))?;
+    let version: Version = serde_json::from_str(&text).map_err(|e| Error::format(&json_path, format!("not a puppet file: {e}")))?;
+    if version.schema > SCHEMA_VERSION {
+        return Err(Error::format(
+            &json_path,
+            format!("schema version {} is newer than this puppet understands ({SCHEMA_VERSION}); use a newer puppet", version.schema),
+        ));
+    }
+    let file: PuppetFile = serde_json::from_str(&text).map_err(|e| Error::format(&json_path, format!("invalid puppet file: {e}")))?;
+    let mut problems = Vec::new();
+    let mut layers = Vec::new();
+    for lf in file.layers {
+        let texture_path = dir.join(&lf.texture);
+        let texture = match Picture::load(&texture_path) {
+            Ok(t) => t,
+            Err(e) => {
+                problems.push(e);
+                continue;
+            }
+        };
+        let layer = Layer { name: lf.name, kind: lf.kind, mesh: Mesh { vertices: lf.vertices, triangles: lf.triangles }, uvs: lf.uvs, texture };
+        if let Err(problem) = check_layer(&layer, file.width, file.height) {
+            problems.push(Error::layer(&json_path, &layer.name, problem));
+        }
+        layers.push(layer);
+    }
+    Error::collect(problems)?;
+    let find = |name: &str| layers.iter().position(|l| l.name == name);
+    let root = find(&file.root).ok_or_else(|| Error::format(&json_path, format!("root {:?} is not a layer", file.root)))?;
+    let mut joints = Vec::new();
+    for (k, j) in file.joints.iter().enumerate() {
+        let resolve = |end: &JointEnd| match find(&end.layer) {
+            Some(layer) if (end.vertex as usize) < layers[layer].mesh.vertices.len() => Ok(VertexRef { layer, vertex: end.vertex }),
+            Some(_) => Err(Error::format(&json_path, format!("joint {k}: layer {:?} has no vertex {}", end.layer, end.vertex))),
+            None => Err(Error::format(&json_path, format!("joint {k}: no layer {:?}", end.layer))),
+        };
+        joints.push(Joint { a: resolve(&j.a)?, b: resolve(&j.b)? });
+    }
+    Ok(Puppet { width: file.width, height: file.height, layers, root, joints })
+}
+
+fn check_layer(layer: &Layer, width: u32, height: u32) -> std::result::Result<(), String> {
+    layer.mesh.check_invariants()?;
+    if layer.uvs.len() != layer.mesh.vertices.len() {
+        return Err(format!("{} UVs for {} vertices", layer.uvs.len(), layer.mesh.vertices.len()));
+    }
+    if (layer.texture.width, layer.texture.height) != (width, height) {
+        return Err(format!("texture is {}×{}, expected {width}×{height}", layer.texture.width, layer.texture.height));
+    }
+    Ok(())
+}
+
+/// A layer name made safe for a file name (letters, digits, `-`, `_`; others become `_`).
+fn file_safe(name: &str) -> String {
+    name.chars().map(|c| if c.is_ascii_alphanumeric() || c == '-' || c == '_' { c } else { '_' }).collect()
+}

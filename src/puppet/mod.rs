@@ -12,7 +12,8 @@ pub mod character;
 pub mod format;
 pub mod joints;
 pub mod mesh;
-mod ora;
+pub mod ora;
+pub mod pose_file;
 
 use crate::picture::Picture;
 

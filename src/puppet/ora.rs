@@ -1,1 +1,205 @@
-//! TODO
+//! OpenRaster (`.ora`) import: a zip holding `mimetype`, `stack.xml` and one PNG per layer —
+//! what Krita, GIMP and MyPaint export (spec: openraster.org, "Stack").
+//!
+//! `stack.xml` lists layers top (front) first; we reverse to our back → front order. Each layer
+//! PNG is placed at its `x`, `y` offset on an image-sized canvas and multiplied by its `opacity`.
+//! Hidden layers (`visibility="hidden"`) are skipped. Layers inside a stack named `accessories`
+//! are accessories; all others are body parts. The root is the body layer with the most opaque
+//! pixels. Every overlapping pair of layers is joined.
+
+use std::io::Read;
+use std::path::Path;
+
+use quick_xml::events::Event;
+
+use super::artwork::{ArtLayer, Artwork};
+use super::LayerKind;
+use crate::error::{Error, Result};
+use crate::picture::Picture;
+
+/// One `<layer>` element of `stack.xml`.
+struct StackLayer {
+    name: String,
+    src: String,
+    x: i64,
+    y: i64,
+    opacity: f32,
+    accessory: bool,
+}
+
+/// Reads a `.ora` file.
+///
+/// # Errors
+/// [`Error::Io`] if unreadable; [`Error::Format`] for a bad zip, a missing or malformed
+/// `stack.xml`, or a layer whose PNG is absent; [`Error::Layer`] for an undecodable or fully
+/// transparent layer.
+pub fn load(path: &Path) -> Result<Artwork> {
+    let file = std::fs::File::open(path).map_err(|e| Error::io(path, e))?;
+    let mut zip = zip::ZipArchive::new(file).map_err(|e| Error::format(path, format!("not a valid OpenRaster zip: {e}")))?;
+    let stack_xml = read_entry(&mut zip, "stack.xml", path)?;
+    let stack_xml = String::from_utf8(stack_xml).map_err(|_| Error::format(path, "stack.xml is not UTF-8"))?;
+    let (width, height, entries) = parse_stack(&stack_xml).map_err(|p| Error::format(path, format!("stack.xml: {p}")))?;
+    let mut layers = Vec::new();
+    let mut problems = Vec::new();
+    for entry in entries.iter().rev() {
+        let bytes = match read_entry(&mut zip, &entry.src, path) {
+            Ok(b) => b,
+            Err(_) => {
+                problems.push(Error::layer(path, &entry.name, format!("stack.xml references {:?}, which is not in the archive", entry.src)));
+                continue;
+            }
+        };
+        let inner = path.join(&entry.src);
+        match Picture::decode(&bytes, &inner) {
+            Ok(pic) => {
+                let picture = place(&pic, entry, width, height);
+                if picture.pixels.iter().all(|p| p[3] == 0.0) {
+                    problems.push(Error::layer(path, &entry.name, "fully transparent (no pixel has alpha > 0)"));
+                }
+                let kind = if entry.accessory { LayerKind::Accessory } else { LayerKind::Body };
+                layers.push(ArtLayer { name: entry.name.clone(), kind, picture });
+            }
+            Err(e) => problems.push(Error::layer(path, &entry.name, e.to_string())),
+        }
+    }
+    let mut names = std::collections::HashSet::new();
+    for layer in &layers {
+        if !names.insert(layer.name.as_str()) {
+            problems.push(Error::layer(path, &layer.name, "duplicate layer name (rename it in the editor)"));
+        }
+    }
+    Error::collect(problems)?;
+    let root = layers
+        .iter()
+        .enumerate()
+        .filter(|(_, l)| l.kind == LayerKind::Body)
+        .max_by_key(|(_, l)| l.picture.pixels.iter().filter(|p| p[3] > 0.5).count())
+        .map(|(i, _)| i)
+        .ok_or_else(|| Error::format(path, "no body layer (every layer is hidden or an accessory)"))?;
+    let name = path.file_stem().map_or_else(|| "character".into(), |s| s.to_string_lossy().into_owned());
+    Ok(Artwork { source: path.to_path_buf(), name, layers, root, joint_pairs: None })
+}
+
+fn read_entry(zip: &mut zip::ZipArchive<std::fs::File>, name: &str, path: &Path) -> Result<Vec<u8>> {
+    let mut entry = zip.by_name(name).map_err(|_| Error::format(path, format!("no {name} in the archive (not an OpenRaster file?)")))?;
+    let mut bytes = Vec::new();
+    entry.read_to_end(&mut bytes).map_err(|e| Error::format(path, format!("{name}: cannot unzip: {e}")))?;
+    Ok(bytes)
+}
+
+/// Draws a layer PNG at its offset on a `width`×`height` canvas, scaled by its opacity.
+fn place(pic: &Picture, entry: &StackLayer, width: u32, height: u32) -> Picture {
+    let mut out = Picture::filled(width, height, [0.0; 4]);
+    for y in 0..pic.height as i64 {
+        for x in 0..pic.width as i64 {
+            let (cx, cy) = (x + entry.x, y + entry.y);
+            if (0..width as i64).contains(&cx) && (0..height as i64).contains(&cy) {
+                let mut p = pic.pixels[(y * pic.width as i64 + x) as usize];
+                p[3] *= entry.opacity;
+                out.pixels[(cy * width as i64 + cx) as usize] = p;
+            }
+        }
+    }
+    out
+}
+
+/// Parses `stack.xml` into the image size and its layers, top first.
+fn parse_stack(xml: &str) -> std::result::Result<(u32, u32, Vec<StackLayer>), String> {
+    let mut reader = quick_xml::Reader::from_str(xml);
+    let mut size = None;
+    let mut layers = Vec::new();
+    // Names of the enclosing <stack> elements, to find the "accessories" group.
+    let mut stacks: Vec<String> = Vec::new();
+    loop {
+        let event = reader.read_event().map_err(|e| format!("malformed XML at byte {}: {e}", reader.buffer_position()))?;
+        let (element, is_empty) = match &event {
+            Event::Start(e) => (e, false),
+            Event::Empty(e) => (e, true),
+            Event::End(e) if e.name().as_ref() == b"stack" => {
+                stacks.pop();
+                continue;
+            }
+            Event::Eof => break,
+            _ => continue,
+        };
+        let mut attrs = std::collections::HashMap::new();
+        for a in element.attributes() {
+            let a = a.map_err(|e| format!("bad attribute: {e}"))?;
+            let value = a.unescape_value().map_err(|e| format!("bad attribute value: {e}"))?.into_owned();
+            attrs.insert(String::from_utf8_lossy(a.key.as_ref()).into_owned(), value);
+        }
+        let number = |key: &str, default: f64| -> std::result::Result<f64, String> {
+            attrs.get(key).map_or(Ok(default), |v| v.trim().parse::<f64>().map_err(|_| format!("{key}={v:?} is not a number")))
+        };
+        match element.name().as_ref() {
+            b"image" => {
+                let (w, h) = (number("w", 0.0)?, number("h", 0.0)?);
+                if w < 1.0 || h < 1.0 {
+                    return Err("<image> needs positive w and h".into());
+                }
+                size = Some((w as u32, h as u32));
+            }
+            b"stack" if !is_empty => stacks.push(attrs.get("name").cloned().unwrap_or_default()),
+            b"layer" => {
+                if attrs.get("visibility").is_some_and(|v| v == "hidden") {
+                    continue;
+                }
+                let src = attrs.get("src").cloned().ok_or("a <layer> has no src")?;
+                let name = attrs.get("name").cloned().unwrap_or_else(|| src.clone());
+                let accessory = stacks.iter().any(|s| s.eq_ignore_ascii_case("accessories"));
+                layers.push(StackLayer {
+                    name,
+                    src,
+                    x: number("x", 0.0)? as i64,
+                    y: number("y", 0.0)? as i64,
+                    opacity: number("opacity", 1.0)?.clamp(0.0, 1.0) as f32,
+                    accessory,
+                });
+            }
+            _ => {}
+        }
+    }
+    let (w, h) = size.ok_or("no <image> element")?;
+    if layers.is_empty() {
+        return Err("no visible <layer> elements".into());
+    }
+    Ok((w, h, layers))
+}
+
+/// Writes artwork as a `.ora` (all layers full-size, back → front reversed to top-first), for
+/// tests and for exporting a label-map character to an editor.
+///
+/// # Errors
+/// [`Error::Io`] or [`Error::Image`] naming `path`.
+pub fn save(artwork: &Artwork, path: &Path) -> Result<()> {
+    use std::io::Write;
+    let (w, h) = artwork.size();
+    let mut bytes = Vec::new();
+    {
+        let mut zip = zip::ZipWriter::new(std::io::Cursor::new(&mut bytes));
+        let stored = zip::write::SimpleFileOptions::default().compression_method(zip::CompressionMethod::Stored);
+        let zip_err = |e: zip::result::ZipError| Error::format(path, format!("cannot write zip: {e}"));
+        let io_err = |e: std::io::Error| Error::io(path, e);
+        zip.start_file("mimetype", stored).map_err(zip_err)?;
+        zip.write_all(b"image/openraster").map_err(io_err)?;
+        let mut xml = format!("<?xml version='1.0' encoding='UTF-8'?>\n<image version=\"0.0.3\" w=\"{w}\" h=\"{h}\">\n<stack>\n");
+        for (i, layer) in artwork.layers.iter().enumerate().rev() {
+            let src = format!("data/layer{i}.png");
+            let name = quick_xml::escape::escape(layer.name.as_str());
+            xml.push_str(&format!("<layer name=\"{name}\" src=\"{src}\" x=\"0\" y=\"0\" opacity=\"1.0\" visibility=\"visible\"/>\n"));
+            let mut png = Vec::new();
+            layer
+                .picture
+                .to_rgba8()
+                .write_to(&mut std::io::Cursor::new(&mut png), image::ImageFormat::Png)
+                .map_err(|e| Error::Image { path: path.to_path_buf(), problem: e.to_string() })?;
+            zip.start_file(src, stored).map_err(zip_err)?;
+            zip.write_all(&png).map_err(io_err)?;
+        }
+        xml.push_str("</stack>\n</image>\n");
+        zip.start_file("stack.xml", stored).map_err(zip_err)?;
+        zip.write_all(xml.as_bytes()).map_err(io_err)?;
+        zip.finish().map_err(zip_err)?;
+    }
+    crate::atomic_file::write_atomic(path, &bytes)
+}

@@ -173,7 +173,7 @@ impl Pattern {
                 let u = p[0] * libm::cosf(angle) + p[1] * libm::sinf(angle);
                 let f = u / period - libm::floorf(u / period);
                 let d = ((f - 0.5).abs() * period - 0.5 * width) * px;
-                mix(fill, color, coverage(-d))
+                mix(fill, color, coverage(d))
             }
             Pattern::Dots { period, radius, color } => {
                 let row = libm::floorf(p[1] / period);

@@ -1,0 +1,48 @@
+//! `vertices.json`: one pose of a puppet — every vertex position in the global numbering
+//! ([`super::Puppet::vertex_offsets`]), in reference-frame pixels. Written by `puppet fit`, read
+//! by `puppet render --pose`.
+
+use std::path::Path;
+
+use serde::{Deserialize, Serialize};
+
+use super::Puppet;
+use crate::error::{Error, Result};
+
+/// A pose on disk.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct PoseFile {
+    /// Vertex positions `[x, y]` in reference-frame pixels, global numbering.
+    pub vertices: Vec<[f32; 2]>,
+}
+
+impl PoseFile {
+    /// Reads a pose and checks it fits `puppet` (vertex count, finite coordinates).
+    ///
+    /// # Errors
+    /// [`Error::Io`] if unreadable, [`Error::Format`] for bad JSON or a pose of another puppet.
+    pub fn load(path: &Path, puppet: &Puppet) -> Result<Self> {
+        let text = std::fs::read_to_string(path).map_err(|e| Error::io(path, e))?;
+        let pose: PoseFile = serde_json::from_str(&text).map_err(|e| Error::format(path, format!("not a pose file: {e}")))?;
+        if pose.vertices.len() != puppet.vertex_count() {
+            return Err(Error::format(
+                path,
+                format!("{} vertices, but the puppet has {} (a pose of another puppet?)", pose.vertices.len(), puppet.vertex_count()),
+            ));
+        }
+        if let Some(i) = pose.vertices.iter().position(|v| !v[0].is_finite() || !v[1].is_finite()) {
+            return Err(Error::format(path, format!("vertex {i} is not finite")));
+        }
+        Ok(pose)
+    }
+
+    /// Writes the pose atomically.
+    ///
+    /// # Errors
+    /// [`Error::Io`] naming `path`.
+    pub fn save(&self, path: &Path) -> Result<()> {
+        let json = serde_json::to_vec(self).expect("a list of number pairs serialises");
+        crate::atomic_file::write_atomic(path, &json)
+    }
+}

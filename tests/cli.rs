@@ -1,0 +1,143 @@
+//! Every subcommand end to end on `data/` and on tiny characters written by the test.
+
+mod util;
+
+use puppet::puppet::format;
+use util::{puppet, repo, write_label_character, write_layer_character};
+
+/// Builds `artwork` into `tmp/out` and checks the puppet and its preview.
+fn build_and_check(tmp: &std::path::Path, artwork: &std::path::Path, layers: usize) -> puppet::puppet::Puppet {
+    let out = tmp.join("out");
+    let run = puppet(tmp, &["build", artwork.to_str().unwrap(), "-o", out.to_str().unwrap()]);
+    run.assert_ok();
+    assert!(run.stdout.contains("preview.png"), "{}", run.stdout);
+    let p = format::load(&out).unwrap();
+    assert_eq!(p.layers.len(), layers);
+    for layer in &p.layers {
+        layer.mesh.check_invariants().unwrap();
+        assert!(layer.mesh.min_angle_degrees() >= 25.0, "layer {:?}: min angle {}", layer.name, layer.mesh.min_angle_degrees());
+    }
+    let preview = image::open(out.join("preview.png")).unwrap();
+    assert!(preview.width() >= p.width * 4, "preview is upscaled for small sprites");
+    p
+}
+
+#[test]
+fn build_and_info_on_layer_pngs() {
+    let tmp = tempfile::tempdir().unwrap();
+    let art = write_layer_character(&tmp.path().join("c"), "");
+    let p = build_and_check(tmp.path(), &art, 3);
+    assert_eq!(p.joints.len(), 2);
+    let info = puppet(tmp.path(), &["info", "out"]);
+    info.assert_ok();
+    assert!(info.stdout.contains("torso ↔ arm at (42.0, 30.0)"), "{}", info.stdout);
+    assert!(info.stdout.contains("joints (2)"), "{}", info.stdout);
+}
+
+#[test]
+fn build_on_a_label_map_and_an_ora_gives_the_same_layers() {
+    let tmp = tempfile::tempdir().unwrap();
+    let art = write_label_character(&tmp.path().join("c"));
+    let from_labels = build_and_check(tmp.path(), &art, 3);
+    let names: Vec<&str> = from_labels.layers.iter().map(|l| l.name.as_str()).collect();
+    assert_eq!(names, ["torso", "head", "arm"]);
+    assert_eq!(from_labels.joints.len(), 2);
+    // The same layers saved as OpenRaster build the same meshes.
+    let artwork = puppet::puppet::artwork::load(&art, &Default::default()).unwrap();
+    let ora = tmp.path().join("tiny.ora");
+    puppet::puppet::ora::save(&artwork, &ora).unwrap();
+    let out = tmp.path().join("from_ora");
+    puppet(tmp.path(), &["build", ora.to_str().unwrap(), "-o", out.to_str().unwrap()]).assert_ok();
+    let from_ora = format::load(&out).unwrap();
+    for (a, b) in from_labels.layers.iter().zip(&from_ora.layers) {
+        assert_eq!((&a.name, &a.mesh), (&b.name, &b.mesh));
+    }
+}
+
+#[test]
+fn subdivision_multiplies_triangles_by_four() {
+    let tmp = tempfile::tempdir().unwrap();
+    let art = write_layer_character(&tmp.path().join("c"), "");
+    let plain = build_and_check(tmp.path(), &art, 3);
+    let out = tmp.path().join("sub");
+    puppet(tmp.path(), &["build", art.to_str().unwrap(), "-o", out.to_str().unwrap(), "--subdivide", "1"]).assert_ok();
+    let sub = format::load(&out).unwrap();
+    for (a, b) in plain.layers.iter().zip(&sub.layers) {
+        assert_eq!(b.mesh.triangles.len(), 4 * a.mesh.triangles.len(), "layer {:?}", a.name);
+    }
+    // Joints are still exact: both ends at the same position.
+    for j in &sub.joints {
+        assert_eq!(sub.layers[j.a.layer].mesh.vertices[j.a.vertex as usize], sub.layers[j.b.layer].mesh.vertices[j.b.vertex as usize]);
+    }
+}
+
+#[test]
+fn unconnected_body_layer_is_reported() {
+    let tmp = tempfile::tempdir().unwrap();
+    let dir = write_layer_character(&tmp.path().join("c"), "");
+    let mut far = image::RgbaImage::new(64, 64);
+    for y in 56..62 {
+        for x in 2..10 {
+            far.put_pixel(x, y, image::Rgba([9, 9, 9, 255]));
+        }
+    }
+    far.save(dir.join("tail.png")).unwrap();
+    let toml = std::fs::read_to_string(dir.join("character.toml")).unwrap();
+    std::fs::write(dir.join("character.toml"), format!("{toml}[[layer]]\nname = \"tail\"\nfile = \"tail.png\"\n")).unwrap();
+    let run = puppet(tmp.path(), &["build", "c", "-o", "out"]);
+    run.assert_ok();
+    assert!(run.stderr.contains("warning: no joint connects these body layers to the root \"torso\": tail"), "{}", run.stderr);
+}
+
+/// The bundled Kenney characters: every part meshed, joints where parts meet.
+fn kenney(name: &str, expected_joints: &[[&str; 2]]) {
+    let tmp = tempfile::tempdir().unwrap();
+    let art = repo().join("data/kenney").join(name);
+    let character = puppet::puppet::character::Character::load(&art.join("character.toml")).unwrap();
+    let p = build_and_check(tmp.path(), &art, character.layers.len());
+    let joined: Vec<[&str; 2]> = p.joints.iter().map(|j| [p.layers[j.a.layer].name.as_str(), p.layers[j.b.layer].name.as_str()]).collect();
+    for pair in expected_joints {
+        let found = joined.iter().any(|j| (j[0] == pair[0] && j[1] == pair[1]) || (j[0] == pair[1] && j[1] == pair[0]));
+        assert!(found, "{name}: no joint {pair:?} among {joined:?}");
+    }
+    let run = puppet(tmp.path(), &["build", art.to_str().unwrap(), "-o", "again"]);
+    assert!(!run.stderr.contains("warning"), "{name}: {}", run.stderr);
+}
+
+#[test]
+fn build_kenney_robot() {
+    kenney("robot", &[["torso", "head"]]);
+}
+
+#[test]
+fn build_kenney_male_adventurer() {
+    kenney("male_adventurer", &[["torso", "head"]]);
+}
+
+#[test]
+fn build_kenney_female_adventurer() {
+    kenney("female_adventurer", &[["torso", "head"]]);
+}
+
+#[test]
+fn build_the_ora_that_gimp_wrote() {
+    let tmp = tempfile::tempdir().unwrap();
+    let ora = repo().join("data/kenney/robot/robot.ora");
+    let labels = puppet::puppet::artwork::load(&repo().join("data/kenney/robot"), &Default::default()).unwrap();
+    let p = build_and_check(tmp.path(), &ora, labels.layers.len());
+    assert!(!p.joints.is_empty());
+}
+
+#[test]
+fn render_rest_pose_reproduces_the_artwork_and_rejects_a_foreign_pose() {
+    let tmp = tempfile::tempdir().unwrap();
+    let art = write_layer_character(&tmp.path().join("c"), "");
+    build_and_check(tmp.path(), &art, 3);
+    puppet(tmp.path(), &["render", "out", "-o", "rest.png"]).assert_ok();
+    let rendered = puppet::picture::Picture::load(&tmp.path().join("rest.png")).unwrap();
+    let artwork = puppet::puppet::artwork::load(&art, &Default::default()).unwrap().composite();
+    let differing = rendered.pixels.iter().zip(&artwork.pixels).filter(|(a, b)| (a[3] > 0.5) != (b[3] > 0.5)).count();
+    assert!(differing <= 8, "{differing} pixels differ in coverage between the crisp rest render and the artwork");
+    std::fs::write(tmp.path().join("pose.json"), r#"{"vertices": [[1.0, 2.0]]}"#).unwrap();
+    puppet(tmp.path(), &["render", "out", "--pose", "pose.json", "-o", "x.png"]).assert_error(&["pose.json", "1 vertices, but the puppet has"]);
+}
