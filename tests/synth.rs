@@ -155,7 +155,10 @@ fn true_positions_land_on_the_drawn_part_in_every_frame() {
         // Points on the anti-aliased rim may land a pixel off (label maps are per pixel
         // centre, a mapped point is up to 0.7 px from its pixel's centre, and the line
         // wobbles): measured 1.6–2.5 % of all mask points on these seeds.
-        assert!((all_bad as f64) < 0.03 * all as f64, "seed {seed}: {all_bad}/{all} mask points off their part");
+        assert!(
+            (all_bad as f64) < 0.03 * all as f64,
+            "seed {seed}: {all_bad}/{all} mask points off their part"
+        );
     }
 }
 

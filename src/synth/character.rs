@@ -567,6 +567,7 @@ fn sleeve_look(pal: &Palette, shirt: &Pattern, shade: f32, outline_px: f32, r: f
     look
 }
 
+#[allow(clippy::too_many_arguments)]
 fn limb_upper(name: &str, role: Role, side: Side, parent: usize, pivot: [f32; 2], rest_angle: f32, [len, r]: [f32; 2], look: Look) -> Part {
     Part {
         name: name.into(),

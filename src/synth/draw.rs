@@ -48,8 +48,8 @@ pub fn draw(character: &Character, placed: &[Placed], width: u32, height: u32) -
     assert_eq!(placed.len(), character.parts.len(), "one placement per part");
     let mut image = Picture::filled(width, height, [0.0; 4]);
     let mut labels = vec![BACKGROUND; (width * height) as usize];
-    for i in 0..character.parts.len() {
-        paint_part(character, i, &placed[i], width, height, &mut image.pixels, Some(&mut labels));
+    for (i, p) in placed.iter().enumerate() {
+        paint_part(character, i, p, width, height, &mut image.pixels, Some(&mut labels));
     }
     Drawing { image, labels }
 }
