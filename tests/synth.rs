@@ -162,6 +162,46 @@ fn true_positions_land_on_the_drawn_part_in_every_frame() {
     }
 }
 
+/// The real thing: a puppet built from the template by `puppet::puppet::build` (the mesher of
+/// `puppet build`); every vertex at least 2 px inside its layer lands on its part (or on a part
+/// in front of it) in every frame.
+#[test]
+fn built_puppet_vertices_land_on_their_parts() {
+    let dir = tempfile::tempdir().unwrap();
+    let seq = generate(&opts(7, 8, 128, Motion::Walk), &Silent).unwrap();
+    write_sequence(&seq, dir.path(), &Silent).unwrap();
+    let artwork = puppet::puppet::artwork::load(&dir.path().join("template"), &Default::default()).unwrap();
+    let (built, _) = puppet::puppet::build::build(&artwork, &Default::default(), &Silent).unwrap();
+    let offsets = built.vertex_offsets();
+    let (mut checked, mut bad) = (0, 0);
+    for t in 0..8 {
+        let q = true_positions(&seq.truth, t, &built).unwrap();
+        assert_eq!(q.len(), built.vertex_count());
+        for (l, layer) in built.layers.iter().enumerate() {
+            let part = seq.truth.part_index(&layer.name).unwrap();
+            let mask = &seq.template[part];
+            let inside = |x: i64, y: i64| x >= 0 && y >= 0 && x < 128 && y < 128 && mask.pixels[(y * 128 + x) as usize][3] > 0.5;
+            for (k, v) in layer.mesh.vertices.iter().enumerate() {
+                let (vx, vy) = (v[0].floor() as i64, v[1].floor() as i64);
+                if !(-2..=2).all(|dy| (-2..=2).all(|dx| inside(vx + dx, vy + dy))) {
+                    continue;
+                }
+                let [x, y] = q[offsets[l] + k];
+                let (px, py) = (x.floor() as i64, y.floor() as i64);
+                if px < 0 || py < 0 || px >= 128 || py >= 128 {
+                    continue;
+                }
+                let label = seq.frames[t].labels[(py * 128 + px) as usize];
+                checked += 1;
+                bad += usize::from(label == BACKGROUND || (label as usize) < part);
+            }
+        }
+    }
+    eprintln!("built puppet: {bad}/{checked} interior vertex positions off their part over 8 frames");
+    assert!(checked > 500);
+    assert_eq!(bad, 0);
+}
+
 #[test]
 fn rigid_poses_map_rest_points_by_the_parts_rotation() {
     // No deformation, no wobble: each part must move exactly rigidly, rotated by the global
