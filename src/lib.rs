@@ -17,6 +17,7 @@ pub mod picture;
 pub mod progress;
 pub mod puppet;
 pub mod render;
+pub mod synth;
 #[cfg(test)]
 pub(crate) mod test_util;
 

@@ -5,6 +5,7 @@ use clap::{Parser, Subcommand};
 mod build;
 mod info;
 mod render;
+mod synth;
 mod ui;
 
 pub use ui::Ui;
@@ -33,6 +34,7 @@ enum Command {
     Build(build::BuildArgs),
     Info(info::InfoArgs),
     Render(render::RenderArgs),
+    Synth(synth::SynthArgs),
 }
 
 /// Runs the parsed command line.
@@ -42,5 +44,6 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
         Command::Build(args) => build::run(args, &ui),
         Command::Info(args) => info::run(args, &ui),
         Command::Render(args) => render::run(args, &ui),
+        Command::Synth(args) => synth::run(args, &ui),
     }
 }

@@ -1,0 +1,821 @@
+//! Procedural cartoon characters (issue 4 item 2): a skeleton of parts — torso (root), head,
+//! two-segment arms and legs, optional tail and ears — each an analytic [`Shape`] with random
+//! proportions and a [`Look`], seen in three-quarter view facing right, layered back to front
+//! (back limbs behind the torso, head and front limbs in front).
+//!
+//! Each part has a local frame: the torso's origin is its centre; every other part's origin is
+//! its pivot (the joint with its parent) and its bone runs along local +y. Local units are
+//! "character units" (a character is about 100 tall); [`Character::rest_root`] places the torso
+//! frame in the rest frame's pixels, scaling the character to fit.
+
+use std::f32::consts::PI;
+
+use serde::{Deserialize, Serialize};
+
+use super::look::{Feature, FeatureShape, Look, Pattern, Rgb};
+use super::rng::Rng;
+use super::shape::{Primitive, Shape};
+use super::similarity::Similarity;
+
+/// What a part is, which decides how it moves.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Role {
+    /// The root.
+    Torso,
+    /// The head, child of the torso.
+    Head,
+    /// Upper arm, child of the torso.
+    UpperArm,
+    /// Forearm with hand, child of the upper arm.
+    LowerArm,
+    /// Thigh, child of the torso.
+    UpperLeg,
+    /// Shin with foot, child of the thigh.
+    LowerLeg,
+    /// Tail, child of the torso.
+    Tail,
+    /// Ear, child of the head.
+    Ear,
+}
+
+/// Which of a pair of limbs: the one farther from the viewer or the nearer one.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Side {
+    /// Farther from the viewer (drawn behind).
+    Back,
+    /// Nearer the viewer (drawn in front).
+    Front,
+    /// Not paired.
+    Middle,
+}
+
+/// One part of a character.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Part {
+    /// Layer name (e.g. `"arm_front_lower"`).
+    pub name: String,
+    /// What it is.
+    pub role: Role,
+    /// Which of a pair.
+    pub side: Side,
+    /// Index of the parent part in [`Character::parts`] (`None` for the torso).
+    pub parent: Option<usize>,
+    /// The pivot in the parent's local frame.
+    pub pivot: [f32; 2],
+    /// Rotation relative to the parent at rest, radians.
+    pub rest_angle: f32,
+    /// The silhouette, local units.
+    pub shape: Shape,
+    /// Colouring.
+    pub look: Look,
+}
+
+/// A generated character, parts ordered back to front.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Character {
+    /// Name, `synth-<seed>`.
+    pub name: String,
+    /// Parts, back (index 0) to front.
+    pub parts: Vec<Part>,
+    /// Torso local frame → rest-frame pixels.
+    pub rest_root: Similarity,
+}
+
+/// Layer order back → front by name; absent optional parts are skipped.
+const Z_ORDER: [&str; 13] = [
+    "tail",
+    "arm_back_lower",
+    "arm_back_upper",
+    "leg_back_lower",
+    "leg_back_upper",
+    "torso",
+    "leg_front_lower",
+    "leg_front_upper",
+    "ear_back",
+    "ear_front",
+    "head",
+    "arm_front_lower",
+    "arm_front_upper",
+];
+
+fn hsv(h: f32, s: f32, v: f32) -> Rgb {
+    let h = (h.rem_euclid(1.0)) * 6.0;
+    let i = h.floor();
+    let f = h - i;
+    let (p, q, t) = (v * (1.0 - s), v * (1.0 - s * f), v * (1.0 - s * (1.0 - f)));
+    match i as i32 {
+        0 => [v, t, p],
+        1 => [q, v, p],
+        2 => [p, v, t],
+        3 => [p, q, v],
+        4 => [t, p, v],
+        _ => [v, p, q],
+    }
+}
+
+fn scale_rgb(c: Rgb, k: f32) -> Rgb {
+    c.map(|x| (x * k).clamp(0.0, 1.0))
+}
+
+fn lighten(c: Rgb, t: f32) -> Rgb {
+    c.map(|x| x + (1.0 - x) * t)
+}
+
+fn circle(center: [f32; 2], r: f32) -> Primitive {
+    Primitive::Superellipse {
+        center,
+        radii: [r, r],
+        exponent: 2.0,
+        angle: 0.0,
+    }
+}
+
+/// The character's colours.
+struct Palette {
+    skin: Rgb,
+    shirt: Rgb,
+    pants: Rgb,
+    shoes: Rgb,
+    hair: Rgb,
+    accent: Rgb,
+    outline: Rgb,
+}
+
+impl Palette {
+    fn random(rng: &mut Rng) -> Self {
+        let animal = rng.chance(0.5);
+        let skin = if animal {
+            hsv(rng.unit(), rng.range(0.25, 0.6), rng.range(0.7, 0.95))
+        } else {
+            rng.pick(&[
+                [1.0, 0.86, 0.72],
+                [0.96, 0.76, 0.6],
+                [0.78, 0.56, 0.4],
+                [0.55, 0.38, 0.26],
+                [0.99, 0.9, 0.8],
+            ])
+        };
+        let h = rng.unit();
+        let shirt = hsv(h, rng.range(0.45, 0.85), rng.range(0.6, 0.95));
+        let pants = hsv(h + rng.range(0.3, 0.7), rng.range(0.3, 0.75), rng.range(0.3, 0.7));
+        let shoes = hsv(rng.unit(), rng.range(0.2, 0.8), rng.range(0.15, 0.6));
+        let hair = hsv(rng.range(0.0, 0.12), rng.range(0.4, 0.9), rng.range(0.15, 0.7));
+        let accent = lighten(hsv(h + 0.5, rng.range(0.5, 0.9), 0.95), rng.range(0.0, 0.5));
+        let outline = hsv(h, 0.5, rng.range(0.08, 0.18));
+        Palette {
+            skin,
+            shirt,
+            pants,
+            shoes,
+            hair,
+            accent,
+            outline,
+        }
+    }
+}
+
+/// Random proportions of one character, in character units.
+struct Build {
+    torso: [f32; 2],
+    head: [f32; 2],
+    arm: [f32; 3],
+    leg: [f32; 3],
+    hand: f32,
+    foot: [f32; 2],
+    outline_px: f32,
+}
+
+impl Character {
+    /// Generates the character for `seed`, scaled to stand in a `width × height` frame.
+    pub fn generate(seed: u64, width: u32, height: u32) -> Self {
+        let root = Rng::new(seed);
+        let mut rng = root.fork(1);
+        let pal = Palette::random(&mut rng);
+        let chibi = rng.chance(0.35);
+        let head_k = if chibi { 1.3 } else { 1.0 };
+        let b = Build {
+            torso: [rng.range(22.0, 34.0), rng.range(24.0, 36.0)],
+            head: [rng.range(11.0, 17.0) * head_k, rng.range(10.0, 15.0) * head_k],
+            arm: [rng.range(10.0, 15.0), rng.range(9.0, 13.0), rng.range(3.0, 5.0)],
+            leg: [rng.range(11.0, 17.0), rng.range(10.0, 15.0), rng.range(4.0, 6.5)],
+            hand: 0.0,
+            foot: [rng.range(9.0, 13.0), 0.0],
+            outline_px: (0.011 * width.min(height) as f32).max(1.3),
+        };
+        let b = Build {
+            hand: b.arm[2] * rng.range(1.2, 1.6),
+            foot: [b.foot[0], b.leg[2] * rng.range(1.0, 1.3)],
+            ..b
+        };
+        let mut parts: Vec<Part> = Vec::new();
+        let mut add = |p: Part| {
+            parts.push(p);
+            parts.len() - 1
+        };
+        let torso_shape = torso_shape(&mut rng, b.torso);
+        let torso_look = torso_look(&mut rng, &pal, &b, &torso_shape);
+        let shirt_pattern = torso_look.pattern.clone();
+        let torso = add(Part {
+            name: "torso".into(),
+            role: Role::Torso,
+            side: Side::Middle,
+            parent: None,
+            pivot: [0.0, 0.0],
+            rest_angle: 0.0,
+            shape: torso_shape.clone(),
+            look: torso_look,
+        });
+        let [tw, th] = b.torso;
+        // Head: pivot at the neck, inside the torso's top.
+        let neck = inset(&torso_shape, [0.1 * tw, -0.5 * th + 3.0], 3.0);
+        let (head_shape, head_look, head_center) = head(&mut rng, &pal, &b);
+        let head = add(Part {
+            name: "head".into(),
+            role: Role::Head,
+            side: Side::Middle,
+            parent: Some(torso),
+            pivot: neck,
+            rest_angle: 0.0,
+            shape: head_shape,
+            look: head_look,
+        });
+        let long_sleeves = rng.chance(0.4);
+        let shorts = rng.chance(0.35);
+        for side in [Side::Back, Side::Front] {
+            let sign = if side == Side::Back { -1.0 } else { 1.0 };
+            let tag = if side == Side::Back { "back" } else { "front" };
+            // Back limbs are a little darker, as if in the shade of the body.
+            let shade = if side == Side::Back { 0.85 } else { 1.0 };
+            let shoulder = inset(
+                &torso_shape,
+                [sign * 0.25 * tw, -0.5 * th + 0.22 * th.max(4.0 * b.arm[2])],
+                1.2 * b.arm[2],
+            );
+            let upper = add(limb_upper(
+                &format!("arm_{tag}_upper"),
+                Role::UpperArm,
+                side,
+                torso,
+                shoulder,
+                -sign * rng.range(0.45, 0.7),
+                [b.arm[0], b.arm[2]],
+                sleeve_look(&pal, &shirt_pattern, shade, b.outline_px, b.arm[2]),
+            ));
+            let lower_fill = if long_sleeves { pal.shirt } else { pal.skin };
+            let hand_color = if rng.chance(0.3) { lighten(pal.accent, 0.6) } else { pal.skin };
+            add(arm_lower(
+                &format!("arm_{tag}_lower"),
+                side,
+                upper,
+                &b,
+                -rng.range(0.2, 0.5),
+                lower_fill,
+                hand_color,
+                shade,
+                &pal,
+            ));
+            let hip = inset(&torso_shape, [sign * 0.16 * tw, 0.5 * th - 1.2 * b.leg[2]], 1.2 * b.leg[2]);
+            let thigh = add(limb_upper(
+                &format!("leg_{tag}_upper"),
+                Role::UpperLeg,
+                side,
+                torso,
+                hip,
+                -sign * rng.range(0.08, 0.18),
+                [b.leg[0], b.leg[2]],
+                plain_look(scale_rgb(pal.pants, shade), &pal, b.outline_px, b.leg[2]),
+            ));
+            let shin_fill = if shorts { pal.skin } else { pal.pants };
+            add(leg_lower(
+                &format!("leg_{tag}_lower"),
+                side,
+                thigh,
+                &b,
+                rng.range(0.0, 0.12),
+                shin_fill,
+                shade,
+                &pal,
+                &mut rng,
+            ));
+        }
+        if rng.chance(0.45) {
+            let base = inset(&torso_shape, [-0.45 * tw, 0.2 * th], 2.5);
+            let len = rng.range(14.0, 24.0);
+            let (r0, r1) = (rng.range(2.5, 4.5), rng.range(1.2, 2.5));
+            let mut prims = vec![Primitive::Capsule {
+                a: [0.0, 0.0],
+                b: [0.0, len],
+                ra: r0,
+                rb: r1,
+            }];
+            let mut look = plain_look(pal.skin, &pal, b.outline_px, r0);
+            if rng.chance(0.5) {
+                prims.push(circle([0.0, len], r1 * 2.0));
+                look.features.push(Feature {
+                    shape: FeatureShape::Fill(circle([0.0, len], r1 * 2.0)),
+                    color: lighten(pal.skin, 0.6),
+                    ink: 0.0,
+                });
+            } else {
+                look.pattern = Pattern::Stripes {
+                    angle: PI / 2.0,
+                    period: rng.range(4.0, 6.0),
+                    width: 2.0,
+                    color: scale_rgb(pal.skin, 0.7),
+                };
+            }
+            add(Part {
+                name: "tail".into(),
+                role: Role::Tail,
+                side: Side::Middle,
+                parent: Some(torso),
+                pivot: base,
+                rest_angle: rng.range(1.9, 2.5),
+                shape: Shape { primitives: prims },
+                look,
+            });
+        }
+        if rng.chance(0.45) {
+            let [hw, hh] = b.head;
+            let (len, wid, n) = (rng.range(8.0, 14.0), rng.range(3.5, 6.0), rng.range(1.5, 2.5));
+            for (side, tag, dx, tilt) in [(Side::Back, "back", -0.4, 0.35), (Side::Front, "front", 0.15, -0.25)] {
+                let base = [head_center[0] + dx * hw, head_center[1] - 0.7 * hh];
+                let ear = Primitive::Superellipse {
+                    center: [0.0, 0.45 * len],
+                    radii: [wid, 0.55 * len],
+                    exponent: n,
+                    angle: 0.0,
+                };
+                let inner = Primitive::Superellipse {
+                    center: [0.0, 0.5 * len],
+                    radii: [0.5 * wid, 0.35 * len],
+                    exponent: n,
+                    angle: 0.0,
+                };
+                let mut look = plain_look(pal.skin, &pal, b.outline_px, wid);
+                look.features.push(Feature {
+                    shape: FeatureShape::Fill(inner),
+                    color: lighten([0.95, 0.5, 0.6], 0.3),
+                    ink: 0.0,
+                });
+                add(Part {
+                    name: format!("ear_{tag}"),
+                    role: Role::Ear,
+                    side,
+                    parent: Some(head),
+                    pivot: base,
+                    rest_angle: PI + tilt,
+                    shape: Shape { primitives: vec![ear] },
+                    look,
+                });
+            }
+        }
+        let parts = reorder(parts);
+        let mut c = Character {
+            name: format!("synth-{seed}"),
+            parts,
+            rest_root: Similarity::IDENTITY,
+        };
+        c.rest_root = fit(&c, width, height);
+        c
+    }
+
+    /// Index of the part called `name`.
+    pub fn part(&self, name: &str) -> Option<usize> {
+        self.parts.iter().position(|p| p.name == name)
+    }
+
+    /// Each part's local frame → pixels, given the torso's placement `root` and each part's
+    /// rotation relative to its parent on top of the rest angle (`delta[i]`, radians).
+    pub fn world_transforms(&self, root: &Similarity, delta: &[f32]) -> Vec<Similarity> {
+        let mut out: Vec<Option<Similarity>> = vec![None; self.parts.len()];
+        // Parents may sit after children in z-order: resolve by depth-first recursion.
+        fn resolve(c: &Character, i: usize, root: &Similarity, delta: &[f32], out: &mut Vec<Option<Similarity>>) -> Similarity {
+            if let Some(t) = out[i] {
+                return t;
+            }
+            let part = &c.parts[i];
+            let t = match part.parent {
+                None => root.compose(&Similarity::new(part.rest_angle + delta[i], 1.0, [0.0, 0.0])),
+                Some(p) => {
+                    let parent = resolve(c, p, root, delta, out);
+                    parent.compose(&Similarity::new(part.rest_angle + delta[i], 1.0, part.pivot))
+                }
+            };
+            out[i] = Some(t);
+            t
+        }
+        (0..self.parts.len()).map(|i| resolve(self, i, root, delta, &mut out)).collect()
+    }
+
+    /// The pivots of part `i`'s children, in its local frame.
+    pub fn child_pivots(&self, i: usize) -> Vec<[f32; 2]> {
+        self.parts.iter().filter(|p| p.parent == Some(i)).map(|p| p.pivot).collect()
+    }
+
+    /// Pairs of parts joined at a pivot (parent name, child name).
+    pub fn joints(&self) -> Vec<[String; 2]> {
+        self.parts
+            .iter()
+            .filter_map(|p| p.parent.map(|q| [self.parts[q].name.clone(), p.name.clone()]))
+            .collect()
+    }
+}
+
+/// Moves `p` toward the origin until it is at least `depth` inside `shape`.
+fn inset(shape: &Shape, p: [f32; 2], depth: f32) -> [f32; 2] {
+    let mut q = p;
+    for _ in 0..50 {
+        if shape.sdf(q) <= -depth {
+            break;
+        }
+        q = [q[0] * 0.95, q[1] * 0.95];
+    }
+    q
+}
+
+fn torso_shape(rng: &mut Rng, [w, h]: [f32; 2]) -> Shape {
+    let prim = match rng.below(4) {
+        0 => Primitive::Superellipse {
+            center: [0.0, 0.0],
+            radii: [0.5 * w, 0.5 * h],
+            exponent: 2.0,
+            angle: 0.0,
+        },
+        1 => Primitive::Superellipse {
+            center: [0.0, 0.0],
+            radii: [0.5 * w, 0.5 * h],
+            exponent: rng.range(2.6, 4.0),
+            angle: 0.0,
+        },
+        2 => Primitive::RoundedBox {
+            center: [0.0, 0.0],
+            half: [0.5 * w, 0.5 * h],
+            radius: rng.range(0.3, 0.5) * w.min(h),
+            angle: 0.0,
+        },
+        _ => {
+            // A pear: narrow shoulders, wide hips.
+            let (rt, rb) = (rng.range(0.3, 0.4) * w, 0.5 * w);
+            Primitive::Capsule {
+                a: [0.0, -0.5 * h + rt],
+                b: [0.0, 0.5 * h - rb],
+                ra: rt,
+                rb,
+            }
+        }
+    };
+    Shape { primitives: vec![prim] }
+}
+
+fn plain_look(fill: Rgb, pal: &Palette, outline_px: f32, size: f32) -> Look {
+    Look {
+        fill,
+        pattern: Pattern::Plain,
+        shadow: scale_rgb(fill, 0.78),
+        shadow_offset: [-0.35 * size, -0.2 * size],
+        features: Vec::new(),
+        outline: pal.outline,
+        outline_px,
+    }
+}
+
+fn torso_look(rng: &mut Rng, pal: &Palette, b: &Build, shape: &Shape) -> Look {
+    let [w, h] = b.torso;
+    let mut look = plain_look(pal.shirt, pal, b.outline_px, 0.4 * w);
+    look.shadow_offset = [-0.12 * w, -0.08 * h];
+    look.pattern = match rng.below(4) {
+        0 => Pattern::Stripes {
+            angle: PI / 2.0 + rng.range(-0.3, 0.3),
+            period: rng.range(5.0, 8.0),
+            width: rng.range(1.8, 3.0),
+            color: pal.accent,
+        },
+        1 => Pattern::Dots {
+            period: rng.range(6.0, 9.0),
+            radius: rng.range(1.2, 2.0),
+            color: pal.accent,
+        },
+        2 => Pattern::Gradient {
+            from: [0.0, -0.5 * h],
+            to: [0.0, 0.5 * h],
+            color: scale_rgb(pal.shirt, 0.6),
+        },
+        _ => Pattern::Plain,
+    };
+    if rng.chance(0.6) {
+        // Buttons down the front.
+        let x = 0.18 * w;
+        for k in 0..3 {
+            let y = -0.2 * h + k as f32 * 0.18 * h;
+            if shape.sdf([x, y]) < -2.5 {
+                look.features.push(Feature {
+                    shape: FeatureShape::Fill(circle([x, y], 1.4)),
+                    color: lighten(pal.accent, 0.5),
+                    ink: 0.8 * b.outline_px,
+                });
+            }
+        }
+    } else {
+        // A belly patch.
+        look.features.push(Feature {
+            shape: FeatureShape::Fill(Primitive::Superellipse {
+                center: [0.12 * w, 0.08 * h],
+                radii: [0.25 * w, 0.3 * h],
+                exponent: 2.0,
+                angle: 0.0,
+            }),
+            color: lighten(pal.shirt, 0.55),
+            ink: 0.0,
+        });
+    }
+    if rng.chance(0.5) {
+        // A belt.
+        look.features.push(Feature {
+            shape: FeatureShape::Fill(Primitive::RoundedBox {
+                center: [0.0, 0.32 * h],
+                half: [w, 0.06 * h],
+                radius: 0.0,
+                angle: 0.0,
+            }),
+            color: pal.shoes,
+            ink: 0.0,
+        });
+    }
+    look
+}
+
+/// A sleeve continues the shirt's stripes or dots (a gradient would not line up: plain).
+fn sleeve_look(pal: &Palette, shirt: &Pattern, shade: f32, outline_px: f32, r: f32) -> Look {
+    let mut look = plain_look(scale_rgb(pal.shirt, shade), pal, outline_px, r);
+    look.pattern = match shirt.clone() {
+        Pattern::Stripes { period, width, color, .. } => Pattern::Stripes {
+            angle: PI / 2.0,
+            period,
+            width,
+            color: scale_rgb(color, shade),
+        },
+        Pattern::Dots { period, radius, color } => Pattern::Dots {
+            period,
+            radius,
+            color: scale_rgb(color, shade),
+        },
+        _ => Pattern::Plain,
+    };
+    look
+}
+
+#[allow(clippy::too_many_arguments)]
+fn limb_upper(name: &str, role: Role, side: Side, parent: usize, pivot: [f32; 2], rest_angle: f32, [len, r]: [f32; 2], look: Look) -> Part {
+    Part {
+        name: name.into(),
+        role,
+        side,
+        parent: Some(parent),
+        pivot,
+        rest_angle,
+        shape: Shape {
+            primitives: vec![Primitive::Capsule {
+                a: [0.0, 0.0],
+                b: [0.0, len],
+                ra: r,
+                rb: 0.9 * r,
+            }],
+        },
+        look,
+    }
+}
+
+#[allow(clippy::too_many_arguments)]
+fn arm_lower(name: &str, side: Side, parent: usize, b: &Build, rest_angle: f32, fill: Rgb, hand: Rgb, shade: f32, pal: &Palette) -> Part {
+    let [upper, len, r] = b.arm;
+    let hc = [0.0, len + 0.5 * b.hand];
+    let mut look = plain_look(scale_rgb(fill, shade), pal, b.outline_px, r);
+    look.features.push(Feature {
+        shape: FeatureShape::Fill(circle(hc, b.hand)),
+        color: scale_rgb(hand, shade),
+        ink: b.outline_px,
+    });
+    Part {
+        name: name.into(),
+        role: Role::LowerArm,
+        side,
+        parent: Some(parent),
+        pivot: [0.0, upper],
+        rest_angle,
+        shape: Shape {
+            primitives: vec![
+                Primitive::Capsule {
+                    a: [0.0, 0.0],
+                    b: [0.0, len],
+                    ra: 0.9 * r,
+                    rb: 0.8 * r,
+                },
+                circle(hc, b.hand),
+            ],
+        },
+        look,
+    }
+}
+
+#[allow(clippy::too_many_arguments)]
+fn leg_lower(
+    name: &str,
+    side: Side,
+    parent: usize,
+    b: &Build,
+    rest_angle: f32,
+    fill: Rgb,
+    shade: f32,
+    pal: &Palette,
+    rng: &mut Rng,
+) -> Part {
+    let [upper, len, r] = b.leg;
+    let [fl, fh] = b.foot;
+    let foot = if rng.chance(0.5) {
+        Primitive::Superellipse {
+            center: [0.3 * fl, len + 0.2 * fh],
+            radii: [0.5 * fl, 0.5 * fh + 1.0],
+            exponent: 2.5,
+            angle: 0.0,
+        }
+    } else {
+        Primitive::RoundedBox {
+            center: [0.3 * fl, len + 0.2 * fh],
+            half: [0.5 * fl, 0.5 * fh + 1.0],
+            radius: 0.45 * fh,
+            angle: 0.0,
+        }
+    };
+    let mut look = plain_look(scale_rgb(fill, shade), pal, b.outline_px, r);
+    if rng.chance(0.5) {
+        look.pattern = Pattern::Stripes {
+            angle: PI / 2.0,
+            period: rng.range(3.5, 5.5),
+            width: 1.6,
+            color: scale_rgb(lighten(pal.accent, 0.3), shade),
+        };
+    }
+    look.features.push(Feature {
+        shape: FeatureShape::Fill(foot.clone()),
+        color: scale_rgb(pal.shoes, shade),
+        ink: b.outline_px,
+    });
+    Part {
+        name: name.into(),
+        role: Role::LowerLeg,
+        side,
+        parent: Some(parent),
+        pivot: [0.0, upper],
+        rest_angle,
+        shape: Shape {
+            primitives: vec![
+                Primitive::Capsule {
+                    a: [0.0, 0.0],
+                    b: [0.0, len],
+                    ra: 0.9 * r,
+                    rb: 0.75 * r,
+                },
+                foot,
+            ],
+        },
+        look,
+    }
+}
+
+/// The head's shape, look and centre (in its local frame, origin at the neck).
+fn head(rng: &mut Rng, pal: &Palette, b: &Build) -> (Shape, Look, [f32; 2]) {
+    let [hw, hh] = b.head;
+    let c = [rng.range(0.0, 0.2) * hw, -0.8 * hh];
+    let prim = match rng.below(3) {
+        0 => Primitive::Superellipse {
+            center: c,
+            radii: [hw, hh],
+            exponent: 2.0,
+            angle: 0.0,
+        },
+        1 => Primitive::Superellipse {
+            center: c,
+            radii: [hw, hh],
+            exponent: rng.range(2.5, 3.5),
+            angle: 0.0,
+        },
+        _ => Primitive::RoundedBox {
+            center: c,
+            half: [hw, hh],
+            radius: rng.range(0.45, 0.7) * hw.min(hh),
+            angle: 0.0,
+        },
+    };
+    let mut look = plain_look(pal.skin, pal, b.outline_px, hw);
+    look.shadow_offset = [-0.25 * hw, -0.2 * hh];
+    if rng.chance(0.6) {
+        // Hair over the top and back of the head.
+        look.features.push(Feature {
+            shape: FeatureShape::Fill(Primitive::Superellipse {
+                center: [c[0] - 0.35 * hw, c[1] - 0.75 * hh],
+                radii: [1.15 * hw, 0.6 * hh],
+                exponent: 2.0,
+                angle: rng.range(-0.15, 0.3),
+            }),
+            color: pal.hair,
+            ink: 0.0,
+        });
+    }
+    let eye_r = [rng.range(0.14, 0.22) * hw, rng.range(0.18, 0.28) * hh];
+    let eye_y = c[1] - rng.range(-0.05, 0.15) * hh;
+    let white = [1.0, 1.0, 1.0];
+    let dark = [0.08, 0.06, 0.1];
+    for (k, dx) in [(0, 0.12f32), (1, 0.55)] {
+        // The far eye is narrower (three-quarter view).
+        let r = if k == 0 { [0.8 * eye_r[0], eye_r[1]] } else { eye_r };
+        let e = [c[0] + dx * hw, eye_y];
+        look.features.push(Feature {
+            shape: FeatureShape::Fill(Primitive::Superellipse {
+                center: e,
+                radii: r,
+                exponent: 2.0,
+                angle: 0.0,
+            }),
+            color: white,
+            ink: 0.7 * b.outline_px,
+        });
+        let pupil = [e[0] + 0.35 * r[0], e[1] + 0.1 * r[1]];
+        look.features.push(Feature {
+            shape: FeatureShape::Fill(circle(pupil, 0.5 * r[0].min(r[1]))),
+            color: dark,
+            ink: 0.0,
+        });
+        look.features.push(Feature {
+            shape: FeatureShape::Fill(circle([pupil[0] + 0.2 * r[0], pupil[1] - 0.25 * r[1]], 0.18 * r[0].min(r[1]))),
+            color: white,
+            ink: 0.0,
+        });
+    }
+    look.features.push(Feature {
+        shape: FeatureShape::Smile {
+            center: [c[0] + 0.42 * hw, c[1] + 0.3 * hh],
+            radius: rng.range(0.15, 0.25) * hw,
+            thickness: 0.06 * hw + 0.6,
+        },
+        color: dark,
+        ink: 0.0,
+    });
+    if rng.chance(0.6) {
+        look.features.push(Feature {
+            shape: FeatureShape::Fill(circle([c[0] + 0.75 * hw, c[1] + 0.25 * hh], 0.12 * hw)),
+            color: lighten([0.95, 0.45, 0.5], 0.35),
+            ink: 0.0,
+        });
+    }
+    if rng.chance(0.5) {
+        look.features.push(Feature {
+            shape: FeatureShape::Fill(Primitive::Superellipse {
+                center: [c[0] + 0.9 * hw, c[1] + 0.05 * hh],
+                radii: [0.14 * hw, 0.1 * hh],
+                exponent: 2.0,
+                angle: 0.0,
+            }),
+            color: scale_rgb(pal.skin, 0.8),
+            ink: 0.6 * b.outline_px,
+        });
+    }
+    (Shape { primitives: vec![prim] }, look, c)
+}
+
+/// Sorts parts into [`Z_ORDER`], remapping parent indices.
+fn reorder(parts: Vec<Part>) -> Vec<Part> {
+    let order: Vec<usize> = Z_ORDER.iter().filter_map(|n| parts.iter().position(|p| p.name == *n)).collect();
+    debug_assert_eq!(order.len(), parts.len(), "every generated part is in Z_ORDER");
+    let new_index = |old: usize| order.iter().position(|&o| o == old).expect("every part is ordered");
+    order
+        .iter()
+        .map(|&o| {
+            let mut p = parts[o].clone();
+            p.parent = p.parent.map(new_index);
+            p
+        })
+        .collect()
+}
+
+/// The rest placement: scale so the character's rest bounding box is 78 % of the frame height
+/// (and at most 80 % of its width), feet toward the bottom, centred horizontally.
+fn fit(c: &Character, width: u32, height: u32) -> Similarity {
+    let world = c.world_transforms(&Similarity::IDENTITY, &vec![0.0; c.parts.len()]);
+    let mut lo = [f32::INFINITY; 2];
+    let mut hi = [f32::NEG_INFINITY; 2];
+    for (part, t) in c.parts.iter().zip(&world) {
+        let [a, b] = part.shape.bounds();
+        for corner in [[a[0], a[1]], [b[0], a[1]], [a[0], b[1]], [b[0], b[1]]] {
+            let q = t.apply(corner);
+            lo = [lo[0].min(q[0]), lo[1].min(q[1])];
+            hi = [hi[0].max(q[0]), hi[1].max(q[1])];
+        }
+    }
+    let (w, h) = (width as f32, height as f32);
+    let k = (0.78 * h / (hi[1] - lo[1])).min(0.8 * w / (hi[0] - lo[0]));
+    let centre = [0.5 * (lo[0] + hi[0]), 0.5 * (lo[1] + hi[1])];
+    Similarity::new(0.0, k, [0.5 * w - k * centre[0], 0.54 * h - k * centre[1]])
+}

@@ -1,0 +1,241 @@
+//! Generating a whole synthetic sequence: the character, its template layers (rest pose), and
+//! every frame drawn from the posed, deformed and wobbling shapes, with the ground truth that
+//! relates them (issue 4 items 2–4).
+
+use super::character::Character;
+use super::deformation::Grid;
+use super::draw::{draw, draw_part, Drawing, Placed};
+use super::labels::label_hex;
+use super::look::Wobble;
+use super::part_arap::PartArap;
+use super::pose::{Animator, Motion};
+use super::rng::Rng;
+use super::similarity::Similarity;
+use super::truth::{FrameTruth, PartFrame, PartTruth, Truth, TRUTH_VERSION};
+use crate::error::{Error, Result};
+use crate::picture::Picture;
+use crate::progress::Progress;
+
+/// Smallest frame side: below this a character's limbs are a pixel or two wide.
+pub const MIN_SIDE: u32 = 64;
+/// Largest frame side.
+pub const MAX_SIDE: u32 = 4096;
+/// Most frames in one sequence.
+pub const MAX_FRAMES: usize = 100_000;
+
+/// What to generate.
+#[derive(Clone, Debug, PartialEq)]
+pub struct SynthOptions {
+    /// Seed: the same options give byte-identical output.
+    pub seed: u64,
+    /// Number of frames (or sprite-sheet cells).
+    pub frames: usize,
+    /// Frame width, pixels.
+    pub width: u32,
+    /// Frame height, pixels.
+    pub height: u32,
+    /// How the character moves.
+    pub motion: Motion,
+    /// σ of the ARAP handle offsets as a fraction of max(width, height) (APES appendix B: 0.02);
+    /// 0 keeps every part rigid.
+    pub deform_sigma: f32,
+    /// Per-frame line wobble amplitude, pixels (0: none).
+    pub wobble: f32,
+}
+
+impl Default for SynthOptions {
+    fn default() -> Self {
+        SynthOptions {
+            seed: 42,
+            frames: 24,
+            width: 256,
+            height: 256,
+            motion: Motion::Walk,
+            deform_sigma: 0.02,
+            wobble: 0.35,
+        }
+    }
+}
+
+impl SynthOptions {
+    /// Checks the options.
+    ///
+    /// # Errors
+    /// [`Error::Invalid`] naming the bad option and the accepted range.
+    pub fn validate(&self) -> Result<()> {
+        let mut problems = Vec::new();
+        if self.frames == 0 || self.frames > MAX_FRAMES {
+            problems.push(Error::Invalid(format!("frames: {} (expected 1 to {MAX_FRAMES})", self.frames)));
+        }
+        for (name, v) in [("width", self.width), ("height", self.height)] {
+            if !(MIN_SIDE..=MAX_SIDE).contains(&v) {
+                problems.push(Error::Invalid(format!(
+                    "size: {name} {v} px is out of range (expected {MIN_SIDE} to {MAX_SIDE})"
+                )));
+            }
+        }
+        if !(0.0..=0.1).contains(&self.deform_sigma) {
+            problems.push(Error::Invalid(format!(
+                "deformation σ {} (expected 0 to 0.1 of the image size)",
+                self.deform_sigma
+            )));
+        }
+        if !(0.0..=2.0).contains(&self.wobble) {
+            problems.push(Error::Invalid(format!("wobble {} px (expected 0 to 2)", self.wobble)));
+        }
+        Error::collect(problems)
+    }
+}
+
+/// A generated sequence in memory.
+#[derive(Clone, Debug)]
+pub struct Sequence {
+    /// The character.
+    pub character: Character,
+    /// One rest-pose layer image per part, back to front (the template artwork).
+    pub template: Vec<Picture>,
+    /// The drawn frames with their label maps.
+    pub frames: Vec<Drawing>,
+    /// The ground truth.
+    pub truth: Truth,
+}
+
+/// File name of frame `t` of `n` inside `frames/` (or `labels/`, with `prefix`).
+pub fn frame_name(prefix: &str, t: usize, n: usize) -> String {
+    let digits = n.saturating_sub(1).to_string().len().max(3);
+    format!("{prefix}_{t:0digits$}.png")
+}
+
+/// Generates the sequence `opts` describes, reporting one step per frame.
+///
+/// # Errors
+/// [`Error::Invalid`] for bad options ([`SynthOptions::validate`]) or if a part's deformation
+/// cannot be set up.
+pub fn generate(opts: &SynthOptions, progress: &dyn Progress) -> Result<Sequence> {
+    opts.validate()?;
+    let (w, h) = (opts.width, opts.height);
+    let character = Character::generate(opts.seed, w, h);
+    let n = character.parts.len();
+    let k = character.rest_root.scale(); // rest-frame pixels per local unit
+                                         // Grids: 3 px of margin (anti-aliasing and wobble stay inside), cells of ≤ 3.5 % of the
+                                         // frame's smaller side.
+    let grids: Vec<Grid> = character
+        .parts
+        .iter()
+        .map(|p| Grid::covering(p.shape.bounds(), 3.0 / k, 0.035 * w.min(h) as f32 / k))
+        .collect();
+    let root_rng = Rng::new(opts.seed);
+    let mut deformers = Vec::new();
+    if opts.deform_sigma > 0.0 {
+        let mut rng = root_rng.fork(4);
+        for (i, part) in character.parts.iter().enumerate() {
+            let mut pins = vec![[0.0, 0.0]];
+            pins.extend(character.child_pivots(i));
+            let free = if part.parent.is_none() || part.name == "head" { 2 } else { 1 };
+            deformers.push(PartArap::new(&grids[i], &part.shape, &pins, free, &mut rng)?);
+        }
+    }
+    let rest_world = character.world_transforms(&character.rest_root, &vec![0.0; n]);
+    progress.stage("template", n as u64);
+    let template = (0..n)
+        .map(|i| {
+            let placed = Placed {
+                world: rest_world[i],
+                grid: &grids[i],
+                deformed: None,
+                wobble: Wobble::NONE,
+            };
+            let layer = draw_part(&character, i, &placed, w, h);
+            progress.advance(1);
+            layer
+        })
+        .collect();
+    let animator = Animator::new(opts.motion, opts.frames, opts.seed, w, h);
+    let sigma = opts.deform_sigma * w.max(h) as f32 / k;
+    progress.stage("drawing", opts.frames as u64);
+    let mut frames = Vec::with_capacity(opts.frames);
+    let mut frame_truth = Vec::with_capacity(opts.frames);
+    for t in 0..opts.frames {
+        let pose = animator.pose(&character, t);
+        let world = character.world_transforms(&pose.root, &pose.delta);
+        let mut rng = root_rng.fork(1000 + t as u64);
+        let deformed: Vec<Option<Vec<[f32; 2]>>> = deformers
+            .iter_mut()
+            .map(|d| Some(d.deform(sigma, pose.phase, &mut rng)))
+            .chain(std::iter::repeat(None))
+            .take(n)
+            .collect();
+        let wobbles: Vec<Wobble> = (0..n).map(|_| wobble(&mut rng, opts.wobble)).collect();
+        let placed: Vec<Placed> = (0..n)
+            .map(|i| Placed {
+                world: world[i],
+                grid: &grids[i],
+                deformed: deformed[i].as_deref(),
+                wobble: wobbles[i],
+            })
+            .collect();
+        frames.push(draw(&character, &placed, w, h));
+        frame_truth.push(FrameTruth {
+            file: format!("frames/{}", frame_name("frame", t, opts.frames)),
+            labels: format!("labels/{}", frame_name("label", t, opts.frames)),
+            parts: (0..n)
+                .map(|i| PartFrame {
+                    world: world[i],
+                    deformed: deformed[i].clone(),
+                })
+                .collect(),
+        });
+        progress.advance(1);
+    }
+    let truth = Truth {
+        version: TRUTH_VERSION,
+        name: character.name.clone(),
+        seed: opts.seed,
+        motion: opts.motion,
+        width: w,
+        height: h,
+        deform_sigma: opts.deform_sigma,
+        wobble: opts.wobble,
+        parts: character
+            .parts
+            .iter()
+            .enumerate()
+            .map(|(i, p)| PartTruth {
+                name: p.name.clone(),
+                parent: p.parent.map(|q| character.parts[q].name.clone()),
+                label: label_hex(&p.name),
+                rest: rest_world[i],
+                grid: grids[i].clone(),
+            })
+            .collect(),
+        frames: frame_truth,
+        sheet: None,
+    };
+    Ok(Sequence {
+        character,
+        template,
+        frames,
+        truth,
+    })
+}
+
+/// A fresh wobble: two silhouette waves and one width wave, wavelengths 8–16 local units in
+/// random directions, random phases.
+fn wobble(rng: &mut Rng, amplitude: f32) -> Wobble {
+    let mut waves = [[0.0; 3]; 3];
+    for wave in &mut waves {
+        let dir = rng.range(0.0, std::f32::consts::TAU);
+        let freq = std::f32::consts::TAU / rng.range(8.0, 16.0);
+        *wave = [
+            freq * libm::cosf(dir),
+            freq * libm::sinf(dir),
+            rng.range(0.0, std::f32::consts::TAU),
+        ];
+    }
+    Wobble { amplitude, waves }
+}
+
+/// The rigid placement of every part for the rest pose (as in the template).
+pub fn rest_placements(character: &Character) -> Vec<Similarity> {
+    character.world_transforms(&character.rest_root, &vec![0.0; character.parts.len()])
+}
