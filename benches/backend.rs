@@ -28,7 +28,12 @@ struct Net {
 
 impl Net {
     fn new(device: &burn::tensor::Device) -> Self {
-        let conv = |i, o| Conv2dConfig::new([i, o], [5, 5]).with_stride([2, 2]).with_padding(PaddingConfig2d::Explicit(2, 2, 2, 2)).init(device);
+        let conv = |i, o| {
+            Conv2dConfig::new([i, o], [5, 5])
+                .with_stride([2, 2])
+                .with_padding(PaddingConfig2d::Explicit(2, 2, 2, 2))
+                .init(device)
+        };
         let flat = 128 * (SIZE / 8) * (SIZE / 8);
         let dims = [flat, 1024, 512, 512, 512, 1024, 2 * VERTICES + 2];
         Net {

@@ -60,17 +60,27 @@ fn display_many(errors: &[Error]) -> String {
 impl Error {
     /// An I/O error on `path`.
     pub fn io(path: impl AsRef<Path>, source: std::io::Error) -> Self {
-        Error::Io { path: path.as_ref().to_path_buf(), error: source }
+        Error::Io {
+            path: path.as_ref().to_path_buf(),
+            error: source,
+        }
     }
 
     /// A content error in `path`.
     pub fn format(path: impl AsRef<Path>, problem: impl Into<String>) -> Self {
-        Error::Format { path: path.as_ref().to_path_buf(), problem: problem.into() }
+        Error::Format {
+            path: path.as_ref().to_path_buf(),
+            problem: problem.into(),
+        }
     }
 
     /// A problem with layer `layer` defined in or stored at `path`.
     pub fn layer(path: impl AsRef<Path>, layer: impl Into<String>, problem: impl Into<String>) -> Self {
-        Error::Layer { path: path.as_ref().to_path_buf(), layer: layer.into(), problem: problem.into() }
+        Error::Layer {
+            path: path.as_ref().to_path_buf(),
+            layer: layer.into(),
+            problem: problem.into(),
+        }
     }
 
     /// Collapses a list of errors: none → `Ok(())`, one → itself, several → [`Error::Many`].

@@ -10,9 +10,10 @@
 
 pub mod atomic_file;
 pub mod backend;
-pub mod model;
 pub mod error;
+pub mod eval;
 pub mod geom;
+pub mod model;
 pub mod picture;
 pub mod progress;
 pub mod puppet;

@@ -19,7 +19,11 @@ pub struct Picture {
 impl Picture {
     /// A picture of one colour.
     pub fn filled(width: u32, height: u32, rgba: [f32; 4]) -> Self {
-        Picture { width, height, pixels: vec![rgba; width as usize * height as usize] }
+        Picture {
+            width,
+            height,
+            pixels: vec![rgba; width as usize * height as usize],
+        }
     }
 
     /// The pixel at column `x`, row `y`.
@@ -27,7 +31,12 @@ impl Picture {
     /// # Panics
     /// If `(x, y)` is outside the picture (a caller bug).
     pub fn get(&self, x: u32, y: u32) -> [f32; 4] {
-        assert!(x < self.width && y < self.height, "pixel ({x}, {y}) outside {}×{}", self.width, self.height);
+        assert!(
+            x < self.width && y < self.height,
+            "pixel ({x}, {y}) outside {}×{}",
+            self.width,
+            self.height
+        );
         self.pixels[(y * self.width + x) as usize]
     }
 
@@ -40,7 +49,11 @@ impl Picture {
     pub fn from_image(image: &image::DynamicImage) -> Self {
         let rgba = image.to_rgba8();
         let pixels = rgba.pixels().map(|p| p.0.map(|c| c as f32 / 255.0)).collect();
-        Picture { width: rgba.width(), height: rgba.height(), pixels }
+        Picture {
+            width: rgba.width(),
+            height: rgba.height(),
+            pixels,
+        }
     }
 
     /// Converts to an 8-bit RGBA image, rounding and clamping each channel.
@@ -63,8 +76,10 @@ impl Picture {
     /// # Errors
     /// [`Error::Image`] if the bytes are not a readable image.
     pub fn decode(bytes: &[u8], path: &Path) -> Result<Self> {
-        let image = image::load_from_memory(bytes)
-            .map_err(|e| Error::Image { path: path.to_path_buf(), problem: format!("cannot decode image: {e}") })?;
+        let image = image::load_from_memory(bytes).map_err(|e| Error::Image {
+            path: path.to_path_buf(),
+            problem: format!("cannot decode image: {e}"),
+        })?;
         Ok(Self::from_image(&image))
     }
 
@@ -76,7 +91,10 @@ impl Picture {
         let mut bytes = Vec::new();
         self.to_rgba8()
             .write_to(&mut std::io::Cursor::new(&mut bytes), image::ImageFormat::Png)
-            .map_err(|e| Error::Image { path: path.to_path_buf(), problem: format!("cannot encode PNG: {e}") })?;
+            .map_err(|e| Error::Image {
+                path: path.to_path_buf(),
+                problem: format!("cannot encode PNG: {e}"),
+            })?;
         crate::atomic_file::write_atomic(path, &bytes)
     }
 }

@@ -34,7 +34,9 @@ fn unreadable_layer_png() {
 fn layers_of_different_sizes() {
     let tmp = tempfile::tempdir().unwrap();
     let dir = write_layer_character(&tmp.path().join("c"), "");
-    image::RgbaImage::from_pixel(32, 40, image::Rgba([1, 2, 3, 255])).save(dir.join("arm.png")).unwrap();
+    image::RgbaImage::from_pixel(32, 40, image::Rgba([1, 2, 3, 255]))
+        .save(dir.join("arm.png"))
+        .unwrap();
     build(tmp.path(), "c").assert_error(&["c/arm.png", "layer \"arm\"", "32×40, expected 64×64"]);
 }
 
@@ -61,7 +63,11 @@ fn legend_colour_absent_from_map() {
     let tmp = tempfile::tempdir().unwrap();
     let dir = write_label_character(&tmp.path().join("c"));
     let toml = std::fs::read_to_string(dir.join("character.toml")).unwrap();
-    std::fs::write(dir.join("character.toml"), format!("{toml}[[layer]]\nname = \"tail\"\ncolor = \"#123456\"\n")).unwrap();
+    std::fs::write(
+        dir.join("character.toml"),
+        format!("{toml}[[layer]]\nname = \"tail\"\ncolor = \"#123456\"\n"),
+    )
+    .unwrap();
     build(tmp.path(), "c").assert_error(&["c/labels.png", "layer \"tail\"", "#123456 does not appear in the label map"]);
 }
 
@@ -76,7 +82,9 @@ fn unknown_key_in_character_toml() {
 fn no_root_body_layer() {
     let tmp = tempfile::tempdir().unwrap();
     let dir = write_layer_character(&tmp.path().join("c"), "");
-    let toml = std::fs::read_to_string(dir.join("character.toml")).unwrap().replace("root = \"torso\"\n", "");
+    let toml = std::fs::read_to_string(dir.join("character.toml"))
+        .unwrap()
+        .replace("root = \"torso\"\n", "");
     std::fs::write(dir.join("character.toml"), toml).unwrap();
     build(tmp.path(), "c").assert_error(&["c/character.toml", "no root body layer"]);
 }
@@ -86,7 +94,11 @@ fn duplicate_layer_names() {
     let tmp = tempfile::tempdir().unwrap();
     let dir = write_layer_character(&tmp.path().join("c"), "");
     let toml = std::fs::read_to_string(dir.join("character.toml")).unwrap();
-    std::fs::write(dir.join("character.toml"), format!("{toml}[[layer]]\nname = \"head\"\nfile = \"arm.png\"\n")).unwrap();
+    std::fs::write(
+        dir.join("character.toml"),
+        format!("{toml}[[layer]]\nname = \"head\"\nfile = \"arm.png\"\n"),
+    )
+    .unwrap();
     build(tmp.path(), "c").assert_error(&["c/character.toml", "layer \"head\": duplicate layer name"]);
 }
 
@@ -119,7 +131,10 @@ fn ora_without_stack_xml() {
 fn ora_layer_referenced_but_absent() {
     let tmp = tempfile::tempdir().unwrap();
     let stack = br#"<image w="8" h="8"><stack><layer name="arm" src="data/arm.png"/></stack></image>"#;
-    write_zip(&tmp.path().join("absent.ora"), &[("mimetype", b"image/openraster"), ("stack.xml", stack)]);
+    write_zip(
+        &tmp.path().join("absent.ora"),
+        &[("mimetype", b"image/openraster"), ("stack.xml", stack)],
+    );
     build(tmp.path(), "absent.ora").assert_error(&["absent.ora", "layer \"arm\"", "\"data/arm.png\", which is not in the archive"]);
 }
 
@@ -127,7 +142,10 @@ fn ora_layer_referenced_but_absent() {
 fn ora_with_malformed_stack_xml() {
     let tmp = tempfile::tempdir().unwrap();
     let stack = br#"<image w="8" h="8"><stack><layer name="arm" src="a.png"></stack></image>"#;
-    write_zip(&tmp.path().join("malformed.ora"), &[("mimetype", b"image/openraster"), ("stack.xml", stack)]);
+    write_zip(
+        &tmp.path().join("malformed.ora"),
+        &[("mimetype", b"image/openraster"), ("stack.xml", stack)],
+    );
     build(tmp.path(), "malformed.ora").assert_error(&["malformed.ora", "stack.xml: malformed XML"]);
 }
 
@@ -140,7 +158,11 @@ fn part_too_small_to_mesh_is_named() {
     speck.put_pixel(3, 60, image::Rgba([0, 0, 0, 255]));
     speck.save(dir.join("speck.png")).unwrap();
     let toml = std::fs::read_to_string(dir.join("character.toml")).unwrap();
-    std::fs::write(dir.join("character.toml"), format!("{toml}[[layer]]\nname = \"speck\"\nfile = \"speck.png\"\n")).unwrap();
+    std::fs::write(
+        dir.join("character.toml"),
+        format!("{toml}[[layer]]\nname = \"speck\"\nfile = \"speck.png\"\n"),
+    )
+    .unwrap();
     build(tmp.path(), "c").assert_error(&["c/character.toml", "layer \"speck\"", "too small"]);
 }
 

@@ -15,7 +15,12 @@ fn build_and_check(tmp: &std::path::Path, artwork: &std::path::Path, layers: usi
     assert_eq!(p.layers.len(), layers);
     for layer in &p.layers {
         layer.mesh.check_invariants().unwrap();
-        assert!(layer.mesh.min_angle_degrees() >= 25.0, "layer {:?}: min angle {}", layer.name, layer.mesh.min_angle_degrees());
+        assert!(
+            layer.mesh.min_angle_degrees() >= 25.0,
+            "layer {:?}: min angle {}",
+            layer.name,
+            layer.mesh.min_angle_degrees()
+        );
     }
     let preview = image::open(out.join("preview.png")).unwrap();
     assert!(preview.width() >= p.width * 4, "preview is upscaled for small sprites");
@@ -60,14 +65,21 @@ fn subdivision_multiplies_triangles_by_four() {
     let art = write_layer_character(&tmp.path().join("c"), "");
     let plain = build_and_check(tmp.path(), &art, 3);
     let out = tmp.path().join("sub");
-    puppet(tmp.path(), &["build", art.to_str().unwrap(), "-o", out.to_str().unwrap(), "--subdivide", "1"]).assert_ok();
+    puppet(
+        tmp.path(),
+        &["build", art.to_str().unwrap(), "-o", out.to_str().unwrap(), "--subdivide", "1"],
+    )
+    .assert_ok();
     let sub = format::load(&out).unwrap();
     for (a, b) in plain.layers.iter().zip(&sub.layers) {
         assert_eq!(b.mesh.triangles.len(), 4 * a.mesh.triangles.len(), "layer {:?}", a.name);
     }
     // Joints are still exact: both ends at the same position.
     for j in &sub.joints {
-        assert_eq!(sub.layers[j.a.layer].mesh.vertices[j.a.vertex as usize], sub.layers[j.b.layer].mesh.vertices[j.b.vertex as usize]);
+        assert_eq!(
+            sub.layers[j.a.layer].mesh.vertices[j.a.vertex as usize],
+            sub.layers[j.b.layer].mesh.vertices[j.b.vertex as usize]
+        );
     }
 }
 
@@ -83,10 +95,19 @@ fn unconnected_body_layer_is_reported() {
     }
     far.save(dir.join("tail.png")).unwrap();
     let toml = std::fs::read_to_string(dir.join("character.toml")).unwrap();
-    std::fs::write(dir.join("character.toml"), format!("{toml}[[layer]]\nname = \"tail\"\nfile = \"tail.png\"\n")).unwrap();
+    std::fs::write(
+        dir.join("character.toml"),
+        format!("{toml}[[layer]]\nname = \"tail\"\nfile = \"tail.png\"\n"),
+    )
+    .unwrap();
     let run = puppet(tmp.path(), &["build", "c", "-o", "out"]);
     run.assert_ok();
-    assert!(run.stderr.contains("warning: no joint connects these body layers to the root \"torso\": tail"), "{}", run.stderr);
+    assert!(
+        run.stderr
+            .contains("warning: no joint connects these body layers to the root \"torso\": tail"),
+        "{}",
+        run.stderr
+    );
 }
 
 /// The bundled Kenney characters: every part meshed, joints where parts meet.
@@ -95,9 +116,15 @@ fn kenney(name: &str, expected_joints: &[[&str; 2]]) {
     let art = repo().join("data/kenney").join(name);
     let character = puppet::puppet::character::Character::load(&art.join("character.toml")).unwrap();
     let p = build_and_check(tmp.path(), &art, character.layers.len());
-    let joined: Vec<[&str; 2]> = p.joints.iter().map(|j| [p.layers[j.a.layer].name.as_str(), p.layers[j.b.layer].name.as_str()]).collect();
+    let joined: Vec<[&str; 2]> = p
+        .joints
+        .iter()
+        .map(|j| [p.layers[j.a.layer].name.as_str(), p.layers[j.b.layer].name.as_str()])
+        .collect();
     for pair in expected_joints {
-        let found = joined.iter().any(|j| (j[0] == pair[0] && j[1] == pair[1]) || (j[0] == pair[1] && j[1] == pair[0]));
+        let found = joined
+            .iter()
+            .any(|j| (j[0] == pair[0] && j[1] == pair[1]) || (j[0] == pair[1] && j[1] == pair[0]));
         assert!(found, "{name}: no joint {pair:?} among {joined:?}");
     }
     let run = puppet(tmp.path(), &["build", art.to_str().unwrap(), "-o", "again"]);
@@ -136,8 +163,17 @@ fn render_rest_pose_reproduces_the_artwork_and_rejects_a_foreign_pose() {
     puppet(tmp.path(), &["render", "out", "-o", "rest.png"]).assert_ok();
     let rendered = puppet::picture::Picture::load(&tmp.path().join("rest.png")).unwrap();
     let artwork = puppet::puppet::artwork::load(&art, &Default::default()).unwrap().composite();
-    let differing = rendered.pixels.iter().zip(&artwork.pixels).filter(|(a, b)| (a[3] > 0.5) != (b[3] > 0.5)).count();
-    assert!(differing <= 8, "{differing} pixels differ in coverage between the crisp rest render and the artwork");
+    let differing = rendered
+        .pixels
+        .iter()
+        .zip(&artwork.pixels)
+        .filter(|(a, b)| (a[3] > 0.5) != (b[3] > 0.5))
+        .count();
+    assert!(
+        differing <= 8,
+        "{differing} pixels differ in coverage between the crisp rest render and the artwork"
+    );
     std::fs::write(tmp.path().join("pose.json"), r#"{"vertices": [[1.0, 2.0]]}"#).unwrap();
-    puppet(tmp.path(), &["render", "out", "--pose", "pose.json", "-o", "x.png"]).assert_error(&["pose.json", "1 vertices, but the puppet has"]);
+    puppet(tmp.path(), &["render", "out", "--pose", "pose.json", "-o", "x.png"])
+        .assert_error(&["pose.json", "1 vertices, but the puppet has"]);
 }

@@ -43,7 +43,11 @@ fn label_map_form_cuts_parts_and_extends_them_under_front_parts() {
     // under it: pixel (41, 30) is now torso too, (42, 30) is 3 px from the torso and is not.
     let torso = &art.layers[0].picture;
     assert_eq!(torso.get(41, 30)[3], 1.0);
-    assert_eq!(torso.get(41, 30)[..3], reference.get(39, 30)[..3], "colour copied from the nearest torso pixel");
+    assert_eq!(
+        torso.get(41, 30)[..3],
+        reference.get(39, 30)[..3],
+        "colour copied from the nearest torso pixel"
+    );
     assert_eq!(torso.get(42, 30)[3], 0.0);
     // The arm (frontmost) does not grow.
     let arm = &art.layers[2].picture;
@@ -80,8 +84,14 @@ fn listed_joints_restrict_pairs_and_report_non_overlapping_ones() {
 fn hand_made_puppet() -> Puppet {
     let mut texture = Picture::filled(8, 6, [0.0; 4]);
     texture.pixels[9] = [0.2, 0.4, 0.6, 1.0];
-    let square = Mesh { vertices: vec![[1.0, 1.0], [5.0, 1.0], [5.0, 4.0], [1.0, 4.0]], triangles: vec![[0, 1, 2], [0, 2, 3]] };
-    let tri = Mesh { vertices: vec![[4.0, 3.0], [7.5, 3.25], [4.125, 5.9]], triangles: vec![[0, 1, 2]] };
+    let square = Mesh {
+        vertices: vec![[1.0, 1.0], [5.0, 1.0], [5.0, 4.0], [1.0, 4.0]],
+        triangles: vec![[0, 1, 2], [0, 2, 3]],
+    };
+    let tri = Mesh {
+        vertices: vec![[4.0, 3.0], [7.5, 3.25], [4.125, 5.9]],
+        triangles: vec![[0, 1, 2]],
+    };
     let layer = |name: &str, kind, mesh: Mesh| Layer {
         name: name.into(),
         kind,
@@ -94,7 +104,10 @@ fn hand_made_puppet() -> Puppet {
         height: 6,
         layers: vec![layer("body", LayerKind::Body, square), layer("arm/left", LayerKind::Accessory, tri)],
         root: 0,
-        joints: vec![Joint { a: VertexRef { layer: 0, vertex: 2 }, b: VertexRef { layer: 1, vertex: 0 } }],
+        joints: vec![Joint {
+            a: VertexRef { layer: 0, vertex: 2 },
+            b: VertexRef { layer: 1, vertex: 0 },
+        }],
     }
 }
 

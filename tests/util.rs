@@ -32,7 +32,11 @@ impl Run {
 
 /// Runs the `puppet` binary with `args` in `cwd`.
 pub fn puppet(cwd: &Path, args: &[&str]) -> Run {
-    let out = Command::new(env!("CARGO_BIN_EXE_puppet")).args(args).current_dir(cwd).output().expect("the puppet binary runs");
+    let out = Command::new(env!("CARGO_BIN_EXE_puppet"))
+        .args(args)
+        .current_dir(cwd)
+        .output()
+        .expect("the puppet binary runs");
     Run {
         code: out.status.code().unwrap_or(-1),
         stdout: String::from_utf8_lossy(&out.stdout).into_owned(),
@@ -56,9 +60,13 @@ pub fn shape(w: u32, h: u32, colour: [u8; 4], inside: impl Fn(f32, f32) -> bool)
 /// The tiny test character: a torso box, a head disc overlapping its top, an arm box overlapping
 /// its side, 64×64, as (name, image) back → front.
 pub fn tiny_layers() -> Vec<(&'static str, image::RgbaImage)> {
-    let torso = shape(64, 64, [60, 120, 200, 255], |x, y| (20.0..44.0).contains(&x) && (24.0..52.0).contains(&y));
+    let torso = shape(64, 64, [60, 120, 200, 255], |x, y| {
+        (20.0..44.0).contains(&x) && (24.0..52.0).contains(&y)
+    });
     let head = shape(64, 64, [240, 200, 150, 255], |x, y| (x - 32.0).powi(2) + (y - 16.0).powi(2) < 100.0);
-    let arm = shape(64, 64, [200, 60, 60, 255], |x, y| (40.0..52.0).contains(&x) && (26.0..34.0).contains(&y));
+    let arm = shape(64, 64, [200, 60, 60, 255], |x, y| {
+        (40.0..52.0).contains(&x) && (26.0..34.0).contains(&y)
+    });
     vec![("torso", torso), ("head", head), ("arm", arm)]
 }
 
@@ -96,7 +104,10 @@ pub fn write_label_character(dir: &Path) -> PathBuf {
     let mut toml = String::from("root = \"torso\"\n[labels]\nmap = \"labels.png\"\nimage = \"reference.png\"\n");
     for (k, (name, _)) in layers.iter().enumerate() {
         let c = legend[k];
-        toml.push_str(&format!("[[layer]]\nname = \"{name}\"\ncolor = \"#{:02x}{:02x}{:02x}\"\n", c[0], c[1], c[2]));
+        toml.push_str(&format!(
+            "[[layer]]\nname = \"{name}\"\ncolor = \"#{:02x}{:02x}{:02x}\"\n",
+            c[0], c[1], c[2]
+        ));
     }
     std::fs::write(dir.join("character.toml"), toml).unwrap();
     dir.to_path_buf()

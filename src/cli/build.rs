@@ -44,14 +44,23 @@ fn positive_f32(s: &str) -> Result<f32, String> {
 fn min_angle(s: &str) -> Result<f32, String> {
     match s.parse::<f32>() {
         Ok(v) if (25.0..=33.0).contains(&v) => Ok(v),
-        _ => Err(format!("{s:?}: the minimum angle must be between 25 and 33 degrees (refinement may not end above ~33)")),
+        _ => Err(format!(
+            "{s:?}: the minimum angle must be between 25 and 33 degrees (refinement may not end above ~33)"
+        )),
     }
 }
 
 /// Runs `puppet build`.
 pub fn run(args: BuildArgs, ui: &Ui) -> anyhow::Result<()> {
-    let import = artwork::ImportOptions { label_overlap: args.label_overlap };
-    let mut opts = build::BuildOptions { max_area: args.max_area, min_angle: args.min_angle, subdivide: args.subdivide, ..Default::default() };
+    let import = artwork::ImportOptions {
+        label_overlap: args.label_overlap,
+    };
+    let mut opts = build::BuildOptions {
+        max_area: args.max_area,
+        min_angle: args.min_angle,
+        subdivide: args.subdivide,
+        ..Default::default()
+    };
     opts.joints.min_overlap = args.min_overlap;
 
     let art = artwork::load(&args.artwork, &import)?;
@@ -94,7 +103,9 @@ mod tests {
     #[test]
     fn parses_options_and_rejects_bad_angles() {
         assert!(Cli::try_parse_from(["puppet", "build", "art", "-o", "out", "--max-area", "9", "--subdivide", "1"]).is_ok());
-        let err = Cli::try_parse_from(["puppet", "build", "art", "-o", "out", "--min-angle", "40"]).unwrap_err().to_string();
+        let err = Cli::try_parse_from(["puppet", "build", "art", "-o", "out", "--min-angle", "40"])
+            .unwrap_err()
+            .to_string();
         assert!(err.contains("between 25 and 33"), "{err}");
         assert!(Cli::try_parse_from(["puppet", "build", "art", "-o", "out", "--max-area", "-1"]).is_err());
         assert!(Cli::try_parse_from(["puppet", "build", "art"]).is_err(), "output is required");

@@ -16,8 +16,14 @@ pub struct InfoArgs {
 /// Runs `puppet info`.
 pub fn run(args: InfoArgs, ui: &Ui) -> anyhow::Result<()> {
     let puppet = format::load(&args.puppet)?;
-    ui.say(format!("puppet {}×{} px, root layer {:?}", puppet.width, puppet.height, puppet.layers[puppet.root].name));
-    ui.say(format!("{:<3} {:<20} {:<9} {:>8} {:>9} {:>9}", "#", "layer", "kind", "vertices", "triangles", "min angle"));
+    ui.say(format!(
+        "puppet {}×{} px, root layer {:?}",
+        puppet.width, puppet.height, puppet.layers[puppet.root].name
+    ));
+    ui.say(format!(
+        "{:<3} {:<20} {:<9} {:>8} {:>9} {:>9}",
+        "#", "layer", "kind", "vertices", "triangles", "min angle"
+    ));
     for (i, layer) in puppet.layers.iter().enumerate() {
         let kind = format!("{:?}", layer.kind).to_lowercase();
         ui.say(format!(
@@ -38,6 +44,9 @@ pub fn run(args: InfoArgs, ui: &Ui) -> anyhow::Result<()> {
     }
     let triangles: usize = puppet.layers.iter().map(|l| l.mesh.triangles.len()).sum();
     let min_angle = puppet.layers.iter().map(|l| l.mesh.min_angle_degrees()).fold(180.0, f32::min);
-    ui.say(format!("total: {} vertices, {triangles} triangles, min angle {min_angle:.1}°", puppet.vertex_count()));
+    ui.say(format!(
+        "total: {} vertices, {triangles} triangles, min angle {min_angle:.1}°",
+        puppet.vertex_count()
+    ));
     Ok(())
 }

@@ -31,7 +31,9 @@ pub struct RenderArgs {
 
 /// Parses `WxH` with both sides in 1..=8192.
 pub fn parse_size(s: &str) -> Result<(u32, u32), String> {
-    let parsed = s.split_once(['x', 'X']).and_then(|(w, h)| Some((w.trim().parse::<u32>().ok()?, h.trim().parse::<u32>().ok()?)));
+    let parsed = s
+        .split_once(['x', 'X'])
+        .and_then(|(w, h)| Some((w.trim().parse::<u32>().ok()?, h.trim().parse::<u32>().ok()?)));
     match parsed {
         Some((w, h)) if (1..=8192).contains(&w) && (1..=8192).contains(&h) => Ok((w, h)),
         _ => Err(format!("{s:?} is not a size WxH with sides from 1 to 8192 (e.g. 256x256)")),

@@ -16,7 +16,10 @@ pub struct Ui {
 impl Ui {
     /// A UI that shows bars unless `quiet`.
     pub fn new(quiet: bool) -> Self {
-        Ui { quiet, bar: Mutex::new(None) }
+        Ui {
+            quiet,
+            bar: Mutex::new(None),
+        }
     }
 
     /// Prints a summary line on stdout (suppressed by `--quiet`).
@@ -42,13 +45,21 @@ impl Progress for Ui {
             return;
         }
         self.finish();
-        let bar = if total == 0 { ProgressBar::new_spinner() } else { ProgressBar::new(total) };
+        let bar = if total == 0 {
+            ProgressBar::new_spinner()
+        } else {
+            ProgressBar::new(total)
+        };
         let template = if total == 0 {
             "{spinner} {prefix:>10} {elapsed_precise} {msg}"
         } else {
             "{prefix:>10} [{bar:30}] {pos}/{len} {elapsed_precise} eta {eta_precise} {msg}"
         };
-        bar.set_style(ProgressStyle::with_template(template).expect("template is valid").progress_chars("=> "));
+        bar.set_style(
+            ProgressStyle::with_template(template)
+                .expect("template is valid")
+                .progress_chars("=> "),
+        );
         bar.set_prefix(name.to_string());
         *self.bar.lock().expect("no panics while holding the bar") = Some(bar);
     }

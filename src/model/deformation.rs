@@ -57,9 +57,16 @@ impl DeformationNetConfig {
     /// # Panics
     /// If `input_size` is not a multiple of 8 (a caller bug: configs are validated first).
     pub fn init(&self, device: &Device) -> DeformationNet {
-        assert!(self.input_size % 8 == 0 && self.input_size > 0, "input size {} is not a positive multiple of 8", self.input_size);
+        assert!(
+            self.input_size % 8 == 0 && self.input_size > 0,
+            "input size {} is not a positive multiple of 8",
+            self.input_size
+        );
         let conv = |i: usize, o: usize| {
-            Conv2dConfig::new([i, o], [5, 5]).with_stride([2, 2]).with_padding(PaddingConfig2d::Explicit(2, 2, 2, 2)).init(device)
+            Conv2dConfig::new([i, o], [5, 5])
+                .with_stride([2, 2])
+                .with_padding(PaddingConfig2d::Explicit(2, 2, 2, 2))
+                .init(device)
         };
         let [c1, c2, c3] = self.channels;
         let flat = c3 * (self.input_size / 8).pow(2);
@@ -140,7 +147,11 @@ mod tests {
     #[test]
     fn untrained_network_predicts_the_rest_pose_with_the_documented_shapes() {
         let device = crate::backend::device();
-        let config = DeformationNetConfig::new(5).with_input_size(16).with_encoder_hidden([32, 16]).with_latent(8).with_decoder_hidden([8, 16]);
+        let config = DeformationNetConfig::new(5)
+            .with_input_size(16)
+            .with_encoder_hidden([32, 16])
+            .with_latent(8)
+            .with_decoder_hidden([8, 16]);
         let net = config.init(&device);
         let images = Tensor::<4>::random([3, 4, 16, 16], Distribution::Uniform(0.0, 1.0), &device);
         let z = net.encode(images);

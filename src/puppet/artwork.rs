@@ -94,12 +94,19 @@ pub fn over(top: [f32; 4], bottom: [f32; 4]) -> [f32; 4] {
 /// the map, unlabelled opaque pixels, or a corrupt `.ora` — each naming the file and layer.
 pub fn load(path: &Path, opts: &ImportOptions) -> Result<Artwork> {
     if !path.exists() {
-        return Err(Error::format(path, "no such file or folder (expected a folder with character.toml, a character.toml, or an .ora)"));
+        return Err(Error::format(
+            path,
+            "no such file or folder (expected a folder with character.toml, a character.toml, or an .ora)",
+        ));
     }
     if path.extension().is_some_and(|e| e.eq_ignore_ascii_case("ora")) {
         return super::ora::load(path);
     }
-    let toml_path = if path.is_dir() { path.join("character.toml") } else { path.to_path_buf() };
+    let toml_path = if path.is_dir() {
+        path.join("character.toml")
+    } else {
+        path.to_path_buf()
+    };
     let character = Character::load(&toml_path)?;
     let dir = toml_path.parent().unwrap_or(Path::new("."));
     let name = character.name.clone().unwrap_or_else(|| folder_name(dir));
@@ -113,13 +120,23 @@ pub fn load(path: &Path, opts: &ImportOptions) -> Result<Artwork> {
         None => load_layer_pngs(&character, dir, &toml_path)?,
     };
     let index = |n: &str| character.layers.iter().position(|l| l.name == n).expect("validated joint names");
-    let joint_pairs = character.joints.as_ref().map(|pairs| pairs.iter().map(|[a, b]| [index(a), index(b)]).collect());
-    Ok(Artwork { source: toml_path.clone(), name, layers, root: character.root_index(), joint_pairs })
+    let joint_pairs = character
+        .joints
+        .as_ref()
+        .map(|pairs| pairs.iter().map(|[a, b]| [index(a), index(b)]).collect());
+    Ok(Artwork {
+        source: toml_path.clone(),
+        name,
+        layers,
+        root: character.root_index(),
+        joint_pairs,
+    })
 }
 
 fn folder_name(dir: &Path) -> String {
     let dir = dir.canonicalize().unwrap_or_else(|_| dir.to_path_buf());
-    dir.file_name().map_or_else(|| "character".into(), |n| n.to_string_lossy().into_owned())
+    dir.file_name()
+        .map_or_else(|| "character".into(), |n| n.to_string_lossy().into_owned())
 }
 
 /// Loads the layer-PNG form, checking sizes and emptiness of every layer.
@@ -129,7 +146,14 @@ fn load_layer_pngs(character: &Character, dir: &Path, toml_path: &Path) -> Resul
     for spec in &character.layers {
         let file = dir.join(spec.file.as_ref().expect("validated: layer-PNG form has files"));
         match Picture::load(&file) {
-            Ok(picture) => layers.push((ArtLayer { name: spec.name.clone(), kind: spec.kind, picture }, file)),
+            Ok(picture) => layers.push((
+                ArtLayer {
+                    name: spec.name.clone(),
+                    kind: spec.kind,
+                    picture,
+                },
+                file,
+            )),
             Err(e) => problems.push(e),
         }
     }
@@ -175,19 +199,35 @@ fn cut_label_map(
     if (map.width, map.height) != (image.width, image.height) {
         return Err(Error::format(
             map_path,
-            format!("label map is {}×{}, expected {}×{} like {}", map.width, map.height, image.width, image.height, image_path.display()),
+            format!(
+                "label map is {}×{}, expected {}×{} like {}",
+                map.width,
+                map.height,
+                image.width,
+                image.height,
+                image_path.display()
+            ),
         ));
     }
-    let legend: Vec<[u8; 3]> =
-        character.layers.iter().map(|l| parse_color(l.color.as_deref().expect("validated: colours present")).expect("validated colour")).collect();
+    let legend: Vec<[u8; 3]> = character
+        .layers
+        .iter()
+        .map(|l| parse_color(l.color.as_deref().expect("validated: colours present")).expect("validated colour"))
+        .collect();
     let labels = label_pixels(map, map_path, &legend)?;
     let mut problems = Vec::new();
-    let unlabelled: Vec<usize> = (0..labels.len()).filter(|&i| labels[i].is_none() && image.pixels[i][3] > 0.5).collect();
+    let unlabelled: Vec<usize> = (0..labels.len())
+        .filter(|&i| labels[i].is_none() && image.pixels[i][3] > 0.5)
+        .collect();
     if let Some(&first) = unlabelled.first() {
         let (x, y) = (first as u32 % map.width, first as u32 / map.width);
         problems.push(Error::format(
             map_path,
-            format!("{} opaque pixels of {} have no label, first at ({x}, {y})", unlabelled.len(), image_path.display()),
+            format!(
+                "{} opaque pixels of {} have no label, first at ({x}, {y})",
+                unlabelled.len(),
+                image_path.display()
+            ),
         ));
     }
     let mut layers = Vec::new();
@@ -197,14 +237,21 @@ fn cut_label_map(
             problems.push(Error::layer(
                 map_path,
                 &spec.name,
-                format!("its colour {} does not appear in the label map", spec.color.as_deref().unwrap_or_default()),
+                format!(
+                    "its colour {} does not appear in the label map",
+                    spec.color.as_deref().unwrap_or_default()
+                ),
             ));
             continue;
         }
         // Where this part may extend: under parts drawn in front of it.
         let under_front: Vec<bool> = labels.iter().map(|&l| l.is_some_and(|o| o > k)).collect();
         let picture = extend_part(image, &own, &under_front, opts.label_overlap);
-        layers.push(ArtLayer { name: spec.name.clone(), kind: spec.kind, picture });
+        layers.push(ArtLayer {
+            name: spec.name.clone(),
+            kind: spec.kind,
+            picture,
+        });
     }
     Error::collect(problems)?;
     Ok(layers)
@@ -241,13 +288,27 @@ fn label_pixels(map: &Picture, map_path: &Path, legend: &[[u8; 3]]) -> Result<Ve
         .iter()
         .take(5)
         .map(|(c, n, i)| {
-            format!("#{:02x}{:02x}{:02x} ({n} px, first at ({}, {}))", c[0], c[1], c[2], *i as u32 % map.width, *i as u32 / map.width)
+            format!(
+                "#{:02x}{:02x}{:02x} ({n} px, first at ({}, {}))",
+                c[0],
+                c[1],
+                c[2],
+                *i as u32 % map.width,
+                *i as u32 / map.width
+            )
         })
         .collect();
-    let more = if unknown.len() > 5 { format!(" and {} more", unknown.len() - 5) } else { String::new() };
+    let more = if unknown.len() > 5 {
+        format!(" and {} more", unknown.len() - 5)
+    } else {
+        String::new()
+    };
     Err(Error::format(
         map_path,
-        format!("colours not in the legend of character.toml: {}{more} (label maps need flat colours, no anti-aliasing)", listed.join(", ")),
+        format!(
+            "colours not in the legend of character.toml: {}{more} (label maps need flat colours, no anti-aliasing)",
+            listed.join(", ")
+        ),
     ))
 }
 
@@ -271,7 +332,12 @@ fn extend_part(image: &Picture, own: &[bool], allowed: &[bool], overlap: u32) ->
         let mut next = Vec::new();
         for &i in &frontier {
             let (x, y) = (i % w, i / w);
-            let neighbours = [(x > 0).then(|| i - 1), (x + 1 < w).then(|| i + 1), (y > 0).then(|| i - w), (y + 1 < h).then(|| i + w)];
+            let neighbours = [
+                (x > 0).then(|| i - 1),
+                (x + 1 < w).then(|| i + 1),
+                (y > 0).then(|| i - w),
+                (y + 1 < h).then(|| i + w),
+            ];
             for j in neighbours.into_iter().flatten() {
                 let reachable = allowed[j] && (step <= overlap as usize || holes[j]);
                 if !owned[j] && reachable {
@@ -304,7 +370,12 @@ fn enclosed_holes(own: &[bool], allowed: &[bool], w: usize, h: usize) -> Vec<boo
         while let Some(i) = stack.pop() {
             let (x, y) = (i % w, i / w);
             ok &= allowed[i] && x > 0 && y > 0 && x + 1 < w && y + 1 < h;
-            let neighbours = [(x > 0).then(|| i - 1), (x + 1 < w).then(|| i + 1), (y > 0).then(|| i - w), (y + 1 < h).then(|| i + w)];
+            let neighbours = [
+                (x > 0).then(|| i - 1),
+                (x + 1 < w).then(|| i + 1),
+                (y > 0).then(|| i - w),
+                (y + 1 < h).then(|| i + w),
+            ];
             for j in neighbours.into_iter().flatten() {
                 if !own[j] && component[j] == usize::MAX {
                     component[j] = id;

@@ -29,7 +29,13 @@ pub struct BuildOptions {
 
 impl Default for BuildOptions {
     fn default() -> Self {
-        BuildOptions { max_area: None, min_angle: 30.0, subdivide: 0, simplify_tolerance: 0.5, joints: JointOptions::default() }
+        BuildOptions {
+            max_area: None,
+            min_angle: 30.0,
+            subdivide: 0,
+            simplify_tolerance: 0.5,
+            joints: JointOptions::default(),
+        }
     }
 }
 
@@ -68,7 +74,11 @@ pub fn build(artwork: &Artwork, opts: &BuildOptions, progress: &dyn Progress) ->
     let mut problems: Vec<Error> = missing
         .iter()
         .map(|&[a, b]| {
-            Error::layer(&artwork.source, &artwork.layers[a].name, format!("listed joint with {:?}, but the layers do not overlap", artwork.layers[b].name))
+            Error::layer(
+                &artwork.source,
+                &artwork.layers[a].name,
+                format!("listed joint with {:?}, but the layers do not overlap", artwork.layers[b].name),
+            )
         })
         .collect();
 
@@ -92,11 +102,26 @@ pub fn build(artwork: &Artwork, opts: &BuildOptions, progress: &dyn Progress) ->
         match result {
             Ok(lm) => {
                 if let Err(problem) = lm.mesh.check_invariants() {
-                    problems.push(Error::layer(&artwork.source, &art.name, format!("internal meshing error: {problem}")));
+                    problems.push(Error::layer(
+                        &artwork.source,
+                        &art.name,
+                        format!("internal meshing error: {problem}"),
+                    ));
                 }
-                let uvs = lm.mesh.vertices.iter().map(|v| [v[0] / width as f32, v[1] / height as f32]).collect();
+                let uvs = lm
+                    .mesh
+                    .vertices
+                    .iter()
+                    .map(|v| [v[0] / width as f32, v[1] / height as f32])
+                    .collect();
                 let texture = bleed_colours(&art.picture, 2);
-                layers.push(Layer { name: art.name.clone(), kind: art.kind, mesh: lm.mesh, uvs, texture });
+                layers.push(Layer {
+                    name: art.name.clone(),
+                    kind: art.kind,
+                    mesh: lm.mesh,
+                    uvs,
+                    texture,
+                });
                 required_vertices.push(lm.required);
             }
             Err(e) => problems.push(e),
@@ -111,9 +136,21 @@ pub fn build(artwork: &Artwork, opts: &BuildOptions, progress: &dyn Progress) ->
         next[layer] += 1;
         VertexRef { layer, vertex: v }
     };
-    let joints = sites.iter().map(|s| Joint { a: take(s.a), b: take(s.b) }).collect();
+    let joints = sites
+        .iter()
+        .map(|s| Joint {
+            a: take(s.a),
+            b: take(s.b),
+        })
+        .collect();
     let unconnected = unconnected_body_layers(artwork, &sites);
-    let puppet = Puppet { width, height, layers, root: artwork.root, joints };
+    let puppet = Puppet {
+        width,
+        height,
+        layers,
+        root: artwork.root,
+        joints,
+    };
     Ok((puppet, BuildReport { sites, unconnected }))
 }
 

@@ -114,9 +114,11 @@ impl Character {
                     problems.push(Error::layer(path, &layer.name, "`color` needs a [labels] table (label-map form)"))
                 }
                 (Some(_), _, None) => problems.push(Error::layer(path, &layer.name, "no `color` (its colour in the label map)")),
-                (Some(_), Some(_), _) => {
-                    problems.push(Error::layer(path, &layer.name, "`file` is not used in the label-map form (remove it)"))
-                }
+                (Some(_), Some(_), _) => problems.push(Error::layer(
+                    path,
+                    &layer.name,
+                    "`file` is not used in the label-map form (remove it)",
+                )),
                 (Some(_), None, Some(c)) => {
                     if let Err(problem) = parse_color(c) {
                         problems.push(Error::layer(path, &layer.name, problem));
@@ -130,7 +132,11 @@ impl Character {
             for layer in &self.layers {
                 if let Some(Ok(c)) = layer.color.as_deref().map(parse_color) {
                     if !colors.insert(c) {
-                        problems.push(Error::layer(path, &layer.name, format!("colour {} is used by another layer", layer.color.as_deref().unwrap_or_default())));
+                        problems.push(Error::layer(
+                            path,
+                            &layer.name,
+                            format!("colour {} is used by another layer", layer.color.as_deref().unwrap_or_default()),
+                        ));
                     }
                 }
             }
@@ -161,7 +167,10 @@ impl Character {
     /// The index of the root layer (validated to exist).
     pub fn root_index(&self) -> usize {
         let root = self.root.as_deref().expect("validated: root is present");
-        self.layers.iter().position(|l| l.name == root).expect("validated: root names a layer")
+        self.layers
+            .iter()
+            .position(|l| l.name == root)
+            .expect("validated: root names a layer")
     }
 }
 
@@ -186,7 +195,8 @@ mod tests {
         Character::parse(text, Path::new("dir/character.toml"))
     }
 
-    const LAYERS: &str = "root = \"torso\"\n[[layer]]\nname = \"arm\"\nfile = \"arm.png\"\n[[layer]]\nname = \"torso\"\nfile = \"torso.png\"\n";
+    const LAYERS: &str =
+        "root = \"torso\"\n[[layer]]\nname = \"arm\"\nfile = \"arm.png\"\n[[layer]]\nname = \"torso\"\nfile = \"torso.png\"\n";
 
     #[test]
     fn layer_png_form_parses_with_defaults() {

@@ -77,7 +77,10 @@ pub fn save(puppet: &Puppet, dir: &Path) -> Result<()> {
             uvs: layer.uvs.clone(),
         });
     }
-    let end = |v: VertexRef| JointEnd { layer: puppet.layers[v.layer].name.clone(), vertex: v.vertex };
+    let end = |v: VertexRef| JointEnd {
+        layer: puppet.layers[v.layer].name.clone(),
+        vertex: v.vertex,
+    };
     let file = PuppetFile {
         schema: SCHEMA_VERSION,
         width: puppet.width,
@@ -97,14 +100,21 @@ pub fn save(puppet: &Puppet, dir: &Path) -> Result<()> {
 /// [`SCHEMA_VERSION`], or inconsistent content (index out of range, UV count, texture size,
 /// joint naming an unknown layer or vertex); [`Error::Layer`] for a bad texture.
 pub fn load(path: &Path) -> Result<Puppet> {
-    let json_path = if path.is_dir() { path.join(PUPPET_FILE) } else { path.to_path_buf() };
+    let json_path = if path.is_dir() {
+        path.join(PUPPET_FILE)
+    } else {
+        path.to_path_buf()
+    };
     let dir = json_path.parent().unwrap_or(Path::new("."));
     let text = std::fs::read_to_string(&json_path).map_err(|e| Error::io(&json_path, e))?;
     let version: Version = serde_json::from_str(&text).map_err(|e| Error::format(&json_path, format!("not a puppet file: {e}")))?;
     if version.schema > SCHEMA_VERSION {
         return Err(Error::format(
             &json_path,
-            format!("schema version {} is newer than this puppet understands ({SCHEMA_VERSION}); use a newer puppet", version.schema),
+            format!(
+                "schema version {} is newer than this puppet understands ({SCHEMA_VERSION}); use a newer puppet",
+                version.schema
+            ),
         ));
     }
     let file: PuppetFile = serde_json::from_str(&text).map_err(|e| Error::format(&json_path, format!("invalid puppet file: {e}")))?;
@@ -119,7 +129,16 @@ pub fn load(path: &Path) -> Result<Puppet> {
                 continue;
             }
         };
-        let layer = Layer { name: lf.name, kind: lf.kind, mesh: Mesh { vertices: lf.vertices, triangles: lf.triangles }, uvs: lf.uvs, texture };
+        let layer = Layer {
+            name: lf.name,
+            kind: lf.kind,
+            mesh: Mesh {
+                vertices: lf.vertices,
+                triangles: lf.triangles,
+            },
+            uvs: lf.uvs,
+            texture,
+        };
         if let Err(problem) = check_layer(&layer, file.width, file.height) {
             problems.push(Error::layer(&json_path, &layer.name, problem));
         }
@@ -132,12 +151,24 @@ pub fn load(path: &Path) -> Result<Puppet> {
     for (k, j) in file.joints.iter().enumerate() {
         let resolve = |end: &JointEnd| match find(&end.layer) {
             Some(layer) if (end.vertex as usize) < layers[layer].mesh.vertices.len() => Ok(VertexRef { layer, vertex: end.vertex }),
-            Some(_) => Err(Error::format(&json_path, format!("joint {k}: layer {:?} has no vertex {}", end.layer, end.vertex))),
+            Some(_) => Err(Error::format(
+                &json_path,
+                format!("joint {k}: layer {:?} has no vertex {}", end.layer, end.vertex),
+            )),
             None => Err(Error::format(&json_path, format!("joint {k}: no layer {:?}", end.layer))),
         };
-        joints.push(Joint { a: resolve(&j.a)?, b: resolve(&j.b)? });
+        joints.push(Joint {
+            a: resolve(&j.a)?,
+            b: resolve(&j.b)?,
+        });
     }
-    Ok(Puppet { width: file.width, height: file.height, layers, root, joints })
+    Ok(Puppet {
+        width: file.width,
+        height: file.height,
+        layers,
+        root,
+        joints,
+    })
 }
 
 fn check_layer(layer: &Layer, width: u32, height: u32) -> std::result::Result<(), String> {
@@ -146,12 +177,23 @@ fn check_layer(layer: &Layer, width: u32, height: u32) -> std::result::Result<()
         return Err(format!("{} UVs for {} vertices", layer.uvs.len(), layer.mesh.vertices.len()));
     }
     if (layer.texture.width, layer.texture.height) != (width, height) {
-        return Err(format!("texture is {}×{}, expected {width}×{height}", layer.texture.width, layer.texture.height));
+        return Err(format!(
+            "texture is {}×{}, expected {width}×{height}",
+            layer.texture.width, layer.texture.height
+        ));
     }
     Ok(())
 }
 
 /// A layer name made safe for a file name (letters, digits, `-`, `_`; others become `_`).
 fn file_safe(name: &str) -> String {
-    name.chars().map(|c| if c.is_ascii_alphanumeric() || c == '-' || c == '_' { c } else { '_' }).collect()
+    name.chars()
+        .map(|c| {
+            if c.is_ascii_alphanumeric() || c == '-' || c == '_' {
+                c
+            } else {
+                '_'
+            }
+        })
+        .collect()
 }

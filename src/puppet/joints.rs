@@ -29,7 +29,10 @@ pub struct JointOptions {
 
 impl Default for JointOptions {
     fn default() -> Self {
-        JointOptions { alpha_threshold: 0.5, min_overlap: 4 }
+        JointOptions {
+            alpha_threshold: 0.5,
+            min_overlap: 4,
+        }
     }
 }
 
@@ -45,8 +48,11 @@ pub fn find_joints(artwork: &Artwork, opts: &JointOptions) -> (Vec<JointSite>, V
         Some(p) => p.iter().map(|&[a, b]| [a.min(b), a.max(b)]).collect(),
         None => (0..n).flat_map(|a| (a + 1..n).map(move |b| [a, b])).collect(),
     };
-    let opaque: Vec<Vec<bool>> =
-        artwork.layers.iter().map(|l| l.picture.pixels.iter().map(|p| p[3] > opts.alpha_threshold).collect()).collect();
+    let opaque: Vec<Vec<bool>> = artwork
+        .layers
+        .iter()
+        .map(|l| l.picture.pixels.iter().map(|p| p[3] > opts.alpha_threshold).collect())
+        .collect();
     let width = artwork.layers[0].picture.width as usize;
     let mut sites = Vec::new();
     let mut missing = Vec::new();
@@ -75,9 +81,19 @@ pub fn find_joints(artwork: &Artwork, opts: &JointOptions) -> (Vec<JointSite>, V
                 let c = centre(i);
                 (c[0] - centroid[0]).powi(2) + (c[1] - centroid[1]).powi(2)
             };
-            centre(*overlap.iter().min_by(|&&i, &&j| d2(i).total_cmp(&d2(j))).expect("overlap is not empty"))
+            centre(
+                *overlap
+                    .iter()
+                    .min_by(|&&i, &&j| d2(i).total_cmp(&d2(j)))
+                    .expect("overlap is not empty"),
+            )
         };
-        sites.push(JointSite { a, b, point, overlap: overlap.len() });
+        sites.push(JointSite {
+            a,
+            b,
+            point,
+            overlap: overlap.len(),
+        });
     }
     (sites, missing)
 }
@@ -90,12 +106,21 @@ pub fn unconnected_body_layers(artwork: &Artwork, sites: &[JointSite]) -> Vec<St
     let mut stack = vec![artwork.root];
     while let Some(l) = stack.pop() {
         for s in sites {
-            let other = if s.a == l { s.b } else if s.b == l { s.a } else { continue };
+            let other = if s.a == l {
+                s.b
+            } else if s.b == l {
+                s.a
+            } else {
+                continue;
+            };
             if !reached[other] {
                 reached[other] = true;
                 stack.push(other);
             }
         }
     }
-    (0..n).filter(|&i| !reached[i] && artwork.layers[i].kind == LayerKind::Body).map(|i| artwork.layers[i].name.clone()).collect()
+    (0..n)
+        .filter(|&i| !reached[i] && artwork.layers[i].kind == LayerKind::Body)
+        .map(|i| artwork.layers[i].name.clone())
+        .collect()
 }

@@ -69,7 +69,10 @@ impl Mesh {
                 return Err(format!("triangle {k} {t:?} indexes past {} vertices", self.vertices.len()));
             }
             if self.signed_area(t) <= 0.0 {
-                return Err(format!("triangle {k} {t:?} is not counter-clockwise (area {})", self.signed_area(t)));
+                return Err(format!(
+                    "triangle {k} {t:?} is not counter-clockwise (area {})",
+                    self.signed_area(t)
+                ));
             }
             t.iter().for_each(|&i| used[i as usize] = true);
         }

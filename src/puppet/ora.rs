@@ -45,7 +45,11 @@ pub fn load(path: &Path) -> Result<Artwork> {
         let bytes = match read_entry(&mut zip, &entry.src, path) {
             Ok(b) => b,
             Err(_) => {
-                problems.push(Error::layer(path, &entry.name, format!("stack.xml references {:?}, which is not in the archive", entry.src)));
+                problems.push(Error::layer(
+                    path,
+                    &entry.name,
+                    format!("stack.xml references {:?}, which is not in the archive", entry.src),
+                ));
                 continue;
             }
         };
@@ -57,7 +61,11 @@ pub fn load(path: &Path) -> Result<Artwork> {
                     problems.push(Error::layer(path, &entry.name, "fully transparent (no pixel has alpha > 0)"));
                 }
                 let kind = if entry.accessory { LayerKind::Accessory } else { LayerKind::Body };
-                layers.push(ArtLayer { name: entry.name.clone(), kind, picture });
+                layers.push(ArtLayer {
+                    name: entry.name.clone(),
+                    kind,
+                    picture,
+                });
             }
             Err(e) => problems.push(Error::layer(path, &entry.name, e.to_string())),
         }
@@ -76,14 +84,26 @@ pub fn load(path: &Path) -> Result<Artwork> {
         .max_by_key(|(_, l)| l.picture.pixels.iter().filter(|p| p[3] > 0.5).count())
         .map(|(i, _)| i)
         .ok_or_else(|| Error::format(path, "no body layer (every layer is hidden or an accessory)"))?;
-    let name = path.file_stem().map_or_else(|| "character".into(), |s| s.to_string_lossy().into_owned());
-    Ok(Artwork { source: path.to_path_buf(), name, layers, root, joint_pairs: None })
+    let name = path
+        .file_stem()
+        .map_or_else(|| "character".into(), |s| s.to_string_lossy().into_owned());
+    Ok(Artwork {
+        source: path.to_path_buf(),
+        name,
+        layers,
+        root,
+        joint_pairs: None,
+    })
 }
 
 fn read_entry(zip: &mut zip::ZipArchive<std::fs::File>, name: &str, path: &Path) -> Result<Vec<u8>> {
-    let mut entry = zip.by_name(name).map_err(|_| Error::format(path, format!("no {name} in the archive (not an OpenRaster file?)")))?;
+    let mut entry = zip
+        .by_name(name)
+        .map_err(|_| Error::format(path, format!("no {name} in the archive (not an OpenRaster file?)")))?;
     let mut bytes = Vec::new();
-    entry.read_to_end(&mut bytes).map_err(|e| Error::format(path, format!("{name}: cannot unzip: {e}")))?;
+    entry
+        .read_to_end(&mut bytes)
+        .map_err(|e| Error::format(path, format!("{name}: cannot unzip: {e}")))?;
     Ok(bytes)
 }
 
@@ -111,7 +131,9 @@ fn parse_stack(xml: &str) -> std::result::Result<(u32, u32, Vec<StackLayer>), St
     // Names of the enclosing <stack> elements, to find the "accessories" group.
     let mut stacks: Vec<String> = Vec::new();
     loop {
-        let event = reader.read_event().map_err(|e| format!("malformed XML at byte {}: {e}", reader.buffer_position()))?;
+        let event = reader
+            .read_event()
+            .map_err(|e| format!("malformed XML at byte {}: {e}", reader.buffer_position()))?;
         let (element, is_empty) = match &event {
             Event::Start(e) => (e, false),
             Event::Empty(e) => (e, true),
@@ -129,7 +151,9 @@ fn parse_stack(xml: &str) -> std::result::Result<(u32, u32, Vec<StackLayer>), St
             attrs.insert(String::from_utf8_lossy(a.key.as_ref()).into_owned(), value);
         }
         let number = |key: &str, default: f64| -> std::result::Result<f64, String> {
-            attrs.get(key).map_or(Ok(default), |v| v.trim().parse::<f64>().map_err(|_| format!("{key}={v:?} is not a number")))
+            attrs.get(key).map_or(Ok(default), |v| {
+                v.trim().parse::<f64>().map_err(|_| format!("{key}={v:?} is not a number"))
+            })
         };
         match element.name().as_ref() {
             b"image" => {
@@ -186,13 +210,18 @@ pub fn save(artwork: &Artwork, path: &Path) -> Result<()> {
         for (i, layer) in artwork.layers.iter().enumerate().rev() {
             let src = format!("data/layer{i}.png");
             let name = quick_xml::escape::escape(layer.name.as_str());
-            xml.push_str(&format!("<layer name=\"{name}\" src=\"{src}\" x=\"0\" y=\"0\" opacity=\"1.0\" visibility=\"visible\"/>\n"));
+            xml.push_str(&format!(
+                "<layer name=\"{name}\" src=\"{src}\" x=\"0\" y=\"0\" opacity=\"1.0\" visibility=\"visible\"/>\n"
+            ));
             let mut png = Vec::new();
             layer
                 .picture
                 .to_rgba8()
                 .write_to(&mut std::io::Cursor::new(&mut png), image::ImageFormat::Png)
-                .map_err(|e| Error::Image { path: path.to_path_buf(), problem: e.to_string() })?;
+                .map_err(|e| Error::Image {
+                    path: path.to_path_buf(),
+                    problem: e.to_string(),
+                })?;
             zip.start_file(src, stored).map_err(zip_err)?;
             zip.write_all(&png).map_err(io_err)?;
         }

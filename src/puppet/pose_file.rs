@@ -28,7 +28,11 @@ impl PoseFile {
         if pose.vertices.len() != puppet.vertex_count() {
             return Err(Error::format(
                 path,
-                format!("{} vertices, but the puppet has {} (a pose of another puppet?)", pose.vertices.len(), puppet.vertex_count()),
+                format!(
+                    "{} vertices, but the puppet has {} (a pose of another puppet?)",
+                    pose.vertices.len(),
+                    puppet.vertex_count()
+                ),
             ));
         }
         if let Some(i) = pose.vertices.iter().position(|v| !v[0].is_finite() || !v[1].is_finite()) {

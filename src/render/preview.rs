@@ -50,8 +50,12 @@ pub fn wireframe_preview(puppet: &Puppet, vertices: &[[f32; 2]], artwork: &Pictu
             let p = vertices[offsets[li] + i as usize];
             [p[0] * sf, p[1] * sf]
         };
-        let mut edges: Vec<(u32, u32)> =
-            layer.mesh.triangles.iter().flat_map(|t| (0..3).map(move |k| (t[k].min(t[(k + 1) % 3]), t[k].max(t[(k + 1) % 3])))).collect();
+        let mut edges: Vec<(u32, u32)> = layer
+            .mesh
+            .triangles
+            .iter()
+            .flat_map(|t| (0..3).map(move |k| (t[k].min(t[(k + 1) % 3]), t[k].max(t[(k + 1) % 3]))))
+            .collect();
         // Each edge once: a shared edge drawn twice would look darker than a boundary edge.
         edges.sort_unstable();
         edges.dedup();
@@ -82,8 +86,14 @@ fn blend(pic: &mut Picture, x: i64, y: i64, a: f32, colour: [f32; 3]) {
 
 /// An anti-aliased segment of half-width `half`: coverage falls off linearly over one pixel.
 fn draw_segment(pic: &mut Picture, a: [f32; 2], b: [f32; 2], half: f32, colour: [f32; 3]) {
-    let (x0, x1) = ((a[0].min(b[0]) - half - 1.0).floor() as i64, (a[0].max(b[0]) + half + 1.0).ceil() as i64);
-    let (y0, y1) = ((a[1].min(b[1]) - half - 1.0).floor() as i64, (a[1].max(b[1]) + half + 1.0).ceil() as i64);
+    let (x0, x1) = (
+        (a[0].min(b[0]) - half - 1.0).floor() as i64,
+        (a[0].max(b[0]) + half + 1.0).ceil() as i64,
+    );
+    let (y0, y1) = (
+        (a[1].min(b[1]) - half - 1.0).floor() as i64,
+        (a[1].max(b[1]) + half + 1.0).ceil() as i64,
+    );
     let d = [b[0] - a[0], b[1] - a[1]];
     let len2 = (d[0] * d[0] + d[1] * d[1]).max(1e-12);
     for y in y0..=y1 {

@@ -242,9 +242,18 @@ pub(crate) fn closest_on_segment<T: Real>(p: [T; 2], a: [T; 2], b: [T; 2], edge:
     let e = [b[0] - a[0], b[1] - a[1]];
     let ap = [p[0] - a[0], p[1] - a[1]];
     let len2 = e[0] * e[0] + e[1] * e[1];
-    let t = if len2 > zero { ((ap[0] * e[0] + ap[1] * e[1]) / len2).max(zero).min(one) } else { zero };
+    let t = if len2 > zero {
+        ((ap[0] * e[0] + ap[1] * e[1]) / len2).max(zero).min(one)
+    } else {
+        zero
+    };
     let pq = [ap[0] - t * e[0], ap[1] - t * e[1]];
-    Outline { edge, t, pq, dist2: pq[0] * pq[0] + pq[1] * pq[1] }
+    Outline {
+        edge,
+        t,
+        pq,
+        dist2: pq[0] * pq[0] + pq[1] * pq[1],
+    }
 }
 
 impl SoftRasterizer {
