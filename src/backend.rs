@@ -6,6 +6,17 @@
 
 use burn::tensor::Device;
 
+/// The concrete backend type behind [`device`], for the custom autodiff ops that must unwrap a
+/// tensor's primitive (`render::burn_op`). Change it together with [`device`].
+#[cfg(feature = "flex")]
+pub type Inner = burn::backend::Flex;
+/// The concrete backend type behind [`device`] (see the `flex` variant).
+#[cfg(all(feature = "ndarray", not(feature = "flex")))]
+pub type Inner = burn::backend::NdArray;
+/// The concrete backend type behind [`device`] (see the `flex` variant).
+#[cfg(all(feature = "cpu", not(any(feature = "flex", feature = "ndarray"))))]
+pub type Inner = burn::backend::Cpu;
+
 /// The device for inference and for kernels that do not need gradients.
 pub fn device() -> Device {
     #[cfg(feature = "flex")]

@@ -13,10 +13,11 @@ use burn::backend::autodiff::checkpoint::strategy::NoCheckpointing;
 use burn::backend::autodiff::grads::Gradients;
 use burn::backend::autodiff::ops::{Backward, Ops, OpsKind};
 use burn::backend::ops::FloatTensorOps;
-use burn::backend::{Autodiff, Backend, Flex, TensorMetadata};
+use burn::backend::{Autodiff, Backend, TensorMetadata};
 use burn::tensor::{read_sync, Tensor, TensorData};
 
 use super::soft_raster::{Params, SoftRasterizer};
+use crate::backend::Inner;
 use crate::error::{Error, Result};
 
 /// A rendered batch as Burn tensors.
@@ -34,7 +35,7 @@ pub struct Rendered {
 ///
 /// # Errors
 /// [`Error::Invalid`] if the shape is not `[B, V, 2]` for this puppet, a coordinate is not
-/// finite, `params` are invalid, or the tensor is on a backend other than flex.
+/// finite, `params` are invalid, or the tensor is not on the compiled-in backend.
 pub fn soft_raster(vertices: Tensor<3>, raster: &Arc<SoftRasterizer>, width: usize, height: usize, params: Params) -> Result<Rendered> {
     let [batch, v, two] = vertices.dims();
     if v != raster.vertex_count() || two != 2 {
@@ -51,23 +52,23 @@ pub fn soft_raster(vertices: Tensor<3>, raster: &Arc<SoftRasterizer>, width: usi
         height,
         params,
     };
-    let out: Tensor<4> = if let Ok(ad) = vertices.clone().try_into_primitive::<Autodiff<Flex>>() {
+    let out: Tensor<4> = if let Ok(ad) = vertices.clone().try_into_primitive::<Autodiff<Inner>>() {
         match RasterBackward.prepare::<NoCheckpointing>([ad.node()]).compute_bound().stateful() {
             OpsKind::Tracked(prep) => {
-                let verts = host::<Flex>(ad.primitive().clone());
+                let verts = host::<Inner>(ad.primitive().clone());
                 let rendered = call.forward(&verts)?;
                 prep.finish(Arc::new(Saved { call, vertices: verts }), rendered)
             }
             OpsKind::UnTracked(prep) => {
-                let rendered = call.forward(&host::<Flex>(ad.into_primitive()))?;
+                let rendered = call.forward(&host::<Inner>(ad.into_primitive()))?;
                 prep.finish(rendered)
             }
         }
-        .pipe(Tensor::from_primitive::<Autodiff<Flex>>)
-    } else if let Ok(plain) = vertices.try_into_primitive::<Flex>() {
-        Tensor::from_primitive::<Flex>(call.forward(&host::<Flex>(plain))?)
+        .pipe(Tensor::from_primitive::<Autodiff<Inner>>)
+    } else if let Ok(plain) = vertices.try_into_primitive::<Inner>() {
+        Tensor::from_primitive::<Inner>(call.forward(&host::<Inner>(plain))?)
     } else {
-        return Err(Error::Invalid("render: the vertex tensor is not on the flex backend".into()));
+        return Err(Error::Invalid("render: the vertex tensor is not on the compiled-in backend (crate::backend::device)".into()));
     };
     Ok(Rendered {
         image: out.clone().narrow(1, 0, 4),
@@ -101,8 +102,8 @@ struct Call {
 }
 
 impl Call {
-    /// Renders and packs image and mask as one `[B, 5, H, W]` Flex tensor (channels RGBA, M).
-    fn forward(&self, verts: &[f32]) -> Result<<Flex as burn::backend::BackendTypes>::FloatTensorPrimitive> {
+    /// Renders and packs image and mask as one `[B, 5, H, W]` tensor of the compiled-in backend (channels RGBA, M).
+    fn forward(&self, verts: &[f32]) -> Result<<Inner as burn::backend::BackendTypes>::FloatTensorPrimitive> {
         let f = self.raster.forward(verts, self.batch, self.width, self.height, &self.params)?;
         let n = self.width * self.height;
         let mut packed = vec![0f32; self.batch * 5 * n];
@@ -115,7 +116,7 @@ impl Call {
             }
         }
         let data = TensorData::new(packed, [self.batch, 5, self.height, self.width]);
-        Ok(Flex::float_from_data(data, &Default::default()))
+        Ok(Inner::float_from_data(data, &Default::default()))
     }
 }
 
