@@ -68,7 +68,9 @@ pub fn soft_raster(vertices: Tensor<3>, raster: &Arc<SoftRasterizer>, width: usi
     } else if let Ok(plain) = vertices.try_into_primitive::<Inner>() {
         Tensor::from_primitive::<Inner>(call.forward(&host::<Inner>(plain))?)
     } else {
-        return Err(Error::Invalid("render: the vertex tensor is not on the compiled-in backend (crate::backend::device)".into()));
+        return Err(Error::Invalid(
+            "render: the vertex tensor is not on the compiled-in backend (crate::backend::device)".into(),
+        ));
     };
     Ok(Rendered {
         image: out.clone().narrow(1, 0, 4),
