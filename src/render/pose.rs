@@ -50,15 +50,7 @@ mod tests {
         let mut out = Picture::filled(puppet.width, puppet.height, [0.0; 4]);
         for layer in &puppet.layers {
             for (o, s) in out.pixels.iter_mut().zip(&layer.texture.pixels) {
-                let a = s[3] + o[3] * (1.0 - s[3]);
-                let mix = |c: usize| {
-                    if a > 0.0 {
-                        (s[c] * s[3] + o[c] * o[3] * (1.0 - s[3])) / a
-                    } else {
-                        0.0
-                    }
-                };
-                *o = [mix(0), mix(1), mix(2), a];
+                *o = crate::puppet::artwork::over(*s, *o);
             }
         }
         out

@@ -258,20 +258,9 @@ fn segment_distance(p: [f64; 2], a: [f64; 2], b: [f64; 2]) -> f64 {
 
 /// Whether `p` lies on a ring edge (within 1e-9 px).
 fn on_rings(rings: &[Vec<[f64; 2]>], p: [f64; 2]) -> bool {
-    rings.iter().any(|ring| {
-        (0..ring.len()).any(|k| {
-            let (a, b) = (ring[k], ring[(k + 1) % ring.len()]);
-            let d = [b[0] - a[0], b[1] - a[1]];
-            let len2 = d[0] * d[0] + d[1] * d[1];
-            let t = if len2 > 0.0 {
-                (((p[0] - a[0]) * d[0] + (p[1] - a[1]) * d[1]) / len2).clamp(0.0, 1.0)
-            } else {
-                0.0
-            };
-            let q = [a[0] + t * d[0] - p[0], a[1] + t * d[1] - p[1]];
-            q[0] * q[0] + q[1] * q[1] <= 1e-18
-        })
-    })
+    rings
+        .iter()
+        .any(|ring| (0..ring.len()).any(|k| segment_distance(p, ring[k], ring[(k + 1) % ring.len()]) <= 1e-9))
 }
 
 #[cfg(test)]
