@@ -1,0 +1,191 @@
+//! A trained model on disk and in memory (DESIGN.md "Formats": Burn record + the config it was
+//! trained with + the puppet it was trained for), and fitting frames with it.
+//!
+//! Layout of a model folder: `net.json` (the [`DeformationNetConfig`]), `weights.bpk` (Burn's
+//! burnpack record), `puppet/` (the puppet, `puppet.json` + textures), and `train.toml` (the
+//! training config, written by `train`). The network works in the letterboxed S×S square; this
+//! type converts to and from frame pixels.
+
+use std::path::Path;
+
+use burn::module::Module;
+use burn::store::ModuleRecord;
+use burn::tensor::{Bytes, Device, Tensor, TensorData};
+
+use super::deformation::{rest_tensor, DeformationNet, DeformationNetConfig};
+use super::letterbox::Letterbox;
+use crate::atomic_file::write_atomic;
+use crate::error::{Error, Result};
+use crate::picture::Picture;
+use crate::puppet::{format, Puppet};
+
+/// File names inside a model folder.
+pub const NET_FILE: &str = "net.json";
+/// The Burn record of the weights.
+pub const WEIGHTS_FILE: &str = "weights.bpk";
+/// The puppet's subfolder.
+pub const PUPPET_DIR: &str = "puppet";
+
+/// A deformation network together with the puppet it deforms.
+#[derive(Clone, Debug)]
+pub struct Model {
+    /// The encoder-decoder.
+    pub net: DeformationNet,
+    /// Its hyper-parameters.
+    pub config: DeformationNetConfig,
+    /// The template it predicts vertices of.
+    pub puppet: Puppet,
+    /// Frame ↔ working-square map.
+    pub letterbox: Letterbox,
+}
+
+impl Model {
+    /// A fresh (untrained) model for `puppet` on `device`.
+    ///
+    /// # Errors
+    /// [`Error::Invalid`] if the config's vertex count is not the puppet's or the input size is
+    /// not a positive multiple of 8.
+    pub fn new(config: DeformationNetConfig, puppet: Puppet, device: &Device) -> Result<Self> {
+        check_config(&config, &puppet)?;
+        let letterbox = Letterbox::new(puppet.width, puppet.height, config.input_size as u32);
+        Ok(Model {
+            net: config.init(device),
+            config,
+            puppet,
+            letterbox,
+        })
+    }
+
+    /// Loads a model folder onto `device`.
+    ///
+    /// # Errors
+    /// [`Error::Io`]/[`Error::Format`] naming the file that is missing or wrong, including
+    /// weights that do not fit the config or the puppet.
+    pub fn load(dir: &Path, device: &Device) -> Result<Self> {
+        if !dir.is_dir() {
+            return Err(Error::format(dir, "not a model folder (expected net.json, weights.bpk and puppet/ written by `puppet train`)"));
+        }
+        let net_path = dir.join(NET_FILE);
+        let text = std::fs::read_to_string(&net_path).map_err(|e| Error::io(&net_path, e))?;
+        let config: DeformationNetConfig = serde_json::from_str(&text).map_err(|e| Error::format(&net_path, format!("invalid network config: {e}")))?;
+        let puppet = format::load(&dir.join(PUPPET_DIR))?;
+        check_config(&config, &puppet).map_err(|e| Error::format(&net_path, e.to_string()))?;
+        let mut model = Model::new(config, puppet, device)?;
+        let weights_path = dir.join(WEIGHTS_FILE);
+        let bytes = std::fs::read(&weights_path).map_err(|e| Error::io(&weights_path, e))?;
+        model.net = load_weights(model.net, bytes, &weights_path)?;
+        Ok(model)
+    }
+
+    /// Writes the model folder (each file atomically).
+    ///
+    /// # Errors
+    /// [`Error::Io`] naming the file that could not be written.
+    pub fn save(&self, dir: &Path) -> Result<()> {
+        let net_path = dir.join(NET_FILE);
+        let json = serde_json::to_string_pretty(&self.config).map_err(|e| Error::format(&net_path, e.to_string()))?;
+        write_atomic(&net_path, json.as_bytes())?;
+        format::save(&self.puppet, &dir.join(PUPPET_DIR))?;
+        let weights_path = dir.join(WEIGHTS_FILE);
+        write_atomic(&weights_path, &weights_bytes(&self.net, &weights_path)?)
+    }
+
+    /// The rest vertices in working pixels, `[V, 2]`.
+    pub fn rest_work(&self, device: &Device) -> Tensor<2> {
+        let rest: Vec<[f32; 2]> = self.puppet.rest_vertices().into_iter().map(|p| self.letterbox.to_work(p)).collect();
+        rest_tensor(&rest, device)
+    }
+
+    /// The network input for `frames`, `[B, 4, S, S]`.
+    ///
+    /// # Errors
+    /// [`Error::Invalid`] if a frame is not the puppet's size (the message gives both sizes;
+    /// callers that know the file wrap it with the path).
+    pub fn input(&self, frames: &[&Picture], device: &Device) -> Result<Tensor<4>> {
+        let s = self.letterbox.size as usize;
+        let mut data = Vec::with_capacity(frames.len() * 4 * s * s);
+        for frame in frames {
+            self.check_frame(frame)?;
+            data.extend(self.letterbox.premultiplied_planes(frame));
+        }
+        Ok(Tensor::from_data(TensorData::new(data, [frames.len(), 4, s, s]), device))
+    }
+
+    /// Checks a frame has the puppet's size.
+    ///
+    /// # Errors
+    /// [`Error::Invalid`] naming both sizes.
+    pub fn check_frame(&self, frame: &Picture) -> Result<()> {
+        if (frame.width, frame.height) != (self.puppet.width, self.puppet.height) {
+            return Err(Error::Invalid(format!(
+                "frame is {}×{}, but the puppet was made from {}×{} frames",
+                frame.width, frame.height, self.puppet.width, self.puppet.height
+            )));
+        }
+        Ok(())
+    }
+
+    /// Encodes frames to latents `[B, Z]`.
+    ///
+    /// # Errors
+    /// As [`Model::input`].
+    pub fn encode(&self, frames: &[&Picture], device: &Device) -> Result<Tensor<2>> {
+        Ok(self.net.encode(self.input(frames, device)?))
+    }
+
+    /// Decodes latents to vertex positions in working pixels, `[B, V, 2]`.
+    pub fn decode(&self, z: Tensor<2>, device: &Device) -> Tensor<3> {
+        self.net.vertices(z, &self.rest_work(device))
+    }
+
+    /// Working-pixel vertex tensor `[B, V, 2]` → per-item vertex lists in frame pixels.
+    pub fn to_frame_vertices(&self, vertices: Tensor<3>) -> Vec<Vec<[f32; 2]>> {
+        let [batch, v, _] = vertices.dims();
+        let flat: Vec<f32> = vertices.into_data().convert::<f32>().try_into_vec::<f32>().unwrap_or_default();
+        (0..batch)
+            .map(|b| (0..v).map(|i| self.letterbox.to_frame([flat[(b * v + i) * 2], flat[(b * v + i) * 2 + 1]])).collect())
+            .collect()
+    }
+
+    /// Fits frames: the predicted template vertices of each, in frame pixels.
+    ///
+    /// # Errors
+    /// As [`Model::input`].
+    pub fn fit(&self, frames: &[&Picture], device: &Device) -> Result<Vec<Vec<[f32; 2]>>> {
+        let z = self.encode(frames, device)?;
+        Ok(self.to_frame_vertices(self.decode(z, device)))
+    }
+}
+
+fn check_config(config: &DeformationNetConfig, puppet: &Puppet) -> Result<()> {
+    if config.vertices != puppet.vertex_count() {
+        return Err(Error::Invalid(format!(
+            "the network predicts {} vertices but the puppet has {} (a model for a different puppet?)",
+            config.vertices,
+            puppet.vertex_count()
+        )));
+    }
+    if config.input_size == 0 || config.input_size % 8 != 0 {
+        return Err(Error::Invalid(format!("input size {} is not a positive multiple of 8", config.input_size)));
+    }
+    Ok(())
+}
+
+/// The network's weights as burnpack bytes (for model folders and checkpoints).
+///
+/// # Errors
+/// [`Error::Format`] naming `path` if Burn cannot serialise them.
+pub fn weights_bytes(net: &DeformationNet, path: &Path) -> Result<Vec<u8>> {
+    let bytes = net.clone().into_record().into_bytes().map_err(|e| Error::format(path, format!("cannot encode weights: {e:?}")))?;
+    Ok(bytes.to_vec())
+}
+
+/// Loads burnpack `bytes` read from `path` into `net`.
+///
+/// # Errors
+/// [`Error::Format`] naming `path` if the bytes are not a record of this network.
+pub fn load_weights(net: DeformationNet, bytes: Vec<u8>, path: &Path) -> Result<DeformationNet> {
+    let record = ModuleRecord::from_bytes(Bytes::from_bytes_vec(bytes)).map_err(|e| Error::format(path, format!("not a weights file: {e:?}")))?;
+    net.try_load_record(record)
+        .map_err(|e| Error::format(path, format!("weights do not fit this network: {e:?}")))
+}
