@@ -6,6 +6,7 @@ mod build;
 mod info;
 mod render;
 mod synth;
+mod train;
 mod ui;
 
 pub use ui::Ui;
@@ -35,6 +36,7 @@ enum Command {
     Info(info::InfoArgs),
     Render(render::RenderArgs),
     Synth(synth::SynthArgs),
+    Train(train::TrainArgs),
 }
 
 /// Runs the parsed command line.
@@ -45,5 +47,6 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
         Command::Info(args) => info::run(args, &ui),
         Command::Render(args) => render::run(args, &ui),
         Command::Synth(args) => synth::run(args, &ui),
+        Command::Train(args) => train::run(args, &ui),
     }
 }
