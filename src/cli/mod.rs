@@ -3,6 +3,8 @@
 use clap::{Parser, Subcommand};
 
 mod build;
+mod eval;
+mod fit;
 mod info;
 mod render;
 mod synth;
@@ -33,6 +35,8 @@ pub struct Common {
 #[derive(Debug, Subcommand)]
 enum Command {
     Build(build::BuildArgs),
+    Eval(eval::EvalArgs),
+    Fit(fit::FitArgs),
     Info(info::InfoArgs),
     Render(render::RenderArgs),
     Synth(synth::SynthArgs),
@@ -44,6 +48,8 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
     let ui = Ui::new(cli.common.quiet);
     match cli.command {
         Command::Build(args) => build::run(args, &ui),
+        Command::Eval(args) => eval::run(args, &ui),
+        Command::Fit(args) => fit::run(args, &ui),
         Command::Info(args) => info::run(args, &ui),
         Command::Render(args) => render::run(args, &ui),
         Command::Synth(args) => synth::run(args, &ui),

@@ -56,6 +56,26 @@ pub struct SplitRecord {
     pub test: Vec<String>,
 }
 
+impl SplitRecord {
+    /// Reads `split.json` of a model folder; `None` if the model has none (not trained here).
+    ///
+    /// # Errors
+    /// [`Error::Format`] naming the file if it is not a split record.
+    pub fn load(model_dir: &Path) -> Result<Option<Self>> {
+        let path = model_dir.join(SPLIT_FILE);
+        if !path.is_file() {
+            return Ok(None);
+        }
+        let text = std::fs::read_to_string(&path).map_err(|e| Error::io(&path, e))?;
+        serde_json::from_str(&text).map(Some).map_err(|e| Error::format(&path, format!("invalid split record: {e}")))
+    }
+
+    /// Indices into `names` of the held-out frames, if every one of them is there.
+    pub fn test_indices(&self, names: &[String]) -> Option<Vec<usize>> {
+        self.test.iter().map(|t| names.iter().position(|n| n == t)).collect()
+    }
+}
+
 /// What a run did.
 #[derive(Clone, Debug)]
 pub struct TrainSummary {
