@@ -113,11 +113,12 @@ impl Default for TrainSettings {
 /// Weights of eq. 4 (and eq. 10–11 for masked training).
 ///
 /// Units, so the paper's numbers mean what they meant there (NMR: images in [0, 1], vertices in
-/// normalised device coordinates where the image spans [−1, 1]): L_rec is the mean over pixels
-/// and channels of the squared difference of premultiplied RGBA in [0, 1]; ARAP (eq. 2) and the
-/// joint term (eq. 3) are sums over edges / joints of squared lengths in NDC, i.e. working
-/// pixels divided by S/2; every term is averaged over the batch; the area term (eq. 11) compares
-/// mask sums as fractions of the image.
+/// normalised device coordinates where the image spans [−1, 1]): L_rec is eq. 1 as written, the
+/// squared norm of the premultiplied-RGBA difference summed over the pixels and channels of an
+/// image (eq. 10's masked variant is, as written, normalised by the silhouette's area); ARAP
+/// (eq. 2) and the joint term (eq. 3) are sums over edges / joints of squared lengths in NDC,
+/// i.e. working pixels divided by S/2; every term is averaged over the batch; the area term
+/// (eq. 11) compares mask sums as fractions of the image.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
 pub struct LossWeights {
