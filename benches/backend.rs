@@ -18,6 +18,7 @@ use burn::optim::{AdamConfig, GradientsParams};
 use burn::tensor::{Distribution, Tensor};
 use criterion::{criterion_group, criterion_main, Criterion, Throughput};
 use puppet::model::deformation::{rest_tensor, DeformationNet, DeformationNetConfig};
+use puppet::train::optim::{adam, AdamSettings};
 
 const BATCH: usize = 16;
 const VERTICES: usize = 600;
@@ -62,9 +63,17 @@ impl Step {
     }
 }
 
-/// The optimisers compared: Burn's Adam with PyTorch's epsilon.
+/// The optimisers compared: Burn's Adam with PyTorch's epsilon, and ours
+/// (`puppet::train::optim::adam`, one in-place pass per weight tensor). `BACKEND_OPTIM` picks one.
 fn optimizers() -> Vec<(&'static str, burn::optim::ModuleOptimizer)> {
-    vec![("burn_adam", AdamConfig::new().with_epsilon(1e-8).init())]
+    let all = vec![
+        ("burn_adam", AdamConfig::new().with_epsilon(1e-8).init()),
+        ("fused_adam", adam(&AdamSettings::new())),
+    ];
+    match std::env::var("BACKEND_OPTIM") {
+        Ok(only) => all.into_iter().filter(|(name, _)| *name == only).collect(),
+        Err(_) => all,
+    }
 }
 
 /// CPU time (user + system) of this process so far, in seconds, from /proc/self/stat (Linux;
