@@ -11,6 +11,7 @@
 //!
 //! ```sh
 //! BACKEND_CPU_REPORT=1 cargo bench --bench backend
+//! BACKEND_CPU_REPORT=1 cargo bench --bench backend --no-default-features --features flex  # system allocator
 //! BACKEND_PX=64 cargo bench --bench backend --no-default-features --features ndarray
 //! ```
 
@@ -19,6 +20,11 @@ use burn::tensor::{Distribution, Tensor};
 use criterion::{criterion_group, criterion_main, Criterion, Throughput};
 use puppet::model::deformation::{rest_tensor, DeformationNet, DeformationNetConfig};
 use puppet::train::optim::{adam, AdamSettings};
+
+// The binary's allocator (src/main.rs); `--no-default-features --features flex` measures without.
+#[cfg(feature = "mimalloc")]
+#[global_allocator]
+static GLOBAL: mimalloc::MiMalloc = mimalloc::MiMalloc;
 
 const BATCH: usize = 16;
 const VERTICES: usize = 600;
