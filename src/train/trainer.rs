@@ -6,7 +6,7 @@ use std::path::{Path, PathBuf};
 use std::sync::Arc;
 use std::time::Instant;
 
-use burn::optim::{AdamConfig, GradientsParams, ModuleOptimizer};
+use burn::optim::{GradientsParams, ModuleOptimizer};
 use burn::tensor::{Bytes, Device, Tensor, TensorData};
 use serde::{Deserialize, Serialize};
 
@@ -14,6 +14,7 @@ use super::checkpoint::{self, CheckpointState};
 use super::config::TrainConfig;
 use super::log::{plot, LogRow, TrainLog};
 use super::loss::{LossTerms, Objective};
+use super::optim::{adam, AdamSettings};
 use super::sequence::{shuffled, split, Frames};
 use crate::atomic_file::write_atomic;
 use crate::error::{Error, Result};
@@ -286,7 +287,7 @@ impl Trainer {
         let inputs = frames.iter().map(|f| model.letterbox.premultiplied_planes(f)).collect();
         Ok(Trainer {
             model,
-            optimizer: AdamConfig::new().with_epsilon(1e-8).init(),
+            optimizer: adam(&AdamSettings::new()),
             raster,
             objective,
             inputs,
