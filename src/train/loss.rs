@@ -167,7 +167,7 @@ mod tests {
         assert!((scalar(reconstruction(r, x)) - (0.25 + 0.25)).abs() < 1e-7);
 
         // eq. 10 with one RGB pixel inside a half-covered mask: ((1·0.5 − 0.2)²·3) / (0.5 + 0)
-        let rendered = tensor4(vec![0.2, 0.2, 0.2, 0.5, 0.0, 0.0, 0.0, 0.0], [1, 4, 1, 2]);
+        let rendered = tensor4(vec![0.2, 0.0, 0.2, 0.0, 0.2, 0.0, 0.5, 0.0], [1, 4, 1, 2]); // channel-major
         let mask = tensor4(vec![0.5, 0.0], [1, 1, 1, 2]);
         let target = tensor4(vec![1.0, 1.0, 1.0, 1.0, 1.0, 1.0], [1, 3, 1, 2]);
         let want = 3.0 * 0.3f32.powi(2) / 0.5;
