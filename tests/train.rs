@@ -12,7 +12,21 @@ use util::puppet;
 /// A synthetic 4-frame walker at 64² (its template is built by `train`).
 fn synth(dir: &Path, frames: usize, size: &str) -> PathBuf {
     let seq = dir.join(format!("seq-{frames}-{size}"));
-    puppet(dir, &["synth", "-o", seq.to_str().unwrap(), "--seed", "5", "--frames", &frames.to_string(), "--size", size]).assert_ok();
+    puppet(
+        dir,
+        &[
+            "synth",
+            "-o",
+            seq.to_str().unwrap(),
+            "--seed",
+            "5",
+            "--frames",
+            &frames.to_string(),
+            "--size",
+            size,
+        ],
+    )
+    .assert_ok();
     seq
 }
 
@@ -32,7 +46,10 @@ fn config(dir: &Path, name: &str, seq: &Path, extra: &str) -> PathBuf {
 
 fn losses(model: &Path) -> Vec<f64> {
     let text = std::fs::read_to_string(model.join("log.csv")).unwrap();
-    text.lines().skip(1).map(|l| l.split(',').nth(2).unwrap().parse().unwrap()).collect()
+    text.lines()
+        .skip(1)
+        .map(|l| l.split(',').nth(2).unwrap().parse().unwrap())
+        .collect()
 }
 
 #[test]
@@ -50,15 +67,38 @@ fn training_lowers_the_reconstruction_loss_and_fit_and_eval_run() {
     let (first, last) = (mean(&rec[..5]), mean(&rec[rec.len() - 5..]));
     println!("L_rec: first 5 steps {first:.5}, last 5 {last:.5}");
     assert!(last < 0.8 * first, "L_rec {first} → {last}");
-    for f in ["loss.png", "net.json", "weights.bpk", "split.json", "train.toml", "puppet/puppet.json"] {
+    for f in [
+        "loss.png",
+        "net.json",
+        "weights.bpk",
+        "split.json",
+        "train.toml",
+        "puppet/puppet.json",
+    ] {
         assert!(tmp.path().join("run").join(f).is_file(), "{f}");
     }
 
     let model = tmp.path().join("run");
     let fit_dir = tmp.path().join("fit");
     let frames = seq.join("frames");
-    puppet(tmp.path(), &["fit", "--model", model.to_str().unwrap(), frames.to_str().unwrap(), "-o", fit_dir.to_str().unwrap()]).assert_ok();
-    for f in ["sheet.png", "frame_000_overlay.png", "frame_000_render.png", "frame_003_vertices.json"] {
+    puppet(
+        tmp.path(),
+        &[
+            "fit",
+            "--model",
+            model.to_str().unwrap(),
+            frames.to_str().unwrap(),
+            "-o",
+            fit_dir.to_str().unwrap(),
+        ],
+    )
+    .assert_ok();
+    for f in [
+        "sheet.png",
+        "frame_000_overlay.png",
+        "frame_000_render.png",
+        "frame_003_vertices.json",
+    ] {
         assert!(fit_dir.join(f).is_file(), "{f}");
     }
     let eval = puppet(tmp.path(), &["eval", "--model", model.to_str().unwrap(), seq.to_str().unwrap()]);
@@ -101,9 +141,21 @@ fn a_killed_run_resumes_to_the_weights_of_an_uninterrupted_one() {
     let device = ::puppet::backend::device();
     let frames = ::puppet::train::Frames::load(&seq).unwrap();
     let pictures: Vec<_> = frames.frames.iter().collect();
-    let fit = |run: &str| ::puppet::model::Model::load(&tmp.path().join(run), &device).unwrap().fit(&pictures, &device).unwrap();
-    assert!(fit("whole") == fit("cut"), "resumed weights differ from the uninterrupted run's (killed at {at_kill})");
-    assert_eq!(losses(&tmp.path().join("cut")), losses(&tmp.path().join("whole")), "each step logged once, same values");
+    let fit = |run: &str| {
+        ::puppet::model::Model::load(&tmp.path().join(run), &device)
+            .unwrap()
+            .fit(&pictures, &device)
+            .unwrap()
+    };
+    assert!(
+        fit("whole") == fit("cut"),
+        "resumed weights differ from the uninterrupted run's (killed at {at_kill})"
+    );
+    assert_eq!(
+        losses(&tmp.path().join("cut")),
+        losses(&tmp.path().join("whole")),
+        "each step logged once, same values"
+    );
 }
 
 #[test]
@@ -111,7 +163,9 @@ fn a_diverging_run_stops_with_a_clear_message_and_keeps_its_checkpoint() {
     let tmp = tempfile::tempdir().unwrap();
     let seq = synth(tmp.path(), 4, "64x64");
     let cfg = config(tmp.path(), "nan", &seq, "steps = 30\ncheckpoint_every = 1\n");
-    let text = std::fs::read_to_string(&cfg).unwrap().replace("learning_rate = 3e-4", "learning_rate = 1e30");
+    let text = std::fs::read_to_string(&cfg)
+        .unwrap()
+        .replace("learning_rate = 3e-4", "learning_rate = 1e30");
     std::fs::write(&cfg, text).unwrap();
     let run = puppet(tmp.path(), &["train", cfg.to_str().unwrap()]);
     run.assert_error(&["not finite", "last good checkpoint"]);
@@ -145,10 +199,15 @@ fn bad_configs_get_errors_naming_the_problem() {
         base.replace(&frames_line, &format!("frames = \"{}\"", other.display())),
         &["frame_000.png", "80×80", "64×64"],
     );
-    case("empty", base.replace(&frames_line, &format!("frames = \"{}\"", empty.display())), &["empty", "no PNG"]);
+    case(
+        "empty",
+        base.replace(&frames_line, &format!("frames = \"{}\"", empty.display())),
+        &["empty", "no PNG"],
+    );
     case(
         "split",
-        base.replace(&frames_line, &format!("frames = \"{}\"", one.display())).replace("test_fraction = 0.0", "test_fraction = 0.3"),
+        base.replace(&frames_line, &format!("frames = \"{}\"", one.display()))
+            .replace("test_fraction = 0.0", "test_fraction = 0.3"),
         &["no frame would be left for training"],
     );
     case("key", base.replace("batch = 4", "batch = 4\nbatches = 2"), &["key.toml", "batches"]);

@@ -69,7 +69,9 @@ impl SplitRecord {
             return Ok(None);
         }
         let text = std::fs::read_to_string(&path).map_err(|e| Error::io(&path, e))?;
-        serde_json::from_str(&text).map(Some).map_err(|e| Error::format(&path, format!("invalid split record: {e}")))
+        serde_json::from_str(&text)
+            .map(Some)
+            .map_err(|e| Error::format(&path, format!("invalid split record: {e}")))
     }
 
     /// Indices into `names` of the held-out frames, if every one of them is there.
@@ -124,13 +126,23 @@ pub fn train(config: &TrainConfig, options: &TrainOptions, progress: &dyn Progre
                 dir.display()
             )))
         }
-        (None, true) => return Err(Error::Invalid(format!("{}: --resume, but there is no checkpoint to resume from", out.display()))),
+        (None, true) => {
+            return Err(Error::Invalid(format!(
+                "{}: --resume, but there is no checkpoint to resume from",
+                out.display()
+            )))
+        }
         _ => {}
     }
 
     let puppet = load_or_build_puppet(&config.puppet, progress)?;
     let frames = Frames::load(&config.frames)?;
-    if let Some((file, f)) = frames.files.iter().zip(&frames.frames).find(|(_, f)| (f.width, f.height) != (puppet.width, puppet.height)) {
+    if let Some((file, f)) = frames
+        .files
+        .iter()
+        .zip(&frames.frames)
+        .find(|(_, f)| (f.width, f.height) != (puppet.width, puppet.height))
+    {
         return Err(Error::format(
             file,
             format!(
@@ -146,7 +158,10 @@ pub fn train(config: &TrainConfig, options: &TrainOptions, progress: &dyn Progre
     let (train_idx, test_idx) = split(frames.frames.len(), config.test_fraction, config.seed)
         .map_err(|e| Error::Invalid(format!("{}: {e}", config.frames.display())))?;
     if config.test_fraction > 0.0 && test_idx.is_empty() {
-        return Err(Error::Invalid(format!("{}: the split leaves no test frame", config.frames.display())));
+        return Err(Error::Invalid(format!(
+            "{}: the split leaves no test frame",
+            config.frames.display()
+        )));
     }
 
     let device = crate::backend::train_device();
@@ -157,16 +172,29 @@ pub fn train(config: &TrainConfig, options: &TrainOptions, progress: &dyn Progre
         .with_offset_scale(config.model.offset_scale);
     let model = Model::new(net_config, puppet, &device)?;
     model.save(out)?;
-    write_atomic(&out.join(CONFIG_FILE), toml::to_string_pretty(config).map_err(|e| Error::Invalid(e.to_string()))?.as_bytes())?;
+    write_atomic(
+        &out.join(CONFIG_FILE),
+        toml::to_string_pretty(config)
+            .map_err(|e| Error::Invalid(e.to_string()))?
+            .as_bytes(),
+    )?;
     let names = frames.names();
     let record = SplitRecord {
         frames: config.frames.clone(),
         train: train_idx.iter().map(|&i| names[i].clone()).collect(),
         test: test_idx.iter().map(|&i| names[i].clone()).collect(),
     };
-    write_atomic(&out.join(SPLIT_FILE), &serde_json::to_vec_pretty(&record).map_err(|e| Error::Invalid(e.to_string()))?)?;
+    write_atomic(
+        &out.join(SPLIT_FILE),
+        &serde_json::to_vec_pretty(&record).map_err(|e| Error::Invalid(e.to_string()))?,
+    )?;
 
-    let mut trainer = Trainer::new(config, model, &train_idx.iter().map(|&i| &frames.frames[i]).collect::<Vec<_>>(), &device)?;
+    let mut trainer = Trainer::new(
+        config,
+        model,
+        &train_idx.iter().map(|&i| &frames.frames[i]).collect::<Vec<_>>(),
+        &device,
+    )?;
     let config_json = serde_json::to_value(config).map_err(|e| Error::Invalid(e.to_string()))?;
     let (mut step, mut elapsed) = (0u64, 0f64);
     if let Some(dir) = previous {
@@ -181,7 +209,11 @@ pub fn train(config: &TrainConfig, options: &TrainOptions, progress: &dyn Progre
         (step, elapsed) = (c.state.step, c.state.elapsed);
     }
     let mut log = TrainLog::open(&out.join(LOG_FILE), step)?;
-    let weights = [config.loss.arap, config.loss.joints, if config.loss.masked { config.loss.area } else { 0.0 }];
+    let weights = [
+        config.loss.arap,
+        config.loss.joints,
+        if config.loss.masked { config.loss.area } else { 0.0 },
+    ];
 
     let stop = options.pause_at.map_or(config.train.steps, |p| p.min(config.train.steps));
     progress.stage("training", config.train.steps);
@@ -211,7 +243,11 @@ pub fn train(config: &TrainConfig, options: &TrainOptions, progress: &dyn Progre
         trainer.update(terms);
         step += 1;
         elapsed += t0.elapsed().as_secs_f64();
-        let row = LogRow { step, seconds: elapsed, ..losses };
+        let row = LogRow {
+            step,
+            seconds: elapsed,
+            ..losses
+        };
         log.push(row)?;
         last = Some(row);
         progress.advance(1);
@@ -223,9 +259,6 @@ pub fn train(config: &TrainConfig, options: &TrainOptions, progress: &dyn Progre
     let seconds = started.elapsed().as_secs_f64();
     let finished = step >= config.train.steps;
     save_checkpoint(out, &trainer, step, elapsed, &config_json, &log, weights)?;
-    if finished {
-        trainer.model.save(out)?;
-    }
     Ok(TrainSummary {
         steps: step,
         finished,
@@ -252,6 +285,8 @@ fn save_checkpoint(
         config: config.clone(),
     };
     checkpoint::save(out, &state, &net, &optim)?;
+    // The model folder always holds the newest weights, so `fit`/`eval` work during training.
+    write_atomic(&out.join(crate::model::bundle::WEIGHTS_FILE), &net)?;
     plot(log.rows(), weights).save_png(&out.join(PLOT_FILE))
 }
 
@@ -281,7 +316,12 @@ impl Trainer {
         }
         // The rasterizer renders the working square: vertices in working pixels, textures by UV.
         let raster = Arc::new(SoftRasterizer::new(&model.puppet)?);
-        let rest: Vec<[f32; 2]> = model.puppet.rest_vertices().into_iter().map(|p| model.letterbox.to_work(p)).collect();
+        let rest: Vec<[f32; 2]> = model
+            .puppet
+            .rest_vertices()
+            .into_iter()
+            .map(|p| model.letterbox.to_work(p))
+            .collect();
         let rest_area = rest_coverage(&raster, &rest, size)?;
         let objective = Objective::new(&model.puppet, &rest, size, rest_area, config.loss.clone())?;
         let inputs = frames.iter().map(|f| model.letterbox.premultiplied_planes(f)).collect();
@@ -316,7 +356,10 @@ impl Trainer {
     /// # Errors
     /// [`Error::Format`] naming `dir` if Burn cannot encode them.
     pub fn state_bytes(&self, dir: &Path) -> Result<(Vec<u8>, Vec<u8>)> {
-        let optim = self.optimizer.into_bytes().map_err(|e| Error::format(dir, format!("cannot encode optimiser state: {e:?}")))?;
+        let optim = self
+            .optimizer
+            .into_bytes()
+            .map_err(|e| Error::format(dir, format!("cannot encode optimiser state: {e:?}")))?;
         Ok((weights_bytes(&self.model.net, dir)?, optim.to_vec()))
     }
 
@@ -343,7 +386,13 @@ impl Trainer {
         };
         let rendered = soft_raster(vertices.clone(), &self.raster, size, size, params)?;
         let terms = self.objective.evaluate(vertices, &rendered, images, &self.device)?;
-        let value = |t: &Tensor<1>| t.clone().into_data().convert::<f64>().try_to_vec::<f64>().map_or(f64::NAN, |v| v[0]);
+        let value = |t: &Tensor<1>| {
+            t.clone()
+                .into_data()
+                .convert::<f64>()
+                .try_to_vec::<f64>()
+                .map_or(f64::NAN, |v| v[0])
+        };
         let row = LogRow {
             step: step + 1,
             total: value(&terms.total),
