@@ -117,16 +117,18 @@ impl LogRow {
 pub fn plot(rows: &[LogRow], weights: [f64; 3]) -> Picture {
     let (w, h, left, bottom, top, right) = (720u32, 400u32, 44i64, 20i64, 24i64, 12i64);
     let mut pic = Picture::filled(w, h, [1.0, 1.0, 1.0, 1.0]);
-    let series: [(&str, [f32; 3], Box<dyn Fn(&LogRow) -> f64>); 5] = [
-        ("total", [0.0, 0.0, 0.0], Box::new(|r: &LogRow| r.total)),
-        ("rec", [0.1, 0.35, 0.9], Box::new(|r: &LogRow| r.rec)),
-        ("arap", [0.95, 0.5, 0.0], Box::new(move |r: &LogRow| r.arap * weights[0])),
-        ("joints", [0.1, 0.65, 0.2], Box::new(move |r: &LogRow| r.joints * weights[1])),
-        ("area", [0.7, 0.1, 0.6], Box::new(move |r: &LogRow| r.area * weights[2])),
+    // Name, colour, and the plotted value of each series (regularisers weighted, as summed).
+    let series: [(&str, [f32; 3]); 5] = [
+        ("total", [0.0, 0.0, 0.0]),
+        ("rec", [0.1, 0.35, 0.9]),
+        ("arap", [0.95, 0.5, 0.0]),
+        ("joints", [0.1, 0.65, 0.2]),
+        ("area", [0.7, 0.1, 0.6]),
     ];
+    let values = |r: &LogRow| [r.total, r.rec, r.arap * weights[0], r.joints * weights[1], r.area * weights[2]];
     let positive: Vec<f64> = rows
         .iter()
-        .flat_map(|r| series.iter().map(move |s| s.2(r)))
+        .flat_map(values)
         .filter(|v| *v > 0.0 && v.is_finite())
         .collect();
     let (lo, hi) = positive.iter().fold((f64::MAX, f64::MIN), |(a, b), v| (a.min(*v), b.max(*v)));
@@ -155,10 +157,10 @@ pub fn plot(rows: &[LogRow], weights: [f64; 3]) -> Picture {
         [0.3; 3],
     );
     let mut legend_x = left + 8;
-    for (name, colour, value) in &series {
+    for (k, (name, colour)) in series.iter().enumerate() {
         let mut prev: Option<[i64; 2]> = None;
         for r in rows {
-            let v = value(r);
+            let v = values(r)[k];
             let p = (v > 0.0 && v.is_finite()).then(|| [px(r.step as f64), py(v)]);
             if let (Some(a), Some(b)) = (prev, p) {
                 line(&mut pic, a, b, *colour);

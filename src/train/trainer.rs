@@ -456,7 +456,7 @@ impl BatchOrder {
         BatchOrder {
             frames,
             batch,
-            rng: Rng::new(seed ^ 0xBA7C_4E5),
+            rng: Rng::new(seed ^ 0x0BA7_C4E5),
         }
     }
 
