@@ -9,7 +9,8 @@ use super::{real, Real};
 pub(crate) struct Hit<T> {
     /// `p` lies inside the triangle or on its boundary (never for zero area).
     pub inside: bool,
-    /// Squared distance from `p` to the triangle's boundary.
+    /// Squared distance from `p` to the triangle's boundary; outside only (0 inside: a
+    /// layer's colour is its first face containing `p`, so inside faces are never ranked).
     pub dist2: T,
     /// Closest edge: from corner `edge` to corner `(edge + 1) % 3`.
     pub edge: usize,
@@ -21,18 +22,6 @@ pub(crate) struct Hit<T> {
     pub area2: T,
     /// Barycentric weights of the corners: exact inside, those of `q` outside.
     pub w: [T; 3],
-}
-
-impl<T: Real> Hit<T> {
-    /// Signed distance squared with its sign (`+d²` inside, `−d²` outside): the SoftRas argument
-    /// before division by σ, and the key that picks a layer's colour face (largest wins).
-    pub fn signed_dist2(&self) -> T {
-        if self.inside {
-            self.dist2
-        } else {
-            -self.dist2
-        }
-    }
 }
 
 /// Twice the signed area of (a, b, c): `cross(b − a, c − a)`.
@@ -112,12 +101,22 @@ pub(crate) fn hit_within<T: Real>(p: [T; 2], tri: &Tri<T>, reach: T) -> Option<H
             return None;
         }
     }
-    let inside = tri.sign != zero && f.iter().all(|&fk| tri.sign * fk >= zero);
+    if tri.sign != zero && f.iter().all(|&fk| tri.sign * fk >= zero) {
+        return Some(Hit {
+            inside: true,
+            dist2: zero,
+            edge: 0,
+            t: zero,
+            clamped: true,
+            area2: tri.area2,
+            w: [f[1] / tri.area2, f[2] / tri.area2, f[0] / tri.area2],
+        });
+    }
     let mut best = (T::infinity(), 0, zero, true);
     for k in 0..3 {
         // Outside a triangle the closest boundary point lies on an edge whose line has p on
         // its outer side (at a corner: on one of the two edges meeting there).
-        if !inside && tri.sign != zero && tri.sign * f[k] >= zero {
+        if tri.sign != zero && tri.sign * f[k] >= zero {
             continue;
         }
         let ed = tri.e[k];
@@ -140,16 +139,11 @@ pub(crate) fn hit_within<T: Real>(p: [T; 2], tri: &Tri<T>, reach: T) -> Option<H
         }
     }
     let (dist2, edge, t, clamped) = best;
-    let w = if inside {
-        [f[1] / tri.area2, f[2] / tri.area2, f[0] / tri.area2]
-    } else {
-        let mut w = [zero; 3];
-        w[edge] = T::one() - t;
-        w[(edge + 1) % 3] = t;
-        w
-    };
+    let mut w = [zero; 3];
+    w[edge] = T::one() - t;
+    w[(edge + 1) % 3] = t;
     Some(Hit {
-        inside,
+        inside: false,
         dist2,
         edge,
         t,
@@ -193,6 +187,40 @@ pub(crate) fn bary_vjp<T: Real>(gw: [T; 3], p: [T; 2], v: [[T; 2]; 3], h: &Hit<T
     }
 }
 
+/// The nearest boundary edge of a layer within reach of the pixel.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct Outline<T> {
+    /// Index into [`SoftRasterizer::edges`].
+    pub edge: u32,
+    /// Closest point `q = a + t (b − a)`, t in [0, 1].
+    pub t: T,
+    /// `p − q`.
+    pub pq: [T; 2],
+    /// `|p − q|²`.
+    pub dist2: T,
+}
+
+/// The closest point to `p` on segment (a, b) (edge `edge`).
+#[inline]
+pub(crate) fn closest_on_segment<T: Real>(p: [T; 2], a: [T; 2], b: [T; 2], edge: u32) -> Outline<T> {
+    let (zero, one) = (T::zero(), T::one());
+    let e = [b[0] - a[0], b[1] - a[1]];
+    let ap = [p[0] - a[0], p[1] - a[1]];
+    let len2 = e[0] * e[0] + e[1] * e[1];
+    let t = if len2 > zero {
+        ((ap[0] * e[0] + ap[1] * e[1]) / len2).max(zero).min(one)
+    } else {
+        zero
+    };
+    let pq = [ap[0] - t * e[0], ap[1] - t * e[1]];
+    Outline {
+        edge,
+        t,
+        pq,
+        dist2: pq[0] * pq[0] + pq[1] * pq[1],
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -209,9 +237,15 @@ mod tests {
         assert!(h.inside);
         let q = [0, 1].map(|c| (0..3).map(|k| h.w[k] * v[k][c]).sum::<f64>());
         assert!((q[0] - p[0]).abs() < 1e-12 && (q[1] - p[1]).abs() < 1e-12);
-        // Flipped winding: still inside, same distance.
+        // Flipped winding: still inside, the same weights (corners 1 and 2 swapped).
         let hf = hit(p, [v[0], v[2], v[1]]);
-        assert!(hf.inside && (hf.dist2 - h.dist2).abs() < 1e-12);
+        let swapped = [hf.w[0], hf.w[2], hf.w[1]];
+        assert!(
+            hf.inside && (0..3).all(|k| (swapped[k] - h.w[k]).abs() < 1e-12),
+            "{:?} vs {:?}",
+            hf.w,
+            h.w
+        );
     }
 
     #[test]

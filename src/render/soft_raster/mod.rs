@@ -16,13 +16,15 @@
 //!   computed. That radius also grows the bounding boxes of faces and boundary edges when they
 //!   are binned into 8×8-pixel tiles, so cost is ∝ pixels × nearby faces, and interior pixels
 //!   (no outline within reach) cost only their texture lookup.
-//! * **Layer colour**: the layer's face with the largest signed distance (the face containing p,
-//!   else the nearest one) gives barycentric weights — exact inside, the *clamped* ones of the
-//!   closest boundary point outside — which interpolate its per-vertex UVs; the layer texture is
+//! * **Layer colour**: the layer's first face (in mesh order) containing p, else its nearest face
+//!   within the cut distance (the first of equals), gives barycentric weights — exact inside, the
+//!   *clamped* ones of the closest boundary point outside — which interpolate its per-vertex UVs
+//!   (only where a layer folds over itself does "first" matter); the layer texture is
 //!   sampled **bilinearly** there (texel centres at ((i + 0.5)/W, (j + 0.5)/H), clamp to edge) in
 //!   premultiplied RGBA `S_l`. Layer contribution `X_l = A_l · S_l` (texture alpha × coverage).
 //! * **Compositing**: layers "over", back (index 0) to front, onto the background:
-//!   `out = Σ_l T_l X_l + T_bg · bg`, `T_l = Π_{m > l} (1 − A_m s_{a,m})`.
+//!   `out = Σ_l T_l X_l + T_bg · bg`, `T_l = Π_{m > l} (1 − A_m s_{a,m})`, evaluated front to
+//!   back and stopped where `T` becomes exactly 0 (what lies behind is then multiplied by 0).
 //!   The output is **premultiplied** RGBA; with an opaque [`Background::Colour`] it is opaque, so
 //!   premultiplied and straight agree.
 //! * **Silhouette** (eq. 10–11, white texture on black): `M = 1 − Π_l (1 − A_l)`, from the same
@@ -32,9 +34,10 @@
 //! rasterizer; [`crate::render::render_crisp`] uses it for every preview and export.
 //!
 //! # Layout
-//! `forward.rs` renders (rayon over batch × bands of tiles) and holds the per-pixel evaluation
-//! that `backward.rs` reuses for the exact vector-Jacobian product w.r.t. vertex positions:
-//! through coverage (outline edges: `d_l`) and through barycentric texture lookup (interiors).
+//! `forward.rs` renders (rayon over batch × bands of tiles) and can keep, per pixel and layer,
+//! the colour face and outline edge it found ([`Saved`]); `backward.rs` re-evaluates just those
+//! for the exact vector-Jacobian product w.r.t. vertex positions: through coverage (outline
+//! edges: `d_l`) and through barycentric texture lookup (interiors).
 //! `geometry.rs` holds the triangle quantities and their derivatives, `texture.rs` the bilinear
 //! sample, `bins.rs` the tiles; `reference.rs` (tests only) is the every-face × every-pixel
 //! version. Kernels are generic over `f32`/`f64` ([`Real`]).
@@ -55,7 +58,7 @@ use num_traits::Float;
 use crate::error::{Error, Result};
 use crate::puppet::Puppet;
 
-pub use forward::Frames;
+pub use forward::{Frames, Saved};
 
 /// The float type of the kernels: `f32` for speed, `f64` in gradient checks.
 pub trait Real: Float + Send + Sync + std::fmt::Debug + 'static {}

@@ -78,27 +78,28 @@ pub(crate) fn render(raster: &SoftRasterizer, verts: &[f64], width: usize, heigh
     for y in 0..height {
         for x in 0..width {
             let p = [x as f64 + 0.5, y as f64 + 0.5];
-            // Per layer: inside any face?, best (signed d², face, weights) for the colour.
+            // Per layer: inside any face?, and the colour face with its weights: the first
+            // face (in index order) containing p, else the nearest within the cut radius (the
+            // first of equals).
             let mut is_inside = vec![false; layers];
             let mut best: Vec<Option<(f64, usize, [f64; 3])>> = vec![None; layers];
             for (f, face) in raster.faces.iter().enumerate() {
                 let v = face.vertices.map(|i| [verts[2 * i as usize], verts[2 * i as usize + 1]]);
-                let is_in = inside(p, v);
-                let (d2, wq) = closest_boundary(p, v);
-                // A face counts for the colour when it contains p or lies within the cut radius.
-                if !is_in && (sigma == 0.0 || d2 > params.cut_distance2()) {
+                let l = raster.face_layer[f] as usize;
+                if is_inside[l] {
                     continue;
                 }
-                let l = raster.face_layer[f] as usize;
-                is_inside[l] |= is_in;
-                let key = if is_in { d2 } else { -d2 };
-                let w = if is_in {
-                    barycentric(p, v).expect("inside implies non-zero area")
-                } else {
-                    wq
-                };
-                if best[l].is_none_or(|b| key > b.0) {
-                    best[l] = Some((key, f, w));
+                if inside(p, v) {
+                    is_inside[l] = true;
+                    best[l] = Some((0.0, f, barycentric(p, v).expect("inside implies non-zero area")));
+                    continue;
+                }
+                let (d2, wq) = closest_boundary(p, v);
+                if sigma == 0.0 || d2 > params.cut_distance2() {
+                    continue;
+                }
+                if best[l].is_none_or(|b| d2 < b.0) {
+                    best[l] = Some((d2, f, wq));
                 }
             }
             // Per layer: distance² to the outline (the edges used by one triangle only).
@@ -139,7 +140,8 @@ pub(crate) fn render(raster: &SoftRasterizer, verts: &[f64], width: usize, heigh
 }
 
 /// A plain hard rasterizer: each layer's triangles painted where the pixel centre is inside
-/// (edges included), textured at the interpolated UV, layers composited "over" back to front.
+/// (edges included; where a layer's triangles overlap, the first paints), textured at the
+/// interpolated UV, layers composited "over" back to front.
 pub(crate) fn hard(raster: &SoftRasterizer, verts: &[f64], width: usize, height: usize, bg: [f64; 4]) -> Vec<f64> {
     let mut image: Vec<f64> = (0..width * height).flat_map(|_| bg).collect();
     for l in 0..raster.textures.len() {
@@ -153,6 +155,9 @@ pub(crate) fn hard(raster: &SoftRasterizer, verts: &[f64], width: usize, height:
             for y in y0..y1 {
                 for x in x0..x1 {
                     let p = [x as f64 + 0.5, y as f64 + 0.5];
+                    if paint[y * width + x].is_some() {
+                        continue;
+                    }
                     if let (true, Some(w)) = (inside(p, v), barycentric(p, v)) {
                         let uvs = raster.faces[f].uvs;
                         let uv = [0, 1].map(|c| (0..3).map(|k| w[k] * uvs[k][c] as f64).sum::<f64>());
