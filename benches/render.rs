@@ -184,6 +184,13 @@ fn bench(c: &mut Criterion) {
                     black_box((f, g));
                 })
             });
+            report_cpu(&id("fwd_saving"), 20, || {
+                pool.install(|| black_box(raster.forward_saving(&verts, BATCH, w, h, &soft).expect("valid input")));
+            });
+            let (_, saved) = raster.forward_saving(&verts, BATCH, w, h, &soft).expect("valid input");
+            report_cpu(&id("bwd"), 20, || {
+                pool.install(|| black_box(raster.backward_saved(&saved, Some(&d_image), Some(&d_mask)).expect("valid input")));
+            });
             report_cpu(&id("crisp_fwd"), 20, || {
                 pool.install(|| black_box(raster.forward(&verts, BATCH, w, h, &crisp).expect("valid input")));
             });

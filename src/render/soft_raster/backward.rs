@@ -11,7 +11,7 @@ use rayon::prelude::*;
 
 use super::bins::TILE;
 use super::forward::{product_without, BandRecords, Ctx, Saved, NO_EDGE};
-use super::geometry::{bary_vjp, closest_on_segment, hit_within, Hit, Outline};
+use super::geometry::{bary_vjp, closest_on_segment, inside_hit, Hit, Outline};
 use super::texture::sample_vjp;
 use super::{real, Params, Real, SoftRasterizer};
 use crate::error::{Error, Result};
@@ -163,11 +163,16 @@ fn band_vjp<T: Real>(
                 layers.clear();
                 let (mut prod, mut zeros, mut trans) = (one, 0u32, one);
                 for r in here {
-                    let hit = hit_within(p, &ctx.tris[r.face as usize], T::infinity()).expect("infinite reach");
                     let outline = (r.edge != NO_EDGE).then(|| {
                         let [a, b] = ctx.ends(r.edge as usize);
                         closest_on_segment(p, a, b, r.edge)
                     });
+                    let hit = match (r.inside, &outline) {
+                        (true, _) => inside_hit(p, &ctx.tris[r.face as usize]),
+                        (false, Some(o)) => Some(ctx.outline_hit(o).1),
+                        (false, None) => None,
+                    }
+                    .expect("the forward recorded an inside face or an outline edge");
                     let a = ctx.coverage(outline.as_ref(), r.inside);
                     let (uv, s) = ctx.colour(r.layer, r.face, &hit);
                     let om = one - a;

@@ -1,8 +1,8 @@
 //! Forward pass of the soft rasterizer (neural-puppet.md §3.2 eq. 1; silhouette of eq. 10–11):
-//! rayon over batch × bands of 8 rows, tile by tile, faces from [`Bins`]. Per pixel
+//! rayon over batch × bands of `TILE` rows, tile by tile, faces from [`Bins`]. Per pixel
 //! ([`Pixel::shade`]) the layers are visited **front to back**: a layer's faces until the first
-//! that contains the pixel (else the nearest within reach gives its colour), then its outline
-//! edges for the coverage; compositing stops when the transmittance reaches exactly 0 (an opaque
+//! that contains the pixel (its colour), then its outline edges within the cut distance for the
+//! coverage (outside, the nearest one's face gives the colour); compositing stops when the transmittance reaches exactly 0 (an opaque
 //! layer fully covering the pixel), since everything behind is then multiplied by 0. On request
 //! the pass keeps, per pixel and visited layer, the colour face and outline edge it found
 //! ([`Saved`]), so the backward pass evaluates one face and one edge per layer instead of
@@ -13,7 +13,7 @@ use std::ops::Range;
 use rayon::prelude::*;
 
 use super::bins::{Bins, TILE};
-use super::geometry::{closest_on_segment, hit_within, Hit, Outline, Tri};
+use super::geometry::{closest_on_segment, edge_hit, inside_hit, Hit, Outline, Tri};
 use super::texture::sample;
 use super::{real, Params, Real, SoftRasterizer};
 use crate::error::{Error, Result};
@@ -94,10 +94,9 @@ pub(crate) struct Ctx<'a, T> {
     pub edge_bins: Bins<T>,
     /// Every face's per-pose constants.
     pub tris: Vec<Tri<T>>,
-    /// σ (0: crisp), the cut distance² and its root, the background (premultiplied).
+    /// σ (0: crisp), the cut distance², the background (premultiplied).
     pub sigma: T,
     pub cut2: T,
-    pub reach: T,
     pub bg: [T; 4],
 }
 
@@ -105,12 +104,15 @@ impl<'a, T: Real> Ctx<'a, T> {
     pub fn new(raster: &'a SoftRasterizer, verts: &'a [T], params: &Params, width: usize, height: usize) -> Self {
         let cut2: T = real(params.cut_distance2());
         let corners = |f: usize| raster.faces[f].vertices.map(|i| [verts[2 * i as usize], verts[2 * i as usize + 1]]);
-        let bins = Bins::new(raster.faces.len(), corners, cut2.sqrt(), width, height);
+        // Faces matter only where they contain the pixel; outline edges out to the cut distance.
+        let bins = Bins::new(raster.faces.len(), corners, T::zero(), width, height);
         let ends = |e: usize| {
             let [a, b] = raster.edges[e].vertices.map(|i| [verts[2 * i as usize], verts[2 * i as usize + 1]]);
             [a, b, b]
         };
-        let edge_bins = Bins::new(raster.edges.len(), ends, cut2.sqrt(), width, height);
+        // Crisp coverage needs no outline.
+        let edge_count = if params.sigma > 0.0 { raster.edges.len() } else { 0 };
+        let edge_bins = Bins::new(edge_count, ends, cut2.sqrt(), width, height);
         let tris = (0..raster.faces.len()).map(|f| Tri::new(corners(f))).collect();
         let bg = params.background.premultiplied().map(|c| real(c as f64));
         Ctx {
@@ -121,7 +123,6 @@ impl<'a, T: Real> Ctx<'a, T> {
             tris,
             sigma: real(params.sigma as f64),
             cut2,
-            reach: cut2.sqrt(),
             bg,
         }
     }
@@ -137,6 +138,13 @@ impl<'a, T: Real> Ctx<'a, T> {
         self.raster.edges[e]
             .vertices
             .map(|i| [self.verts[2 * i as usize], self.verts[2 * i as usize + 1]])
+    }
+
+    /// The colour face and outside hit at the closest point `o` of an outline edge.
+    #[inline]
+    pub fn outline_hit(&self, o: &Outline<T>) -> (u32, Hit<T>) {
+        let edge = &self.raster.edges[o.edge as usize];
+        (edge.face, edge_hit(o, edge.corner as usize, self.tris[edge.face as usize].area2))
     }
 
     /// Layer coverage `A_l` from the nearest outline edge within reach (none: 1 inside, 0
@@ -172,29 +180,26 @@ pub(crate) struct Run {
 }
 
 /// Splits a tile's face and edge lists (both in global order, so grouped by layer, back to
-/// front) into per-layer runs.
+/// front) into per-layer runs; a layer has a run if it has faces or outline edges in the tile.
 pub(crate) fn layer_runs(raster: &SoftRasterizer, faces: &[u32], edges: &[u32], runs: &mut Vec<Run>) {
     runs.clear();
+    let face_layer = |i: usize| faces.get(i).map_or(u32::MAX, |&f| raster.face_layer[f as usize]);
+    let edge_layer = |i: usize| edges.get(i).map_or(u32::MAX, |&e| raster.edges[e as usize].layer);
     let (mut i, mut e) = (0, 0);
-    while i < faces.len() {
-        let layer = raster.face_layer[faces[i] as usize];
-        let j = i + faces[i..]
-            .iter()
-            .position(|&f| raster.face_layer[f as usize] != layer)
-            .unwrap_or(faces.len() - i);
-        while e < edges.len() && raster.edges[edges[e] as usize].layer < layer {
-            e += 1;
+    while i < faces.len() || e < edges.len() {
+        let layer = face_layer(i).min(edge_layer(e));
+        let (i0, e0) = (i, e);
+        while face_layer(i) == layer {
+            i += 1;
         }
-        let e0 = e;
-        while e < edges.len() && raster.edges[edges[e] as usize].layer == layer {
+        while edge_layer(e) == layer {
             e += 1;
         }
         runs.push(Run {
             layer,
-            faces: i..j,
+            faces: i0..i,
             edges: e0..e,
         });
-        i = j;
     }
 }
 
@@ -238,28 +243,19 @@ impl Pixel {
         self.layers.clear();
         let (mut acc, mut trans, mut prod, mut zeros) = ([zero; 4], one, one, 0u32);
         for run in self.runs.iter().rev() {
-            // Colour face: the first containing p, else the nearest within the cut distance
-            // (the first of equals).
-            let mut colour: Option<(u32, Hit<T>)> = None;
-            let mut nearest = T::infinity();
+            // Inside: the first face containing p gives the colour.
+            let mut inside: Option<(u32, Hit<T>)> = None;
             for &f in &faces[run.faces.clone()] {
                 let b = &ctx.bins.boxes[f as usize];
                 if p[0] < b[0] || p[0] > b[2] || p[1] < b[1] || p[1] > b[3] {
                     continue;
                 }
-                let Some(h) = hit_within(p, &ctx.tris[f as usize], ctx.reach) else {
-                    continue;
-                };
-                if h.inside {
-                    colour = Some((f, h));
+                if let Some(h) = inside_hit(p, &ctx.tris[f as usize]) {
+                    inside = Some((f, h));
                     break;
                 }
-                if !crisp && h.dist2 <= ctx.cut2 && h.dist2 < nearest {
-                    nearest = h.dist2;
-                    colour = Some((f, h));
-                }
             }
-            let Some((face, hit)) = colour else { continue };
+            // Coverage: the nearest outline edge within the cut distance (the first of equals).
             let mut outline: Option<Outline<T>> = None;
             if !crisp {
                 for &e in &edges[run.edges.clone()] {
@@ -274,6 +270,13 @@ impl Pixel {
                     }
                 }
             }
+            // Outside, the colour comes from the closest point of the outline, on the face that
+            // edge bounds; with no outline within reach either, A = 0 and the layer adds nothing.
+            let (face, hit) = match (inside, &outline) {
+                (Some(fh), _) => fh,
+                (None, Some(o)) => ctx.outline_hit(o),
+                (None, None) => continue,
+            };
             let a = ctx.coverage(outline.as_ref(), hit.inside);
             let (_, s) = ctx.colour(run.layer, face, &hit);
             let ta = trans * a;
@@ -320,7 +323,7 @@ fn render_band<T: Real>(ctx: &Ctx<T>, band: usize, width: usize, img: &mut [T], 
             let y = band * TILE + ly;
             for x in tx * TILE..((tx + 1) * TILE).min(width) {
                 let i = ly * width + x;
-                if faces.is_empty() {
+                if faces.is_empty() && edges.is_empty() {
                     img[4 * i..4 * i + 4].copy_from_slice(&ctx.bg);
                     if let Some(s) = saved.as_deref_mut() {
                         s.count.push(0);
