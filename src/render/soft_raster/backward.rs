@@ -12,7 +12,7 @@ use rayon::prelude::*;
 use super::bins::TILE;
 use super::forward::{product_without, BandRecords, Ctx, Saved, NO_EDGE};
 use super::geometry::{bary_vjp, closest_on_segment, inside_hit, Hit, Outline};
-use super::texture::sample_vjp;
+use super::texture::Lookup;
 use super::{real, Params, Real, SoftRasterizer};
 use crate::error::{Error, Result};
 
@@ -71,7 +71,7 @@ impl SoftRasterizer {
         }
         let ctxs: Vec<Ctx<T>> = (0..batch)
             .into_par_iter()
-            .map(|b| Ctx::new(self, &saved.vertices[b * pose..(b + 1) * pose], &saved.params, width, height))
+            .map(|b| Ctx::new(self, &saved.vertices[b * pose..(b + 1) * pose], &saved.params, width, height, false))
             .collect();
         let bands = height.div_ceil(TILE);
         let partial: Vec<(usize, Vec<T>)> = (0..batch * bands)
@@ -113,13 +113,12 @@ impl Routes {
 
 /// One visited layer re-evaluated from its record.
 struct Layer<T> {
-    layer: u32,
     face: u32,
     inside: bool,
     hit: Hit<T>,
     outline: Option<Outline<T>>,
     a: T,
-    uv: [T; 2],
+    lookup: Lookup<T>,
     s: [T; 4],
     /// Composite of everything behind this layer (premultiplied).
     behind: [T; 4],
@@ -174,7 +173,8 @@ fn band_vjp<T: Real>(
                     }
                     .expect("the forward recorded an inside face or an outline edge");
                     let a = ctx.coverage(outline.as_ref(), r.inside);
-                    let (uv, s) = ctx.colour(r.layer, r.face, &hit);
+                    let lookup = ctx.colour(r.layer, r.face, &hit);
+                    let s = lookup.sample();
                     let om = one - a;
                     if om == zero {
                         zeros += 1;
@@ -183,13 +183,12 @@ fn band_vjp<T: Real>(
                     }
                     trans = trans * (one - a * s[3]);
                     layers.push(Layer {
-                        layer: r.layer,
                         face: r.face,
                         inside: r.inside,
                         hit,
                         outline,
                         a,
-                        uv,
+                        lookup,
                         s,
                         behind: [zero; 4],
                     });
@@ -219,13 +218,12 @@ fn band_vjp<T: Real>(
                     gs[3] = gs[3] + la.a * g_alpha;
                     // Texture lookup → UV → barycentric weights → the colour face's corners.
                     if routes.texture {
-                        let tex = &ctx.raster.textures[la.layer as usize];
-                        let guv = sample_vjp(tex, la.uv, gs);
+                        let guv = la.lookup.vjp(gs);
                         if guv[0] != zero || guv[1] != zero {
                             let face = &ctx.raster.faces[la.face as usize];
                             let gw = face
                                 .uvs
-                                .map(|uv| guv[0] * real::<T>(uv[0] as f64) + guv[1] * real::<T>(uv[1] as f64));
+                                .map(|uv| guv[0] * <T as From<f32>>::from(uv[0]) + guv[1] * <T as From<f32>>::from(uv[1]));
                             let mut gc = [[zero; 2]; 3];
                             bary_vjp(gw, p, ctx.corners(la.face as usize), &la.hit, &mut gc);
                             scatter(g, face.vertices, gc);

@@ -14,7 +14,7 @@ use rayon::prelude::*;
 
 use super::bins::{Bins, TILE};
 use super::geometry::{closest_on_segment, edge_hit, inside_hit, Hit, Outline, Tri};
-use super::texture::sample;
+use super::texture::Lookup;
 use super::{real, Params, Real, SoftRasterizer};
 use crate::error::{Error, Result};
 
@@ -101,17 +101,20 @@ pub(crate) struct Ctx<'a, T> {
 }
 
 impl<'a, T: Real> Ctx<'a, T> {
-    pub fn new(raster: &'a SoftRasterizer, verts: &'a [T], params: &Params, width: usize, height: usize) -> Self {
+    /// The constants of pose `verts`; with `binned` false the bins are left empty (the backward
+    /// pass reads its faces and edges from the forward's records).
+    pub fn new(raster: &'a SoftRasterizer, verts: &'a [T], params: &Params, width: usize, height: usize, binned: bool) -> Self {
         let cut2: T = real(params.cut_distance2());
         let corners = |f: usize| raster.faces[f].vertices.map(|i| [verts[2 * i as usize], verts[2 * i as usize + 1]]);
         // Faces matter only where they contain the pixel; outline edges out to the cut distance.
-        let bins = Bins::new(raster.faces.len(), corners, T::zero(), width, height);
+        let face_count = if binned { raster.faces.len() } else { 0 };
+        let bins = Bins::new(face_count, corners, T::zero(), width, height);
         let ends = |e: usize| {
             let [a, b] = raster.edges[e].vertices.map(|i| [verts[2 * i as usize], verts[2 * i as usize + 1]]);
             [a, b, b]
         };
         // Crisp coverage needs no outline.
-        let edge_count = if params.sigma > 0.0 { raster.edges.len() } else { 0 };
+        let edge_count = if binned && params.sigma > 0.0 { raster.edges.len() } else { 0 };
         let edge_bins = Bins::new(edge_count, ends, cut2.sqrt(), width, height);
         let tris = (0..raster.faces.len()).map(|f| Tri::new(corners(f))).collect();
         let bg = params.background.premultiplied().map(|c| real(c as f64));
@@ -162,12 +165,12 @@ impl<'a, T: Real> Ctx<'a, T> {
         }
     }
 
-    /// The UV of `hit` on face `face` and the layer's premultiplied texture sample there.
+    /// The lookup of the layer's texture at the UV of `hit` on face `face`.
     #[inline]
-    pub fn colour(&self, layer: u32, face: u32, hit: &Hit<T>) -> ([T; 2], [T; 4]) {
+    pub fn colour(&self, layer: u32, face: u32, hit: &Hit<T>) -> Lookup<T> {
         let uvs = self.raster.faces[face as usize].uvs;
-        let uv = [0, 1].map(|c| (0..3).fold(T::zero(), |s, k| s + hit.w[k] * real::<T>(uvs[k][c] as f64)));
-        (uv, sample(&self.raster.textures[layer as usize], uv))
+        let uv = [0, 1].map(|c| (0..3).fold(T::zero(), |s, k| s + hit.w[k] * <T as From<f32>>::from(uvs[k][c])));
+        Lookup::new(&self.raster.textures[layer as usize], uv)
     }
 }
 
@@ -278,7 +281,7 @@ impl Pixel {
                 (None, None) => continue,
             };
             let a = ctx.coverage(outline.as_ref(), hit.inside);
-            let (_, s) = ctx.colour(run.layer, face, &hit);
+            let s = ctx.colour(run.layer, face, &hit).sample();
             let ta = trans * a;
             for c in 0..4 {
                 acc[c] = acc[c] + ta * s[c];
@@ -315,6 +318,11 @@ fn render_band<T: Real>(ctx: &Ctx<T>, band: usize, width: usize, img: &mut [T], 
     let mut px = Pixel::new();
     let half = real::<T>(0.5);
     let rows = msk.len() / width;
+    if let Some(s) = saved.as_deref_mut() {
+        // Typically one or two layers per pixel: reserve once instead of growing.
+        s.count.reserve(rows * width);
+        s.records.reserve(2 * rows * width);
+    }
     for tx in 0..width.div_ceil(TILE) {
         let faces = ctx.bins.tile(tx, band);
         let edges = ctx.edge_bins.tile(tx, band);
@@ -395,7 +403,7 @@ impl SoftRasterizer {
         let pose = 2 * self.vertex_count;
         let ctxs: Vec<Ctx<T>> = (0..batch)
             .into_par_iter()
-            .map(|b| Ctx::new(self, &vertices[b * pose..(b + 1) * pose], params, width, height))
+            .map(|b| Ctx::new(self, &vertices[b * pose..(b + 1) * pose], params, width, height, true))
             .collect();
         let bands = height.div_ceil(TILE);
         let mut records: Vec<BandRecords> = if save {

@@ -53,7 +53,7 @@ mod geometry;
 pub(crate) mod reference;
 mod texture;
 
-use num_traits::Float;
+use num_traits::{Float, NumCast};
 
 use crate::error::{Error, Result};
 use crate::puppet::Puppet;
@@ -61,12 +61,12 @@ use crate::puppet::Puppet;
 pub use forward::{Frames, Saved};
 
 /// The float type of the kernels: `f32` for speed, `f64` in gradient checks.
-pub trait Real: Float + Send + Sync + std::fmt::Debug + 'static {}
-impl<T: Float + Send + Sync + std::fmt::Debug + 'static> Real for T {}
+pub trait Real: Float + From<f32> + Send + Sync + std::fmt::Debug + 'static {}
+impl<T: Float + From<f32> + Send + Sync + std::fmt::Debug + 'static> Real for T {}
 
 /// Converts an `f64` constant to `T`.
 pub(crate) fn real<T: Real>(x: f64) -> T {
-    T::from(x).expect("f32 and f64 represent every finite f64 (f32 by rounding)")
+    <T as NumCast>::from(x).expect("f32 and f64 represent every finite f64 (f32 by rounding)")
 }
 
 /// What the transparent parts of the image show.
