@@ -11,7 +11,7 @@ use rayon::prelude::*;
 
 use super::bins::TILE;
 use super::forward::{product_without, BandRecords, Ctx, Saved, NO_EDGE};
-use super::geometry::{bary_vjp, closest_on_segment, inside_hit, Hit, Outline};
+use super::geometry::{bary_vjp, inside_hit, Hit, Outline};
 use super::texture::Lookup;
 use super::{real, Params, Real, SoftRasterizer};
 use crate::error::{Error, Result};
@@ -162,10 +162,7 @@ fn band_vjp<T: Real>(
                 layers.clear();
                 let (mut prod, mut zeros, mut trans) = (one, 0u32, one);
                 for r in here {
-                    let outline = (r.edge != NO_EDGE).then(|| {
-                        let [a, b] = ctx.ends(r.edge as usize);
-                        closest_on_segment(p, a, b, r.edge)
-                    });
+                    let outline = (r.edge != NO_EDGE).then(|| ctx.segs[r.edge as usize].closest(p, r.edge));
                     let hit = match (r.inside, &outline) {
                         (true, _) => inside_hit(p, &ctx.tris[r.face as usize]),
                         (false, Some(o)) => Some(ctx.outline_hit(o).1),

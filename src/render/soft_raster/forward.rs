@@ -13,7 +13,7 @@ use std::ops::Range;
 use rayon::prelude::*;
 
 use super::bins::{Bins, TILE};
-use super::geometry::{closest_on_segment, edge_hit, inside_hit, Hit, Outline, Tri};
+use super::geometry::{edge_hit, inside_hit, Hit, Outline, Seg, Tri};
 use super::texture::Lookup;
 use super::{real, Params, Real, SoftRasterizer};
 use crate::error::{Error, Result};
@@ -87,13 +87,13 @@ pub(crate) struct Record {
 /// Per-pose constants of one render.
 pub(crate) struct Ctx<'a, T> {
     pub raster: &'a SoftRasterizer,
-    /// This pose's vertices, `V × 2`.
-    pub verts: &'a [T],
     pub bins: Bins<T>,
     /// Boundary edges binned the same way (an edge is binned as the degenerate triangle a, b, b).
     pub edge_bins: Bins<T>,
     /// Every face's per-pose constants.
     pub tris: Vec<Tri<T>>,
+    /// Every outline edge's per-pose constants (none when crisp).
+    pub segs: Vec<Seg<T>>,
     /// σ (0: crisp), the cut distance², the background (premultiplied).
     pub sigma: T,
     pub cut2: T,
@@ -117,13 +117,23 @@ impl<'a, T: Real> Ctx<'a, T> {
         let edge_count = if binned && params.sigma > 0.0 { raster.edges.len() } else { 0 };
         let edge_bins = Bins::new(edge_count, ends, cut2.sqrt(), width, height);
         let tris = (0..raster.faces.len()).map(|f| Tri::new(corners(f))).collect();
+        let segs = if params.sigma > 0.0 {
+            (0..raster.edges.len())
+                .map(|e| {
+                    let [a, b, _] = ends(e);
+                    Seg::new(a, b)
+                })
+                .collect()
+        } else {
+            Vec::new()
+        };
         let bg = params.background.premultiplied().map(|c| real(c as f64));
         Ctx {
             raster,
-            verts,
             bins,
             edge_bins,
             tris,
+            segs,
             sigma: real(params.sigma as f64),
             cut2,
             bg,
@@ -133,14 +143,6 @@ impl<'a, T: Real> Ctx<'a, T> {
     #[inline]
     pub fn corners(&self, f: usize) -> [[T; 2]; 3] {
         self.tris[f].v
-    }
-
-    /// The two ends of outline edge `e`.
-    #[inline]
-    pub fn ends(&self, e: usize) -> [[T; 2]; 2] {
-        self.raster.edges[e]
-            .vertices
-            .map(|i| [self.verts[2 * i as usize], self.verts[2 * i as usize + 1]])
     }
 
     /// The colour face and outside hit at the closest point `o` of an outline edge.
@@ -266,8 +268,7 @@ impl Pixel {
                     if p[0] < b[0] || p[0] > b[2] || p[1] < b[1] || p[1] > b[3] {
                         continue;
                     }
-                    let [a, b] = ctx.ends(e as usize);
-                    let o = closest_on_segment(p, a, b, e);
+                    let o = ctx.segs[e as usize].closest(p, e);
                     if o.dist2 <= ctx.cut2 && outline.is_none_or(|best| o.dist2 < best.dist2) {
                         outline = Some(o);
                     }

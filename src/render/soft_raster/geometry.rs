@@ -177,30 +177,53 @@ pub(crate) struct Outline<T> {
 
 /// The closest point to `p` on segment (a, b) (edge `edge`).
 #[inline]
+#[cfg(test)]
 pub(crate) fn closest_on_segment<T: Real>(p: [T; 2], a: [T; 2], b: [T; 2], edge: u32) -> Outline<T> {
-    let (zero, one) = (T::zero(), T::one());
-    let e = [b[0] - a[0], b[1] - a[1]];
-    let ap = [p[0] - a[0], p[1] - a[1]];
-    let len2 = e[0] * e[0] + e[1] * e[1];
-    let (t, clamped) = if len2 > zero {
-        let t = (ap[0] * e[0] + ap[1] * e[1]) / len2;
-        if t <= zero {
+    Seg::new(a, b).closest(p, edge)
+}
+
+/// Per-pose constants of one segment (a, b), so the per-pixel closest point needs no division.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct Seg<T> {
+    pub a: [T; 2],
+    /// `b − a` and `1/|b − a|²` (0 for a zero-length segment).
+    pub e: [T; 2],
+    pub inv_len2: T,
+}
+
+impl<T: Real> Seg<T> {
+    /// The constants of segment (a, b).
+    #[inline]
+    pub fn new(a: [T; 2], b: [T; 2]) -> Self {
+        let e = [b[0] - a[0], b[1] - a[1]];
+        let len2 = e[0] * e[0] + e[1] * e[1];
+        let inv_len2 = if len2 > T::zero() { T::one() / len2 } else { T::zero() };
+        Seg { a, e, inv_len2 }
+    }
+
+    /// The closest point to `p` (the segment being outline edge `edge`).
+    #[inline]
+    pub fn closest(&self, p: [T; 2], edge: u32) -> Outline<T> {
+        let (zero, one) = (T::zero(), T::one());
+        let e = self.e;
+        let ap = [p[0] - self.a[0], p[1] - self.a[1]];
+        // t = ((p − a)·e)/|e|², clamped to the segment (zero length: t = 0, clamped).
+        let t = (ap[0] * e[0] + ap[1] * e[1]) * self.inv_len2;
+        let (t, clamped) = if self.inv_len2 == zero || t <= zero {
             (zero, true)
         } else if t >= one {
             (one, true)
         } else {
             (t, false)
+        };
+        let pq = [ap[0] - t * e[0], ap[1] - t * e[1]];
+        Outline {
+            edge,
+            t,
+            pq,
+            dist2: pq[0] * pq[0] + pq[1] * pq[1],
+            clamped,
         }
-    } else {
-        (zero, true)
-    };
-    let pq = [ap[0] - t * e[0], ap[1] - t * e[1]];
-    Outline {
-        edge,
-        t,
-        pq,
-        dist2: pq[0] * pq[0] + pq[1] * pq[1],
-        clamped,
     }
 }
 
