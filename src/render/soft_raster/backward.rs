@@ -422,4 +422,21 @@ mod tests {
         let err = g32.iter().zip(&ga).fold(0.0f64, |m, (x, y)| m.max((*x as f64 - y).abs()));
         assert!(err < 1e-3 * scale, "f32 gradient off by {err} (scale {scale})");
     }
+
+    #[test]
+    fn saved_records_of_another_puppet_or_wrong_gradient_sizes_are_errors() {
+        let puppet = layered_puppet();
+        let raster = SoftRasterizer::new(&puppet).unwrap();
+        let v = jittered(&puppet.rest_vertices(), 40, 0.4);
+        let (_, saved) = raster.forward_saving(&v, 1, W, H, &Params::default()).unwrap();
+        let gi = vec![1.0; W * H * 4];
+        assert!(raster.backward_saved(&saved, Some(&gi[1..]), None).is_err());
+        assert!(raster.backward_saved(&saved, None, Some(&gi)).is_err());
+        let mut smaller = puppet.clone();
+        smaller.layers.pop();
+        let other = SoftRasterizer::new(&smaller).unwrap();
+        let err = other.backward_saved(&saved, Some(&gi), None).unwrap_err().to_string();
+        assert!(err.contains("does not fit this puppet"), "{err}");
+        assert!(raster.backward_saved(&saved, Some(&gi), None).is_ok());
+    }
 }
