@@ -74,18 +74,34 @@ impl SoftRasterizer {
             .map(|b| Ctx::new(self, &saved.vertices[b * pose..(b + 1) * pose], &saved.params, width, height, false))
             .collect();
         let bands = height.div_ceil(TILE);
-        let partial: Vec<(usize, Vec<T>)> = (0..batch * bands)
+        // Rayon over poses × groups of bands (fixed, so the sums below run in a fixed order and
+        // the result does not depend on scheduling); one buffer per group.
+        const GROUP: usize = 8;
+        let groups = bands.div_ceil(GROUP);
+        let partial: Vec<Vec<T>> = (0..batch * groups)
             .into_par_iter()
             .map(|task| {
-                let (b, band) = (task / bands, task % bands);
+                let (b, group) = (task / groups, task % groups);
                 let gi = d_image.map(|g| &g[b * width * height * 4..(b + 1) * width * height * 4]);
                 let gm = d_mask.map(|g| &g[b * width * height..(b + 1) * width * height]);
                 let mut g = vec![T::zero(); pose];
-                band_vjp(&ctxs[b], &saved.bands[task], band, width, height, (gi, gm), routes, &mut g);
-                (b, g)
+                for band in group * GROUP..((group + 1) * GROUP).min(bands) {
+                    band_vjp(
+                        &ctxs[b],
+                        &saved.bands[b * bands + band],
+                        band,
+                        width,
+                        height,
+                        (gi, gm),
+                        routes,
+                        &mut g,
+                    );
+                }
+                g
             })
             .collect();
-        for (b, g) in partial {
+        for (task, g) in partial.into_iter().enumerate() {
+            let b = task / groups;
             for (acc, v) in grads[b * pose..(b + 1) * pose].iter_mut().zip(g) {
                 *acc = *acc + v;
             }
