@@ -1,6 +1,7 @@
 //! Soft rasterizer benchmarks (issue 3): forward + backward of a batch of 16 poses at 128×128 of
 //! a puppet with ~1,000 faces in 11 layers, against a crisp forward-only render of the same batch,
-//! on 1 thread and on all threads. Ids: `render/<what>/faces=F/px=128/batch=16/threads=T`.
+//! on 1 thread and on all threads. `fwd_bwd` is what training does: `forward_saving`, then
+//! `backward_saved` from its records; `bwd` is the latter alone. Ids: `render/<what>/faces=F/px=128/batch=16/threads=T`.
 //! bench/softras_torch.py runs the dense PyTorch peer on the same sizes beside this.
 
 use std::hint::black_box;
@@ -178,12 +179,17 @@ fn bench(c: &mut Criterion) {
         if std::env::var_os("RENDER_CPU_REPORT").is_some() {
             report_cpu(&id("fwd_bwd"), 20, || {
                 pool.install(|| {
-                    let f = raster.forward(&verts, BATCH, w, h, &soft).expect("valid input");
-                    let g = raster
-                        .backward(&verts, BATCH, w, h, &soft, Some(&d_image), Some(&d_mask))
-                        .expect("valid input");
+                    let (f, saved) = raster.forward_saving(&verts, BATCH, w, h, &soft).expect("valid input");
+                    let g = raster.backward_saved(&saved, Some(&d_image), Some(&d_mask)).expect("valid input");
                     black_box((f, g));
                 })
+            });
+            report_cpu(&id("fwd_saving"), 20, || {
+                pool.install(|| black_box(raster.forward_saving(&verts, BATCH, w, h, &soft).expect("valid input")));
+            });
+            let (_, saved) = raster.forward_saving(&verts, BATCH, w, h, &soft).expect("valid input");
+            report_cpu(&id("bwd"), 20, || {
+                pool.install(|| black_box(raster.backward_saved(&saved, Some(&d_image), Some(&d_mask)).expect("valid input")));
             });
             report_cpu(&id("crisp_fwd"), 20, || {
                 pool.install(|| black_box(raster.forward(&verts, BATCH, w, h, &crisp).expect("valid input")));
@@ -192,10 +198,8 @@ fn bench(c: &mut Criterion) {
         group.bench_function(id("fwd_bwd"), |b| {
             b.iter(|| {
                 pool.install(|| {
-                    let f = raster.forward(black_box(&verts), BATCH, w, h, &soft).expect("valid input");
-                    let g = raster
-                        .backward(&verts, BATCH, w, h, &soft, Some(&d_image), Some(&d_mask))
-                        .expect("valid input");
+                    let (f, saved) = raster.forward_saving(black_box(&verts), BATCH, w, h, &soft).expect("valid input");
+                    let g = raster.backward_saved(&saved, Some(&d_image), Some(&d_mask)).expect("valid input");
                     black_box((f, g))
                 })
             })
@@ -203,12 +207,13 @@ fn bench(c: &mut Criterion) {
         group.bench_function(id("soft_fwd"), |b| {
             b.iter(|| pool.install(|| black_box(raster.forward(black_box(&verts), BATCH, w, h, &soft).expect("valid input"))))
         });
+        let (_, saved) = pool.install(|| raster.forward_saving(&verts, BATCH, w, h, &soft).expect("valid input"));
         group.bench_function(id("bwd"), |b| {
             b.iter(|| {
                 pool.install(|| {
                     black_box(
                         raster
-                            .backward(black_box(&verts), BATCH, w, h, &soft, Some(&d_image), Some(&d_mask))
+                            .backward_saved(black_box(&saved), Some(&d_image), Some(&d_mask))
                             .expect("valid input"),
                     )
                 })

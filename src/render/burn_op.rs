@@ -3,8 +3,9 @@
 //!
 //! Burn 0.22 tensors carry no backend type; [`Tensor::try_into_primitive`] recovers the
 //! concrete primitive. On an autodiff device we register a custom [`Backward`] step whose
-//! backward reads `dL/d(output)` to the host and calls [`SoftRasterizer::backward`]; on a plain
-//! device we only render. Tensors ↔ slices only; all arithmetic lives in `soft_raster`.
+//! backward reads `dL/d(output)` to the host and calls [`SoftRasterizer::backward_saved`] on the
+//! forward's records; on a plain device we only render. Tensors ↔ slices only; all arithmetic
+//! lives in `soft_raster`.
 
 use std::sync::Arc;
 
@@ -16,7 +17,7 @@ use burn::backend::ops::FloatTensorOps;
 use burn::backend::{Autodiff, Backend, TensorMetadata};
 use burn::tensor::{read_sync, Tensor, TensorData};
 
-use super::soft_raster::{Params, SoftRasterizer};
+use super::soft_raster::{Frames, Params, Saved, SoftRasterizer};
 use crate::backend::Inner;
 use crate::error::{Error, Result};
 
@@ -56,8 +57,9 @@ pub fn soft_raster(vertices: Tensor<3>, raster: &Arc<SoftRasterizer>, width: usi
         match RasterBackward.prepare::<NoCheckpointing>([ad.node()]).compute_bound().stateful() {
             OpsKind::Tracked(prep) => {
                 let verts = host::<Inner>(ad.primitive().clone());
-                let rendered = call.forward(&verts)?;
-                prep.finish(Arc::new(Saved { call, vertices: verts }), rendered)
+                let (frames, saved) = call.raster.forward_saving(&verts, batch, width, height, &params)?;
+                let rendered = call.pack(&frames);
+                prep.finish(Arc::new(State { call, saved }), rendered)
             }
             OpsKind::UnTracked(prep) => {
                 let rendered = call.forward(&host::<Inner>(ad.into_primitive()))?;
@@ -107,6 +109,11 @@ impl Call {
     /// Renders and packs image and mask as one `[B, 5, H, W]` tensor of the compiled-in backend (channels RGBA, M).
     fn forward(&self, verts: &[f32]) -> Result<<Inner as burn::backend::BackendTypes>::FloatTensorPrimitive> {
         let f = self.raster.forward(verts, self.batch, self.width, self.height, &self.params)?;
+        Ok(self.pack(&f))
+    }
+
+    /// Packs rendered frames as one `[B, 5, H, W]` tensor (channels RGBA, M).
+    fn pack(&self, f: &Frames<f32>) -> <Inner as burn::backend::BackendTypes>::FloatTensorPrimitive {
         let n = self.width * self.height;
         let mut packed = vec![0f32; self.batch * 5 * n];
         for b in 0..self.batch {
@@ -118,22 +125,23 @@ impl Call {
             }
         }
         let data = TensorData::new(packed, [self.batch, 5, self.height, self.width]);
-        Ok(Inner::float_from_data(data, &Default::default()))
+        Inner::float_from_data(data, &Default::default())
     }
 }
 
-/// What the backward step keeps: the call and the vertices it rendered.
+/// What the backward step keeps: the call and the forward pass's records (which hold the
+/// vertices it rendered).
 #[derive(Debug)]
-struct Saved {
+struct State {
     call: Call,
-    vertices: Vec<f32>,
+    saved: Saved<f32>,
 }
 
 #[derive(Debug)]
 struct RasterBackward;
 
 impl<B: Backend> Backward<B, 1> for RasterBackward {
-    type State = Arc<Saved>;
+    type State = Arc<State>;
 
     fn backward(self, ops: Ops<Self::State, 1>, grads: &mut Gradients, _checkpointer: &mut Checkpointer) {
         let [parent] = ops.parents;
@@ -155,8 +163,8 @@ impl<B: Backend> Backward<B, 1> for RasterBackward {
         }
         let dv = c
             .raster
-            .backward(&s.vertices, c.batch, c.width, c.height, &c.params, Some(&d_image), Some(&d_mask))
-            .expect("inputs were validated by the forward call");
+            .backward_saved(&s.saved, Some(&d_image), Some(&d_mask))
+            .expect("the records and gradient sizes come from the forward call");
         let data = TensorData::new(dv, [c.batch, c.raster.vertex_count(), 2]);
         grads.register::<B>(parent.id, B::float_from_data(data, &device));
     }

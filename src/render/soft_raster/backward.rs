@@ -3,15 +3,16 @@
 //! the renderer). Two routes per pixel: through each layer's coverage `A_l` (the derivative of
 //! `d_l²`, the squared distance to the nearest outline edge) and through the barycentric texture
 //! lookup of each layer's colour face (interiors).
-//! Per-pixel quantities are recomputed with the forward's own [`Pixel::shade`] instead of being
-//! stored: that keeps memory at O(B·V) and forward/backward identical by construction.
+//! The forward pass's [`Saved`] records name, per pixel and visited layer, the colour face and
+//! the outline edge; here each is evaluated once more with the forward's own geometry code, so
+//! both passes see the same function without a second search through the tile's faces.
 
 use rayon::prelude::*;
 
 use super::bins::TILE;
-use super::forward::{product_without, Ctx, Pixel};
-use super::geometry::bary_vjp;
-use super::texture::sample_vjp;
+use super::forward::{product_without, BandRecords, Ctx, Saved, NO_EDGE};
+use super::geometry::{bary_vjp, inside_hit, Hit, Outline};
+use super::texture::Lookup;
 use super::{real, Params, Real, SoftRasterizer};
 use crate::error::{Error, Result};
 
@@ -19,7 +20,8 @@ impl SoftRasterizer {
     /// `dL/dvertices` (`[B, V, 2]`) given `dL/dimage` (`[B, H, W, 4]`, premultiplied RGBA as
     /// [`SoftRasterizer::forward`] returns it) and/or `dL/dmask` (`[B, H, W]`), for the same
     /// `vertices`, sizes and `params` as the forward call. With σ = 0 only the texture route
-    /// remains (crisp coverage is piecewise constant).
+    /// remains (crisp coverage is piecewise constant). Runs the forward pass again; after
+    /// [`SoftRasterizer::forward_saving`], [`SoftRasterizer::backward_saved`] does not.
     ///
     /// # Errors
     /// [`Error::Invalid`] if sizes disagree or inputs are not finite (as for `forward`).
@@ -34,37 +36,25 @@ impl SoftRasterizer {
         d_image: Option<&[T]>,
         d_mask: Option<&[T]>,
     ) -> Result<Vec<T>> {
-        self.vjp(
-            vertices,
-            batch,
-            width,
-            height,
-            params,
-            d_image,
-            d_mask,
-            Routes {
-                coverage: true,
-                texture: true,
-            },
-        )
+        let (_, saved) = self.forward_saving(vertices, batch, width, height, params)?;
+        self.backward_saved(&saved, d_image, d_mask)
     }
 
-    /// [`SoftRasterizer::backward`] with a choice of routes (tests switch one off to show that the
-    /// gradient checks detect a missing term).
-    #[allow(clippy::too_many_arguments)]
-    pub(crate) fn vjp<T: Real>(
-        &self,
-        vertices: &[T],
-        batch: usize,
-        width: usize,
-        height: usize,
-        params: &Params,
-        d_image: Option<&[T]>,
-        d_mask: Option<&[T]>,
-        routes: Routes,
-    ) -> Result<Vec<T>> {
-        params.validate()?;
-        self.validate_input(vertices, batch, width, height)?;
+    /// [`SoftRasterizer::backward`] from the records of a [`SoftRasterizer::forward_saving`] call
+    /// of this rasterizer (poses, sizes and parameters are those of that call).
+    ///
+    /// # Errors
+    /// [`Error::Invalid`] if the gradient sizes disagree with the forward call, or `saved` comes
+    /// from a rasterizer of another puppet.
+    pub fn backward_saved<T: Real>(&self, saved: &Saved<T>, d_image: Option<&[T]>, d_mask: Option<&[T]>) -> Result<Vec<T>> {
+        self.vjp(saved, d_image, d_mask, Routes::ALL)
+    }
+
+    /// [`SoftRasterizer::backward_saved`] with a choice of routes (tests switch one off to show
+    /// that the gradient checks detect a missing term).
+    pub(crate) fn vjp<T: Real>(&self, saved: &Saved<T>, d_image: Option<&[T]>, d_mask: Option<&[T]>, routes: Routes) -> Result<Vec<T>> {
+        saved.check(self)?;
+        let (batch, width, height) = (saved.batch, saved.width, saved.height);
         let npx = batch * width * height;
         if d_image.is_some_and(|g| g.len() != npx * 4) || d_mask.is_some_and(|g| g.len() != npx) {
             return Err(Error::Invalid(format!(
@@ -81,22 +71,37 @@ impl SoftRasterizer {
         }
         let ctxs: Vec<Ctx<T>> = (0..batch)
             .into_par_iter()
-            .map(|b| Ctx::new(self, &vertices[b * pose..(b + 1) * pose], params, width, height))
+            .map(|b| Ctx::new(self, &saved.vertices[b * pose..(b + 1) * pose], &saved.params, width, height, false))
             .collect();
         let bands = height.div_ceil(TILE);
-        let partial: Vec<(usize, Vec<T>)> = (0..batch * bands)
+        // Rayon over poses × groups of bands (fixed, so the sums below run in a fixed order and
+        // the result does not depend on scheduling); one buffer per group.
+        const GROUP: usize = 8;
+        let groups = bands.div_ceil(GROUP);
+        let partial: Vec<Vec<T>> = (0..batch * groups)
             .into_par_iter()
             .map(|task| {
-                let (b, band) = (task / bands, task % bands);
-                let ctx = &ctxs[b];
+                let (b, group) = (task / groups, task % groups);
                 let gi = d_image.map(|g| &g[b * width * height * 4..(b + 1) * width * height * 4]);
                 let gm = d_mask.map(|g| &g[b * width * height..(b + 1) * width * height]);
                 let mut g = vec![T::zero(); pose];
-                band_vjp(ctx, band, width, height, gi, gm, routes, &mut g);
-                (b, g)
+                for band in group * GROUP..((group + 1) * GROUP).min(bands) {
+                    band_vjp(
+                        &ctxs[b],
+                        &saved.bands[b * bands + band],
+                        band,
+                        width,
+                        height,
+                        (gi, gm),
+                        routes,
+                        &mut g,
+                    );
+                }
+                g
             })
             .collect();
-        for (b, g) in partial {
+        for (task, g) in partial.into_iter().enumerate() {
+            let b = task / groups;
             for (acc, v) in grads[b * pose..(b + 1) * pose].iter_mut().zip(g) {
                 *acc = *acc + v;
             }
@@ -108,37 +113,60 @@ impl SoftRasterizer {
 /// Which terms of the gradient to include.
 #[derive(Clone, Copy, Debug)]
 pub(crate) struct Routes {
-    /// Through the face coverages D_j (edges).
+    /// Through the layer coverages A_l (outline edges).
     pub coverage: bool,
     /// Through the barycentric texture lookup (interiors).
     pub texture: bool,
 }
 
-/// Accumulates the vertex gradient of one band of `TILE` rows into `g` (`V × 2`).
+impl Routes {
+    /// Both routes: the full gradient.
+    pub const ALL: Routes = Routes {
+        coverage: true,
+        texture: true,
+    };
+}
+
+/// One visited layer re-evaluated from its record.
+struct Layer<T> {
+    face: u32,
+    inside: bool,
+    hit: Hit<T>,
+    outline: Option<Outline<T>>,
+    a: T,
+    lookup: Lookup<T>,
+    s: [T; 4],
+    /// Composite of everything behind this layer (premultiplied).
+    behind: [T; 4],
+}
+
+/// Accumulates the vertex gradient of one band of `TILE` rows into `g` (`V × 2`), visiting
+/// pixels in the order the forward pass recorded them.
 #[allow(clippy::too_many_arguments)]
 fn band_vjp<T: Real>(
     ctx: &Ctx<T>,
+    recs: &BandRecords,
     band: usize,
     width: usize,
     height: usize,
-    gi: Option<&[T]>,
-    gm: Option<&[T]>,
+    (gi, gm): (Option<&[T]>, Option<&[T]>),
     routes: Routes,
     g: &mut [T],
 ) {
     let (zero, one) = (T::zero(), T::one());
     let half = real::<T>(0.5);
     let soft = ctx.sigma > zero && routes.coverage;
-    let mut px = Pixel::new();
-    let mut ga: Vec<T> = Vec::new();
+    let mut layers: Vec<Layer<T>> = Vec::new();
+    let (mut pixel, mut next) = (0usize, 0usize);
     for tx in 0..width.div_ceil(TILE) {
-        let faces = ctx.bins.tile(tx, band);
-        let edges = ctx.edge_bins.tile(tx, band);
-        if faces.is_empty() {
-            continue;
-        }
         for y in band * TILE..((band + 1) * TILE).min(height) {
             for x in tx * TILE..((tx + 1) * TILE).min(width) {
+                let n = recs.count[pixel] as usize;
+                let here = &recs.records[next..next + n];
+                (pixel, next) = (pixel + 1, next + n);
+                if n == 0 {
+                    continue;
+                }
                 let i = y * width + x;
                 let gout = gi.map_or([zero; 4], |g| [g[4 * i], g[4 * i + 1], g[4 * i + 2], g[4 * i + 3]]);
                 let gmask = gm.map_or(zero, |g| g[i]);
@@ -146,55 +174,89 @@ fn band_vjp<T: Real>(
                     continue;
                 }
                 let p = [real::<T>(x as f64) + half, real::<T>(y as f64) + half];
-                px.shade(ctx, p, faces, edges);
-                if px.touched.is_empty() {
-                    continue;
+                // The forward's quantities, front to back, and the silhouette product.
+                layers.clear();
+                let (mut prod, mut zeros, mut trans) = (one, 0u32, one);
+                for r in here {
+                    let outline = (r.edge != NO_EDGE).then(|| ctx.segs[r.edge as usize].closest(p, r.edge));
+                    let hit = match (r.inside, &outline) {
+                        (true, _) => inside_hit(p, &ctx.tris[r.face as usize]),
+                        (false, Some(o)) => Some(ctx.outline_hit(o).1),
+                        (false, None) => None,
+                    }
+                    .expect("the forward recorded an inside face or an outline edge");
+                    let a = ctx.coverage(outline.as_ref(), r.inside);
+                    let lookup = ctx.colour(r.layer, r.face, &hit);
+                    let s = lookup.sample();
+                    let om = one - a;
+                    if om == zero {
+                        zeros += 1;
+                    } else {
+                        prod = prod * om;
+                    }
+                    trans = trans * (one - a * s[3]);
+                    layers.push(Layer {
+                        face: r.face,
+                        inside: r.inside,
+                        hit,
+                        outline,
+                        a,
+                        lookup,
+                        s,
+                        behind: [zero; 4],
+                    });
                 }
-                // Compositing, front to back: out = Σ_l T_l X_l + …, X_l = A_l S_l, and α_l = A_l s_a
-                // also scales everything behind l: ∂out/∂α_l = −T_l · behind_l.
-                ga.clear();
-                ga.resize(px.touched.len(), zero);
-                let mut trans = one;
-                for (slot, la) in px.touched.iter().enumerate().rev() {
-                    let gx = gout.map(|c| trans * c);
-                    let g_alpha = -trans * (0..4).fold(zero, |s, c| s + gout[c] * la.behind[c]);
-                    ga[slot] = (0..4).fold(zero, |s, c| s + gx[c] * la.s[c]) + g_alpha * la.s[3];
+                // Compositing: out = Σ_l T_l X_l + T_bg bg, X_l = A_l S_l, α_l = A_l s_a,l, and
+                // ∂out/∂α_l = −T_l · behind_l (the composite of what lies behind l). When the
+                // forward stopped at an opaque layer (T = 0 after it) what lies behind it was not
+                // evaluated; it enters only through ∂α/∂(A, s_a) of that layer, which is 0 there
+                // (A = 1 beyond the cut; s_a = 1 is a maximum of the bilinear alpha).
+                let mut behind = if trans == zero { [zero; 4] } else { ctx.bg };
+                for la in layers.iter_mut().rev() {
+                    la.behind = behind;
+                    let alpha = la.a * la.s[3];
+                    for c in 0..4 {
+                        behind[c] = la.a * la.s[c] + (one - alpha) * behind[c];
+                    }
+                }
+                let mut t = one;
+                for la in &layers {
+                    let gx = gout.map(|c| t * c);
+                    let g_alpha = -t * (0..4).fold(zero, |s, c| s + gout[c] * la.behind[c]);
+                    // dL/dA_l through the image, then through the silhouette:
+                    // ∂M/∂A_l = Π_{k≠l}(1 − A_k).
+                    let om = one - la.a;
+                    let g_a = (0..4).fold(zero, |s, c| s + gx[c] * la.s[c]) + g_alpha * la.s[3] + gmask * product_without(prod, zeros, om);
                     let mut gs = gx.map(|c| la.a * c);
                     gs[3] = gs[3] + la.a * g_alpha;
                     // Texture lookup → UV → barycentric weights → the colour face's corners.
-                    let tex = &ctx.raster.textures[la.layer as usize];
-                    let guv = sample_vjp(tex, la.uv, gs);
-                    if routes.texture && (guv[0] != zero || guv[1] != zero) {
-                        let face = &ctx.raster.faces[la.best as usize];
-                        let gw = face
-                            .uvs
-                            .map(|uv| guv[0] * real::<T>(uv[0] as f64) + guv[1] * real::<T>(uv[1] as f64));
-                        let h = la.best_hit.expect("a touched layer has a face");
-                        let mut gc = [[zero; 2]; 3];
-                        bary_vjp(gw, p, ctx.corners(la.best as usize), &h, &mut gc);
-                        scatter(g, face.vertices, gc);
+                    if routes.texture {
+                        let guv = la.lookup.vjp(gs);
+                        if guv[0] != zero || guv[1] != zero {
+                            let face = &ctx.raster.faces[la.face as usize];
+                            let gw = face
+                                .uvs
+                                .map(|uv| guv[0] * <T as From<f32>>::from(uv[0]) + guv[1] * <T as From<f32>>::from(uv[1]));
+                            let mut gc = [[zero; 2]; 3];
+                            bary_vjp(gw, p, ctx.corners(la.face as usize), &la.hit, &mut gc);
+                            scatter(g, face.vertices, gc);
+                        }
                     }
-                    trans = trans * (one - la.a * la.s[3]);
-                }
-                if !soft {
-                    continue;
-                }
-                // Coverage: A_l = sigmoid(z), z = ±d²/σ, d² = |p − q|², q = a + t(b − a) the closest
-                // point of the outline edge; ∂M/∂A_l = Π_{k≠l}(1 − A_k). At the minimising t (or a
-                // clamped end) ∂d²/∂a = −2(1 − t)(p − q) and ∂d²/∂b = −2t(p − q).
-                for (slot, la) in px.touched.iter().enumerate() {
-                    let Some(o) = la.outline else { continue };
-                    let om = one - la.a;
-                    let gz = (ga[slot] + gmask * product_without(px.prod, px.zeros, om)) * la.a * om;
+                    t = t * (one - la.a * la.s[3]);
+                    // Coverage: A_l = sigmoid(z), z = ±d²/σ, d² = |p − q|², q = a + t(b − a) the
+                    // closest point of the outline edge. At the minimising t (or a clamped end)
+                    // ∂d²/∂a = −2(1 − t)(p − q) and ∂d²/∂b = −2t(p − q).
+                    let Some(o) = la.outline.filter(|_| soft) else { continue };
+                    let gz = g_a * la.a * om;
                     if gz == zero {
                         continue;
                     }
                     let gd2 = if la.inside { gz / ctx.sigma } else { -gz / ctx.sigma };
-                    let [a, b] = ctx.raster.edges[o.edge as usize].vertices;
+                    let [va, vb] = ctx.raster.edges[o.edge as usize].vertices;
                     let two = gd2 + gd2;
                     let ga_end = [-two * (one - o.t) * o.pq[0], -two * (one - o.t) * o.pq[1]];
                     let gb_end = [-two * o.t * o.pq[0], -two * o.t * o.pq[1]];
-                    for (v, gv) in [(a, ga_end), (b, gb_end)] {
+                    for (v, gv) in [(va, ga_end), (vb, gb_end)] {
                         g[2 * v as usize] = g[2 * v as usize] + gv[0];
                         g[2 * v as usize + 1] = g[2 * v as usize + 1] + gv[1];
                     }
@@ -255,10 +317,7 @@ mod tests {
         (gi, gm)
     }
 
-    const ALL: Routes = Routes {
-        coverage: true,
-        texture: true,
-    };
+    const ALL: Routes = Routes::ALL;
     const NO_COVERAGE: Routes = Routes {
         coverage: false,
         texture: true,
@@ -269,7 +328,8 @@ mod tests {
     };
 
     fn vjp(raster: &SoftRasterizer, v: &[f64], p: &Params, gi: &[f64], gm: &[f64], routes: Routes) -> Vec<f64> {
-        raster.vjp(v, 1, W, H, p, Some(gi), Some(gm), routes).unwrap()
+        let (_, saved) = raster.forward_saving(v, 1, W, H, p).unwrap();
+        raster.vjp(&saved, Some(gi), Some(gm), routes).unwrap()
     }
 
     /// The fixture's four layers overlap (arms behind and in front of the torso, head over it);
@@ -377,5 +437,22 @@ mod tests {
         let scale = ga.iter().fold(0.0f64, |m, x| m.max(x.abs()));
         let err = g32.iter().zip(&ga).fold(0.0f64, |m, (x, y)| m.max((*x as f64 - y).abs()));
         assert!(err < 1e-3 * scale, "f32 gradient off by {err} (scale {scale})");
+    }
+
+    #[test]
+    fn saved_records_of_another_puppet_or_wrong_gradient_sizes_are_errors() {
+        let puppet = layered_puppet();
+        let raster = SoftRasterizer::new(&puppet).unwrap();
+        let v = jittered(&puppet.rest_vertices(), 40, 0.4);
+        let (_, saved) = raster.forward_saving(&v, 1, W, H, &Params::default()).unwrap();
+        let gi = vec![1.0; W * H * 4];
+        assert!(raster.backward_saved(&saved, Some(&gi[1..]), None).is_err());
+        assert!(raster.backward_saved(&saved, None, Some(&gi)).is_err());
+        let mut smaller = puppet.clone();
+        smaller.layers.pop();
+        let other = SoftRasterizer::new(&smaller).unwrap();
+        let err = other.backward_saved(&saved, Some(&gi), None).unwrap_err().to_string();
+        assert!(err.contains("does not fit this puppet"), "{err}");
+        assert!(raster.backward_saved(&saved, Some(&gi), None).is_ok());
     }
 }

@@ -1,14 +1,22 @@
 //! Forward pass of the soft rasterizer (neural-puppet.md §3.2 eq. 1; silhouette of eq. 10–11):
-//! rayon over batch × bands of 8 rows, tile by tile, faces from [`Bins`]. The per-pixel
-//! evaluation [`Pixel::shade`] is shared with the backward pass so both see the same function.
+//! rayon over batch × bands of `TILE` rows, tile by tile, faces from [`Bins`]. Per pixel
+//! ([`Pixel::shade`]) the layers are visited **front to back**: a layer's faces until the first
+//! that contains the pixel (its colour), then its outline edges within the cut distance for the
+//! coverage (outside, the nearest one's face gives the colour); compositing stops when the transmittance reaches exactly 0 (an opaque
+//! layer fully covering the pixel), since everything behind is then multiplied by 0. On request
+//! the pass keeps, per pixel and visited layer, the colour face and outline edge it found
+//! ([`Saved`]), so the backward pass evaluates one face and one edge per layer instead of
+//! searching again.
+
+use std::ops::Range;
 
 use rayon::prelude::*;
 
 use super::bins::{Bins, TILE};
-use super::geometry::{hit_within, Hit, Tri};
-use super::texture::sample;
+use super::geometry::{edge_hit, inside_hit, Hit, Outline, Seg, Tri};
+use super::texture::Lookup;
 use super::{real, Params, Real, SoftRasterizer};
-use crate::error::Result;
+use crate::error::{Error, Result};
 
 /// A batch of rendered images and silhouettes.
 #[derive(Clone, Debug, PartialEq)]
@@ -25,95 +33,186 @@ pub struct Frames<T> {
     pub mask: Vec<T>,
 }
 
+/// What [`SoftRasterizer::backward_saved`] needs from a forward pass: the call (poses, sizes,
+/// parameters) and, per pixel, the layers the forward visited, front to back, each with the face
+/// that gave its colour and the outline edge that gave its coverage. About 16 bytes per visited
+/// layer and 4 per pixel.
+#[derive(Clone, Debug)]
+pub struct Saved<T> {
+    pub(crate) vertices: Vec<T>,
+    pub(crate) batch: usize,
+    pub(crate) width: usize,
+    pub(crate) height: usize,
+    pub(crate) params: Params,
+    /// One entry per (pose, band of `TILE` rows), pose-major.
+    pub(crate) bands: Vec<BandRecords>,
+}
+
+impl<T> Saved<T> {
+    /// Number of poses B of the forward call.
+    pub fn batch(&self) -> usize {
+        self.batch
+    }
+
+    /// The poses `[B, V, 2]` of the forward call.
+    pub fn vertices(&self) -> &[T] {
+        &self.vertices
+    }
+}
+
+/// The records of one band, in the order the band's pixels are visited: tile by tile (left to
+/// right), row by row within a tile.
+#[derive(Clone, Debug, Default)]
+pub(crate) struct BandRecords {
+    /// Number of records of each pixel.
+    pub count: Vec<u32>,
+    pub records: Vec<Record>,
+}
+
+/// `Record::edge` when no outline edge is within reach (coverage exactly 0 or 1).
+pub(crate) const NO_EDGE: u32 = u32::MAX;
+
+/// One visited layer at one pixel.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct Record {
+    pub layer: u32,
+    /// The face giving the colour: the first containing the pixel, else the nearest.
+    pub face: u32,
+    /// The nearest outline edge within reach, or [`NO_EDGE`].
+    pub edge: u32,
+    /// Some face of the layer contains the pixel centre.
+    pub inside: bool,
+}
+
 /// Per-pose constants of one render.
 pub(crate) struct Ctx<'a, T> {
     pub raster: &'a SoftRasterizer,
-    /// This pose's vertices, `V × 2`.
-    pub verts: &'a [T],
     pub bins: Bins<T>,
     /// Boundary edges binned the same way (an edge is binned as the degenerate triangle a, b, b).
     pub edge_bins: Bins<T>,
     /// Every face's per-pose constants.
     pub tris: Vec<Tri<T>>,
-    /// σ (0: crisp), the cut distance² and its root, the background (premultiplied).
+    /// Every outline edge's per-pose constants (none when crisp).
+    pub segs: Vec<Seg<T>>,
+    /// σ (0: crisp), the cut distance², the background (premultiplied).
     pub sigma: T,
     pub cut2: T,
-    pub reach: T,
     pub bg: [T; 4],
 }
 
 impl<'a, T: Real> Ctx<'a, T> {
-    pub fn new(raster: &'a SoftRasterizer, verts: &'a [T], params: &Params, width: usize, height: usize) -> Self {
+    /// The constants of pose `verts`; with `binned` false the bins are left empty (the backward
+    /// pass reads its faces and edges from the forward's records).
+    pub fn new(raster: &'a SoftRasterizer, verts: &'a [T], params: &Params, width: usize, height: usize, binned: bool) -> Self {
         let cut2: T = real(params.cut_distance2());
         let corners = |f: usize| raster.faces[f].vertices.map(|i| [verts[2 * i as usize], verts[2 * i as usize + 1]]);
-        let bins = Bins::new(raster.faces.len(), corners, cut2.sqrt(), width, height);
+        // Faces matter only where they contain the pixel; outline edges out to the cut distance.
+        let face_count = if binned { raster.faces.len() } else { 0 };
+        let bins = Bins::new(face_count, corners, T::zero(), width, height);
         let ends = |e: usize| {
             let [a, b] = raster.edges[e].vertices.map(|i| [verts[2 * i as usize], verts[2 * i as usize + 1]]);
             [a, b, b]
         };
-        let edge_bins = Bins::new(raster.edges.len(), ends, cut2.sqrt(), width, height);
+        // Crisp coverage needs no outline.
+        let edge_count = if binned && params.sigma > 0.0 { raster.edges.len() } else { 0 };
+        let edge_bins = Bins::new(edge_count, ends, cut2.sqrt(), width, height);
         let tris = (0..raster.faces.len()).map(|f| Tri::new(corners(f))).collect();
+        let segs = if params.sigma > 0.0 {
+            (0..raster.edges.len())
+                .map(|e| {
+                    let [a, b, _] = ends(e);
+                    Seg::new(a, b)
+                })
+                .collect()
+        } else {
+            Vec::new()
+        };
         let bg = params.background.premultiplied().map(|c| real(c as f64));
         Ctx {
             raster,
-            verts,
             bins,
             edge_bins,
             tris,
+            segs,
             sigma: real(params.sigma as f64),
             cut2,
-            reach: cut2.sqrt(),
             bg,
         }
     }
 
     #[inline]
     pub fn corners(&self, f: usize) -> [[T; 2]; 3] {
-        self.raster.faces[f]
-            .vertices
-            .map(|i| [self.verts[2 * i as usize], self.verts[2 * i as usize + 1]])
+        self.tris[f].v
+    }
+
+    /// The colour face and outside hit at the closest point `o` of an outline edge.
+    #[inline]
+    pub fn outline_hit(&self, o: &Outline<T>) -> (u32, Hit<T>) {
+        let edge = &self.raster.edges[o.edge as usize];
+        (edge.face, edge_hit(o, edge.corner as usize, self.tris[edge.face as usize].area2))
+    }
+
+    /// Layer coverage `A_l` from the nearest outline edge within reach (none: 1 inside, 0
+    /// outside; crisp: the same).
+    #[inline]
+    pub fn coverage(&self, outline: Option<&Outline<T>>, inside: bool) -> T {
+        let (zero, one) = (T::zero(), T::one());
+        match outline {
+            Some(o) if self.sigma > zero => {
+                let z = if inside { o.dist2 / self.sigma } else { -o.dist2 / self.sigma };
+                one / (one + (-z).exp())
+            }
+            _ if inside => one,
+            _ => zero,
+        }
+    }
+
+    /// The lookup of the layer's texture at the UV of `hit` on face `face`.
+    #[inline]
+    pub fn colour(&self, layer: u32, face: u32, hit: &Hit<T>) -> Lookup<T> {
+        let uvs = self.raster.faces[face as usize].uvs;
+        let uv = [0, 1].map(|c| (0..3).fold(T::zero(), |s, k| s + hit.w[k] * <T as From<f32>>::from(uvs[k][c])));
+        Lookup::new(&self.raster.textures[layer as usize], uv)
     }
 }
 
-/// The nearest boundary edge of a layer within reach of the pixel.
-#[derive(Clone, Copy, Debug)]
-pub(crate) struct Outline<T> {
-    /// Index into [`SoftRasterizer::edges`].
-    pub edge: u32,
-    /// Closest point `q = a + t (b − a)`, t in [0, 1].
-    pub t: T,
-    /// `p − q`.
-    pub pq: [T; 2],
-    /// `|p − q|²`.
-    pub dist2: T,
-}
-
-/// One layer that some face reaches at the pixel.
-#[derive(Clone, Copy, Debug)]
-pub(crate) struct LayerAt<T> {
+/// A tile's faces and outline edges of one layer (ranges into the tile's lists).
+#[derive(Clone, Debug)]
+pub(crate) struct Run {
     pub layer: u32,
-    /// Some face of the layer contains the pixel centre.
-    pub inside: bool,
-    /// The nearest outline edge within reach (none: coverage is exactly 0 or 1).
-    pub outline: Option<Outline<T>>,
-    /// The face giving the colour (largest signed distance) and its hit.
-    pub best: u32,
-    pub best_key: T,
-    pub best_hit: Option<Hit<T>>,
-    /// Coverage A_l, texture lookup position and premultiplied sample S_l.
-    pub a: T,
-    pub uv: [T; 2],
-    pub s: [T; 4],
-    /// Composite of everything behind this layer (premultiplied).
-    pub behind: [T; 4],
+    pub faces: Range<usize>,
+    pub edges: Range<usize>,
 }
 
-/// Reusable per-task buffers: one pixel's layers (no allocation per pixel).
-pub(crate) struct Pixel<T> {
-    pub touched: Vec<LayerAt<T>>,
-    /// Π_l (1 − A_l) over the touched layers with a non-zero factor, and the count of zero factors.
-    pub prod: T,
-    pub zeros: u32,
+/// Splits a tile's face and edge lists (both in global order, so grouped by layer, back to
+/// front) into per-layer runs; a layer has a run if it has faces or outline edges in the tile.
+pub(crate) fn layer_runs(raster: &SoftRasterizer, faces: &[u32], edges: &[u32], runs: &mut Vec<Run>) {
+    runs.clear();
+    let face_layer = |i: usize| faces.get(i).map_or(u32::MAX, |&f| raster.face_layer[f as usize]);
+    let edge_layer = |i: usize| edges.get(i).map_or(u32::MAX, |&e| raster.edges[e as usize].layer);
+    let (mut i, mut e) = (0, 0);
+    while i < faces.len() || e < edges.len() {
+        let layer = face_layer(i).min(edge_layer(e));
+        let (i0, e0) = (i, e);
+        while face_layer(i) == layer {
+            i += 1;
+        }
+        while edge_layer(e) == layer {
+            e += 1;
+        }
+        runs.push(Run {
+            layer,
+            faces: i0..i,
+            edges: e0..e,
+        });
+    }
+}
+
+/// Reusable per-task buffers (no allocation per pixel): the current tile's layer runs and one
+/// pixel's visited layers, front to back.
+pub(crate) struct Pixel {
+    pub runs: Vec<Run>,
+    pub layers: Vec<Record>,
 }
 
 /// `Π_{k ≠ j} f_k` from the product of the non-zero factors and the number of zero factors.
@@ -132,127 +231,124 @@ pub(crate) fn product_without<T: Real>(prod: T, zeros: u32, f_j: T) -> T {
     }
 }
 
-impl<T: Real> Pixel<T> {
+impl Pixel {
     pub fn new() -> Self {
         Pixel {
-            touched: Vec::new(),
-            prod: T::one(),
-            zeros: 0,
+            runs: Vec::new(),
+            layers: Vec::new(),
         }
     }
 
-    /// Evaluates pixel centre `p` against the faces and outline edges of its tile; returns
-    /// (premultiplied RGBA, M).
+    /// Evaluates pixel centre `p` against the faces and outline edges of its tile (whose layer
+    /// runs are in `self.runs`); returns (premultiplied RGBA, M).
     #[inline]
-    pub fn shade(&mut self, ctx: &Ctx<T>, p: [T; 2], faces: &[u32], edges: &[u32]) -> ([T; 4], T) {
+    pub fn shade<T: Real>(&mut self, ctx: &Ctx<T>, p: [T; 2], faces: &[u32], edges: &[u32]) -> ([T; 4], T) {
         let (zero, one) = (T::zero(), T::one());
         let crisp = ctx.sigma == zero;
-        self.touched.clear();
-        self.prod = one;
-        self.zeros = 0;
-        for &f in faces {
-            let b = &ctx.bins.boxes[f as usize];
-            if p[0] < b[0] || p[0] > b[2] || p[1] < b[1] || p[1] > b[3] {
-                continue;
-            }
-            let Some(h) = hit_within(p, &ctx.tris[f as usize], ctx.reach) else {
-                continue;
-            };
-            if !h.inside && (crisp || h.dist2 > ctx.cut2) {
-                continue;
-            }
-            let layer = ctx.raster.face_layer[f as usize];
-            if self.touched.last().is_none_or(|t| t.layer != layer) {
-                self.touched.push(LayerAt {
-                    layer,
-                    inside: false,
-                    outline: None,
-                    best: f,
-                    best_key: T::neg_infinity(),
-                    best_hit: None,
-                    a: zero,
-                    uv: [zero; 2],
-                    s: [zero; 4],
-                    behind: [zero; 4],
-                });
-            }
-            let la = self.touched.last_mut().expect("pushed above");
-            la.inside |= h.inside;
-            let key = h.signed_dist2();
-            if key > la.best_key {
-                la.best_key = key;
-                la.best = f;
-                la.best_hit = Some(h);
-            }
-        }
-        if !crisp && !self.touched.is_empty() {
-            for &e in edges {
-                let b = &ctx.edge_bins.boxes[e as usize];
+        self.layers.clear();
+        let (mut acc, mut trans, mut prod, mut zeros) = ([zero; 4], one, one, 0u32);
+        for run in self.runs.iter().rev() {
+            // Inside: the first face containing p gives the colour.
+            let mut inside: Option<(u32, Hit<T>)> = None;
+            for &f in &faces[run.faces.clone()] {
+                let b = &ctx.bins.boxes[f as usize];
                 if p[0] < b[0] || p[0] > b[2] || p[1] < b[1] || p[1] > b[3] {
                     continue;
                 }
-                let edge = &ctx.raster.edges[e as usize];
-                // Layers are few and in order: a short scan finds the slot (none: the layer has
-                // no face within reach, so its outline is not within reach either).
-                let Some(la) = self.touched.iter_mut().find(|la| la.layer == edge.layer) else {
-                    continue;
-                };
-                let [a, b] = edge.vertices.map(|i| [ctx.verts[2 * i as usize], ctx.verts[2 * i as usize + 1]]);
-                let o = closest_on_segment(p, a, b, e);
-                if o.dist2 <= ctx.cut2 && la.outline.is_none_or(|best| o.dist2 < best.dist2) {
-                    la.outline = Some(o);
+                if let Some(h) = inside_hit(p, &ctx.tris[f as usize]) {
+                    inside = Some((f, h));
+                    break;
                 }
             }
-        }
-        let mut acc = ctx.bg;
-        for la in &mut self.touched {
-            la.a = match (la.outline, la.inside) {
-                (Some(o), inside) if !crisp => {
-                    let z = if inside { o.dist2 / ctx.sigma } else { -o.dist2 / ctx.sigma };
-                    one / (one + (-z).exp())
+            // Coverage: the nearest outline edge within the cut distance (the first of equals).
+            let mut outline: Option<Outline<T>> = None;
+            if !crisp {
+                for &e in &edges[run.edges.clone()] {
+                    let b = &ctx.edge_bins.boxes[e as usize];
+                    if p[0] < b[0] || p[0] > b[2] || p[1] < b[1] || p[1] > b[3] {
+                        continue;
+                    }
+                    let o = ctx.segs[e as usize].closest(p, e);
+                    if o.dist2 <= ctx.cut2 && outline.is_none_or(|best| o.dist2 < best.dist2) {
+                        outline = Some(o);
+                    }
                 }
-                (_, true) => one,
-                (_, false) => zero,
+            }
+            // Outside, the colour comes from the closest point of the outline, on the face that
+            // edge bounds; with no outline within reach either, A = 0 and the layer adds nothing.
+            let (face, hit) = match (inside, &outline) {
+                (Some(fh), _) => fh,
+                (None, Some(o)) => ctx.outline_hit(o),
+                (None, None) => continue,
             };
-            let om = one - la.a;
-            if om == zero {
-                self.zeros += 1;
-            } else {
-                self.prod = self.prod * om;
-            }
-            let h = la.best_hit.expect("a touched layer has a face");
-            let uvs = ctx.raster.faces[la.best as usize].uvs;
-            la.uv = [0, 1].map(|c| (0..3).fold(zero, |s, k| s + h.w[k] * real::<T>(uvs[k][c] as f64)));
-            la.s = sample(&ctx.raster.textures[la.layer as usize], la.uv);
-            la.behind = acc;
-            let alpha = la.a * la.s[3];
+            let a = ctx.coverage(outline.as_ref(), hit.inside);
+            let s = ctx.colour(run.layer, face, &hit).sample();
+            let ta = trans * a;
             for c in 0..4 {
-                acc[c] = la.a * la.s[c] + (one - alpha) * acc[c];
+                acc[c] = acc[c] + ta * s[c];
+            }
+            trans = trans * (one - a * s[3]);
+            let om = one - a;
+            if om == zero {
+                zeros += 1;
+            } else {
+                prod = prod * om;
+            }
+            self.layers.push(Record {
+                layer: run.layer,
+                face,
+                edge: outline.as_ref().map_or(NO_EDGE, |o| o.edge),
+                inside: hit.inside,
+            });
+            if trans == zero {
+                // Everything behind is multiplied by 0, and M = 1 (this layer has A = 1).
+                break;
             }
         }
-        let mask = if self.zeros > 0 { one } else { one - self.prod };
+        for c in 0..4 {
+            acc[c] = acc[c] + trans * ctx.bg[c];
+        }
+        let mask = if zeros > 0 { one } else { one - prod };
         (acc, mask)
     }
 }
 
-/// The closest point to `p` on segment (a, b) (edge `edge`).
-#[inline]
-pub(crate) fn closest_on_segment<T: Real>(p: [T; 2], a: [T; 2], b: [T; 2], edge: u32) -> Outline<T> {
-    let (zero, one) = (T::zero(), T::one());
-    let e = [b[0] - a[0], b[1] - a[1]];
-    let ap = [p[0] - a[0], p[1] - a[1]];
-    let len2 = e[0] * e[0] + e[1] * e[1];
-    let t = if len2 > zero {
-        ((ap[0] * e[0] + ap[1] * e[1]) / len2).max(zero).min(one)
-    } else {
-        zero
-    };
-    let pq = [ap[0] - t * e[0], ap[1] - t * e[1]];
-    Outline {
-        edge,
-        t,
-        pq,
-        dist2: pq[0] * pq[0] + pq[1] * pq[1],
+/// Renders one band of `TILE` rows of one pose into `img`/`msk` (the band's slices), keeping the
+/// per-pixel records in `saved` if given.
+fn render_band<T: Real>(ctx: &Ctx<T>, band: usize, width: usize, img: &mut [T], msk: &mut [T], mut saved: Option<&mut BandRecords>) {
+    let mut px = Pixel::new();
+    let half = real::<T>(0.5);
+    let rows = msk.len() / width;
+    if let Some(s) = saved.as_deref_mut() {
+        // Typically one or two layers per pixel: reserve once instead of growing.
+        s.count.reserve(rows * width);
+        s.records.reserve(2 * rows * width);
+    }
+    for tx in 0..width.div_ceil(TILE) {
+        let faces = ctx.bins.tile(tx, band);
+        let edges = ctx.edge_bins.tile(tx, band);
+        layer_runs(ctx.raster, faces, edges, &mut px.runs);
+        for ly in 0..rows {
+            let y = band * TILE + ly;
+            for x in tx * TILE..((tx + 1) * TILE).min(width) {
+                let i = ly * width + x;
+                if faces.is_empty() && edges.is_empty() {
+                    img[4 * i..4 * i + 4].copy_from_slice(&ctx.bg);
+                    if let Some(s) = saved.as_deref_mut() {
+                        s.count.push(0);
+                    }
+                    continue;
+                }
+                let p = [real::<T>(x as f64) + half, real::<T>(y as f64) + half];
+                let (rgba, m) = px.shade(ctx, p, faces, edges);
+                img[4 * i..4 * i + 4].copy_from_slice(&rgba);
+                msk[i] = m;
+                if let Some(s) = saved.as_deref_mut() {
+                    s.count.push(px.layers.len() as u32);
+                    s.records.extend_from_slice(&px.layers);
+                }
+            }
+        }
     }
 }
 
@@ -264,53 +360,96 @@ impl SoftRasterizer {
     /// [`crate::Error::Invalid`] if the sizes disagree, a coordinate is not finite, the image is
     /// empty, or `params` is invalid.
     pub fn forward<T: Real>(&self, vertices: &[T], batch: usize, width: usize, height: usize, params: &Params) -> Result<Frames<T>> {
+        self.render(vertices, batch, width, height, params, false).map(|(f, _)| f)
+    }
+
+    /// [`SoftRasterizer::forward`], also returning what [`SoftRasterizer::backward_saved`] needs
+    /// (a copy of the poses and the per-pixel records).
+    ///
+    /// # Errors
+    /// As [`SoftRasterizer::forward`].
+    pub fn forward_saving<T: Real>(
+        &self,
+        vertices: &[T],
+        batch: usize,
+        width: usize,
+        height: usize,
+        params: &Params,
+    ) -> Result<(Frames<T>, Saved<T>)> {
+        let (frames, bands) = self.render(vertices, batch, width, height, params, true)?;
+        let saved = Saved {
+            vertices: vertices.to_vec(),
+            batch,
+            width,
+            height,
+            params: *params,
+            bands,
+        };
+        Ok((frames, saved))
+    }
+
+    /// The forward pass; with `save`, the records of every band (else an empty list).
+    fn render<T: Real>(
+        &self,
+        vertices: &[T],
+        batch: usize,
+        width: usize,
+        height: usize,
+        params: &Params,
+        save: bool,
+    ) -> Result<(Frames<T>, Vec<BandRecords>)> {
         params.validate()?;
         self.validate_input(vertices, batch, width, height)?;
         let (mut image, mut mask) = (vec![T::zero(); batch * height * width * 4], vec![T::zero(); batch * height * width]);
         let pose = 2 * self.vertex_count;
         let ctxs: Vec<Ctx<T>> = (0..batch)
             .into_par_iter()
-            .map(|b| Ctx::new(self, &vertices[b * pose..(b + 1) * pose], params, width, height))
+            .map(|b| Ctx::new(self, &vertices[b * pose..(b + 1) * pose], params, width, height, true))
             .collect();
-        image
-            .par_chunks_mut(height * width * 4)
-            .zip(mask.par_chunks_mut(height * width))
-            .zip(ctxs.par_iter())
-            .flat_map(|((img, msk), ctx)| {
-                img.par_chunks_mut(TILE * width * 4)
-                    .zip(msk.par_chunks_mut(TILE * width))
-                    .enumerate()
-                    .map(move |(band, bm)| (band, bm, ctx))
-            })
-            .for_each(|(band, (img, msk), ctx)| {
-                let mut px = Pixel::new();
-                let half = real::<T>(0.5);
-                for tx in 0..width.div_ceil(TILE) {
-                    let faces = ctx.bins.tile(tx, band);
-                    let edges = ctx.edge_bins.tile(tx, band);
-                    for ly in 0..TILE.min(height - band * TILE) {
-                        let y = band * TILE + ly;
-                        for x in tx * TILE..((tx + 1) * TILE).min(width) {
-                            let i = ly * width + x;
-                            if faces.is_empty() {
-                                img[4 * i..4 * i + 4].copy_from_slice(&ctx.bg);
-                                continue;
-                            }
-                            let p = [real::<T>(x as f64) + half, real::<T>(y as f64) + half];
-                            let (rgba, m) = px.shade(ctx, p, faces, edges);
-                            img[4 * i..4 * i + 4].copy_from_slice(&rgba);
-                            msk[i] = m;
-                        }
-                    }
-                }
-            });
-        Ok(Frames {
+        let bands = height.div_ceil(TILE);
+        let mut records: Vec<BandRecords> = if save {
+            vec![BandRecords::default(); batch * bands]
+        } else {
+            Vec::new()
+        };
+        let mut slots = records.iter_mut();
+        let mut tasks = Vec::with_capacity(batch * bands);
+        for (b, (img, msk)) in image
+            .chunks_mut(height * width * 4)
+            .zip(mask.chunks_mut(height * width))
+            .enumerate()
+        {
+            for (band, (bi, bm)) in img.chunks_mut(TILE * width * 4).zip(msk.chunks_mut(TILE * width)).enumerate() {
+                tasks.push((b, band, bi, bm, slots.next()));
+            }
+        }
+        tasks
+            .into_par_iter()
+            .for_each(|(b, band, img, msk, saved)| render_band(&ctxs[b], band, width, img, msk, saved));
+        let frames = Frames {
             batch,
             width,
             height,
             image,
             mask,
-        })
+        };
+        Ok((frames, records))
+    }
+}
+
+impl<T: Real> Saved<T> {
+    /// Checks that these records come from a forward call of `raster`.
+    pub(crate) fn check(&self, raster: &SoftRasterizer) -> Result<()> {
+        let bands = self.height.div_ceil(TILE);
+        if self.vertices.len() != self.batch * raster.vertex_count * 2 || self.bands.len() != self.batch * bands {
+            return Err(Error::Invalid(format!(
+                "render backward: saved forward of {} poses × {} coordinates does not fit this puppet ({} vertices)",
+                self.batch,
+                self.vertices.len() / self.batch.max(1),
+                raster.vertex_count
+            )));
+        }
+        Ok(())
     }
 }
 

@@ -9,8 +9,6 @@ use super::{real, Real};
 pub(crate) struct Hit<T> {
     /// `p` lies inside the triangle or on its boundary (never for zero area).
     pub inside: bool,
-    /// Squared distance from `p` to the triangle's boundary.
-    pub dist2: T,
     /// Closest edge: from corner `edge` to corner `(edge + 1) % 3`.
     pub edge: usize,
     /// Position of the closest boundary point along that edge, in [0, 1].
@@ -21,18 +19,6 @@ pub(crate) struct Hit<T> {
     pub area2: T,
     /// Barycentric weights of the corners: exact inside, those of `q` outside.
     pub w: [T; 3],
-}
-
-impl<T: Real> Hit<T> {
-    /// Signed distance squared with its sign (`+d²` inside, `−d²` outside): the SoftRas argument
-    /// before division by σ, and the key that picks a layer's colour face (largest wins).
-    pub fn signed_dist2(&self) -> T {
-        if self.inside {
-            self.dist2
-        } else {
-            -self.dist2
-        }
-    }
 }
 
 /// Twice the signed area of (a, b, c): `cross(b − a, c − a)`.
@@ -57,10 +43,8 @@ pub(crate) struct Tri<T> {
     /// Twice the signed area and its sign (0 for zero area).
     pub area2: T,
     pub sign: T,
-    /// Edge k runs from corner k to corner k + 1: its vector, 1/|e|, 1/|e|² (0 if |e| = 0).
+    /// Edge k runs from corner k to corner k + 1: its vector.
     pub e: [[T; 2]; 3],
-    pub inv_len: [T; 3],
-    pub inv_len2: [T; 3],
 }
 
 impl<T: Real> Tri<T> {
@@ -76,87 +60,70 @@ impl<T: Real> Tri<T> {
             zero
         };
         let e = [0, 1, 2].map(|k| [v[(k + 1) % 3][0] - v[k][0], v[(k + 1) % 3][1] - v[k][1]]);
-        let len2 = e.map(|d| d[0] * d[0] + d[1] * d[1]);
-        let inv_len2 = len2.map(|m| if m > zero { T::one() / m } else { zero });
-        let inv_len = len2.map(|m| if m > zero { T::one() / m.sqrt() } else { zero });
-        Tri {
-            v,
-            area2: a2,
-            sign,
-            e,
-            inv_len,
-            inv_len2,
-        }
+        Tri { v, area2: a2, sign, e }
     }
 }
 
-/// Evaluates the triangle `v` (three corners) at pixel centre `p`.
+/// Evaluates the triangle `v` (three corners) at pixel centre `p`: the inside hit, else the
+/// hit at the closest point of its boundary (the first of equally close edges).
 #[cfg(test)]
 pub(crate) fn hit<T: Real>(p: [T; 2], v: [[T; 2]; 3]) -> Hit<T> {
-    hit_within(p, &Tri::new(v), T::infinity()).expect("nothing is farther than infinity")
+    let tri = Tri::new(v);
+    inside_hit(p, &tri).unwrap_or_else(|| {
+        let mut best: Option<(usize, Outline<T>)> = None;
+        for k in 0..3 {
+            let o = closest_on_segment(p, v[k], v[(k + 1) % 3], k as u32);
+            if best.is_none_or(|(_, b)| o.dist2 < b.dist2) {
+                best = Some((k, o));
+            }
+        }
+        let (k, o) = best.expect("three edges");
+        edge_hit(&o, k, tri.area2)
+    })
 }
 
-/// Evaluates triangle `tri` at pixel centre `p`, or `None` when `p` is certainly farther than
-/// `reach` from it (outside some edge's line by more than `reach`; reach 0: not inside).
+/// The hit of triangle `tri` at pixel centre `p` if `p` lies inside it or on its boundary
+/// (never for zero area): exact barycentric weights.
 #[inline]
-pub(crate) fn hit_within<T: Real>(p: [T; 2], tri: &Tri<T>, reach: T) -> Option<Hit<T>> {
+pub(crate) fn inside_hit<T: Real>(p: [T; 2], tri: &Tri<T>) -> Option<Hit<T>> {
     let zero = T::zero();
+    if tri.sign == zero {
+        return None;
+    }
     let v = &tri.v;
     // Edge functions: f[k] = cross(e_k, p − v_k), twice the area of (v_k, v_k+1, p), which is
     // the barycentric numerator of corner k + 2.
-    let ap = [0, 1, 2].map(|k| [p[0] - v[k][0], p[1] - v[k][1]]);
-    let f = [0, 1, 2].map(|k| tri.e[k][0] * ap[k][1] - tri.e[k][1] * ap[k][0]);
-    if tri.sign != zero {
-        let margin = reach * real::<T>(1e-6) + real::<T>(1e-9);
-        if (0..3).any(|k| tri.sign * f[k] * tri.inv_len[k] < -(reach + margin)) {
-            return None;
-        }
-    }
-    let inside = tri.sign != zero && f.iter().all(|&fk| tri.sign * fk >= zero);
-    let mut best = (T::infinity(), 0, zero, true);
-    for k in 0..3 {
-        // Outside a triangle the closest boundary point lies on an edge whose line has p on
-        // its outer side (at a corner: on one of the two edges meeting there).
-        if !inside && tri.sign != zero && tri.sign * f[k] >= zero {
-            continue;
-        }
-        let ed = tri.e[k];
-        let (t, clamped) = if tri.inv_len2[k] > zero {
-            let t = (ap[k][0] * ed[0] + ap[k][1] * ed[1]) * tri.inv_len2[k];
-            if t <= zero {
-                (zero, true)
-            } else if t >= T::one() {
-                (T::one(), true)
-            } else {
-                (t, false)
-            }
-        } else {
-            (zero, true)
-        };
-        let pq = [ap[k][0] - t * ed[0], ap[k][1] - t * ed[1]];
-        let d2 = pq[0] * pq[0] + pq[1] * pq[1];
-        if d2 < best.0 {
-            best = (d2, k, t, clamped);
-        }
-    }
-    let (dist2, edge, t, clamped) = best;
-    let w = if inside {
-        [f[1] / tri.area2, f[2] / tri.area2, f[0] / tri.area2]
+    let f = [0, 1, 2].map(|k| tri.e[k][0] * (p[1] - v[k][1]) - tri.e[k][1] * (p[0] - v[k][0]));
+    if f.iter().all(|&fk| tri.sign * fk >= zero) {
+        Some(Hit {
+            inside: true,
+            edge: 0,
+            t: zero,
+            clamped: true,
+            area2: tri.area2,
+            w: [f[1] / tri.area2, f[2] / tri.area2, f[0] / tri.area2],
+        })
     } else {
-        let mut w = [zero; 3];
-        w[edge] = T::one() - t;
-        w[(edge + 1) % 3] = t;
-        w
-    };
-    Some(Hit {
-        inside,
-        dist2,
-        edge,
-        t,
-        clamped,
-        area2: tri.area2,
+        None
+    }
+}
+
+/// The outside hit at the closest point `o` of a triangle's edge from corner `k` to corner
+/// `k + 1` (mod 3): weights `1 − t` and `t` on those corners.
+#[inline]
+pub(crate) fn edge_hit<T: Real>(o: &Outline<T>, k: usize, area2: T) -> Hit<T> {
+    let (zero, one) = (T::zero(), T::one());
+    let mut w = [zero; 3];
+    w[k] = one - o.t;
+    w[(k + 1) % 3] = o.t;
+    Hit {
+        inside: false,
+        edge: k,
+        t: o.t,
+        clamped: o.clamped,
+        area2,
         w,
-    })
+    }
 }
 
 /// Adds `Σ_k gw[k] · ∂w_k/∂corners` to `grads`.
@@ -193,6 +160,73 @@ pub(crate) fn bary_vjp<T: Real>(gw: [T; 3], p: [T; 2], v: [[T; 2]; 3], h: &Hit<T
     }
 }
 
+/// The nearest boundary edge of a layer within reach of the pixel.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct Outline<T> {
+    /// Index into [`SoftRasterizer::edges`].
+    pub edge: u32,
+    /// Closest point `q = a + t (b − a)`, t in [0, 1].
+    pub t: T,
+    /// `p − q`.
+    pub pq: [T; 2],
+    /// `|p − q|²`.
+    pub dist2: T,
+    /// `t` was clamped to an end (its derivative is then 0).
+    pub clamped: bool,
+}
+
+/// The closest point to `p` on segment (a, b) (edge `edge`).
+#[inline]
+#[cfg(test)]
+pub(crate) fn closest_on_segment<T: Real>(p: [T; 2], a: [T; 2], b: [T; 2], edge: u32) -> Outline<T> {
+    Seg::new(a, b).closest(p, edge)
+}
+
+/// Per-pose constants of one segment (a, b), so the per-pixel closest point needs no division.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct Seg<T> {
+    pub a: [T; 2],
+    /// `b − a` and `1/|b − a|²` (0 for a zero-length segment).
+    pub e: [T; 2],
+    pub inv_len2: T,
+}
+
+impl<T: Real> Seg<T> {
+    /// The constants of segment (a, b).
+    #[inline]
+    pub fn new(a: [T; 2], b: [T; 2]) -> Self {
+        let e = [b[0] - a[0], b[1] - a[1]];
+        let len2 = e[0] * e[0] + e[1] * e[1];
+        let inv_len2 = if len2 > T::zero() { T::one() / len2 } else { T::zero() };
+        Seg { a, e, inv_len2 }
+    }
+
+    /// The closest point to `p` (the segment being outline edge `edge`).
+    #[inline]
+    pub fn closest(&self, p: [T; 2], edge: u32) -> Outline<T> {
+        let (zero, one) = (T::zero(), T::one());
+        let e = self.e;
+        let ap = [p[0] - self.a[0], p[1] - self.a[1]];
+        // t = ((p − a)·e)/|e|², clamped to the segment (zero length: t = 0, clamped).
+        let t = (ap[0] * e[0] + ap[1] * e[1]) * self.inv_len2;
+        let (t, clamped) = if self.inv_len2 == zero || t <= zero {
+            (zero, true)
+        } else if t >= one {
+            (one, true)
+        } else {
+            (t, false)
+        };
+        let pq = [ap[0] - t * e[0], ap[1] - t * e[1]];
+        Outline {
+            edge,
+            t,
+            pq,
+            dist2: pq[0] * pq[0] + pq[1] * pq[1],
+            clamped,
+        }
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -209,20 +243,32 @@ mod tests {
         assert!(h.inside);
         let q = [0, 1].map(|c| (0..3).map(|k| h.w[k] * v[k][c]).sum::<f64>());
         assert!((q[0] - p[0]).abs() < 1e-12 && (q[1] - p[1]).abs() < 1e-12);
-        // Flipped winding: still inside, same distance.
+        // Flipped winding: still inside, the same weights (corners 1 and 2 swapped).
         let hf = hit(p, [v[0], v[2], v[1]]);
-        assert!(hf.inside && (hf.dist2 - h.dist2).abs() < 1e-12);
+        let swapped = [hf.w[0], hf.w[2], hf.w[1]];
+        assert!(
+            hf.inside && (0..3).all(|k| (swapped[k] - h.w[k]).abs() < 1e-12),
+            "{:?} vs {:?}",
+            hf.w,
+            h.w
+        );
     }
 
     #[test]
     fn outside_point_gets_distance_to_closest_edge_point() {
         let v: [[f64; 2]; 3] = [[0.0, 0.0], [4.0, 0.0], [0.0, 4.0]];
+        // The closest point, rebuilt from the weights, and its distance² to p.
+        let dist2 = |p: [f64; 2], v: [[f64; 2]; 3], h: &Hit<f64>| {
+            let q = [0, 1].map(|c| (0..3).map(|k| h.w[k] * v[k][c]).sum::<f64>());
+            (p[0] - q[0]).powi(2) + (p[1] - q[1]).powi(2)
+        };
         let h = hit([2.0, -3.0], v);
         assert!(!h.inside);
-        assert!((h.dist2 - 9.0).abs() < 1e-12 && (h.t - 0.5).abs() < 1e-12 && h.edge == 0);
+        assert!((dist2([2.0, -3.0], v, &h) - 9.0).abs() < 1e-12 && (h.t - 0.5).abs() < 1e-12 && h.edge == 0);
         assert_eq!(h.w, [0.5, 0.5, 0.0]);
-        let zero_area = hit([1.0f64, 1.0], [[0.0, 0.0], [2.0, 2.0], [4.0, 4.0]]);
-        assert!(!zero_area.inside && zero_area.dist2 < 1e-24);
+        let line = [[0.0, 0.0], [2.0, 2.0], [4.0, 4.0]];
+        let zero_area = hit([1.0f64, 1.0], line);
+        assert!(!zero_area.inside && dist2([1.0, 1.0], line, &zero_area) < 1e-24);
     }
 
     /// Central differences of `f(corners)` against `analytic`, coordinate by coordinate.

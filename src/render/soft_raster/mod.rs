@@ -13,16 +13,18 @@
 //!   distance is continuous, has no seams, and coincides with it at the outline. When
 //!   `d_l² > σ·ln((1 − ε)/ε)` the coverage is within ε ([`Params::cutoff`]) of 0 or 1 and is
 //!   taken as exactly that, in forward *and* backward: the derivative is exact for the function
-//!   computed. That radius also grows the bounding boxes of faces and boundary edges when they
-//!   are binned into 8×8-pixel tiles, so cost is ∝ pixels × nearby faces, and interior pixels
-//!   (no outline within reach) cost only their texture lookup.
-//! * **Layer colour**: the layer's face with the largest signed distance (the face containing p,
-//!   else the nearest one) gives barycentric weights — exact inside, the *clamped* ones of the
-//!   closest boundary point outside — which interpolate its per-vertex UVs; the layer texture is
-//!   sampled **bilinearly** there (texel centres at ((i + 0.5)/W, (j + 0.5)/H), clamp to edge) in
-//!   premultiplied RGBA `S_l`. Layer contribution `X_l = A_l · S_l` (texture alpha × coverage).
+//!   computed. That radius also grows the bounding boxes of boundary edges when they are binned
+//!   into 4×4-pixel tiles (faces are binned by their own boxes), so cost is ∝ pixels × nearby
+//!   faces, and interior pixels (no outline within reach) cost only their texture lookup.
+//! * **Layer colour**: the layer's first face (in mesh order) containing p gives exact
+//!   barycentric weights; outside the layer, the face bounded by the nearest outline edge gives
+//!   the *clamped* weights of the closest outline point (for a mesh that does not fold over
+//!   itself this is the nearest face, and ties give the same UV). The weights interpolate the
+//!   face's per-vertex UVs; the layer texture is sampled **bilinearly** there (texel centres at
+//!   ((i + 0.5)/W, (j + 0.5)/H), clamp to edge) in premultiplied RGBA `S_l`. Layer contribution `X_l = A_l · S_l` (texture alpha × coverage).
 //! * **Compositing**: layers "over", back (index 0) to front, onto the background:
-//!   `out = Σ_l T_l X_l + T_bg · bg`, `T_l = Π_{m > l} (1 − A_m s_{a,m})`.
+//!   `out = Σ_l T_l X_l + T_bg · bg`, `T_l = Π_{m > l} (1 − A_m s_{a,m})`, evaluated front to
+//!   back and stopped where `T` becomes exactly 0 (what lies behind is then multiplied by 0).
 //!   The output is **premultiplied** RGBA; with an opaque [`Background::Colour`] it is opaque, so
 //!   premultiplied and straight agree.
 //! * **Silhouette** (eq. 10–11, white texture on black): `M = 1 − Π_l (1 − A_l)`, from the same
@@ -32,9 +34,10 @@
 //! rasterizer; [`crate::render::render_crisp`] uses it for every preview and export.
 //!
 //! # Layout
-//! `forward.rs` renders (rayon over batch × bands of tiles) and holds the per-pixel evaluation
-//! that `backward.rs` reuses for the exact vector-Jacobian product w.r.t. vertex positions:
-//! through coverage (outline edges: `d_l`) and through barycentric texture lookup (interiors).
+//! `forward.rs` renders (rayon over batch × bands of tiles) and can keep, per pixel and layer,
+//! the colour face and outline edge it found ([`Saved`]); `backward.rs` re-evaluates just those
+//! for the exact vector-Jacobian product w.r.t. vertex positions: through coverage (outline
+//! edges: `d_l`) and through barycentric texture lookup (interiors).
 //! `geometry.rs` holds the triangle quantities and their derivatives, `texture.rs` the bilinear
 //! sample, `bins.rs` the tiles; `reference.rs` (tests only) is the every-face × every-pixel
 //! version. Kernels are generic over `f32`/`f64` ([`Real`]).
@@ -50,20 +53,20 @@ mod geometry;
 pub(crate) mod reference;
 mod texture;
 
-use num_traits::Float;
+use num_traits::{Float, NumCast};
 
 use crate::error::{Error, Result};
 use crate::puppet::Puppet;
 
-pub use forward::Frames;
+pub use forward::{Frames, Saved};
 
 /// The float type of the kernels: `f32` for speed, `f64` in gradient checks.
-pub trait Real: Float + Send + Sync + std::fmt::Debug + 'static {}
-impl<T: Float + Send + Sync + std::fmt::Debug + 'static> Real for T {}
+pub trait Real: Float + From<f32> + Send + Sync + std::fmt::Debug + 'static {}
+impl<T: Float + From<f32> + Send + Sync + std::fmt::Debug + 'static> Real for T {}
 
 /// Converts an `f64` constant to `T`.
 pub(crate) fn real<T: Real>(x: f64) -> T {
-    T::from(x).expect("f32 and f64 represent every finite f64 (f32 by rounding)")
+    <T as NumCast>::from(x).expect("f32 and f64 represent every finite f64 (f32 by rounding)")
 }
 
 /// What the transparent parts of the image show.
@@ -162,6 +165,10 @@ pub(crate) struct Edge {
     pub vertices: [u32; 2],
     /// The layer it bounds.
     pub layer: u32,
+    /// The face it belongs to (global index) and the corner it starts from: it runs from corner
+    /// `corner` to corner `corner + 1 (mod 3)` of that face.
+    pub face: u32,
+    pub corner: u32,
 }
 
 /// A layer texture, premultiplied RGBA, row-major.
@@ -215,6 +222,7 @@ impl SoftRasterizer {
                 errors.push(bad(format!("triangle {t:?} indexes past {n} vertices")));
                 continue;
             }
+            let first_face = faces.len();
             for t in &layer.mesh.triangles {
                 faces.push(Face {
                     vertices: t.map(|i| (offsets[l] + i as usize) as u32),
@@ -222,9 +230,14 @@ impl SoftRasterizer {
                 });
                 face_layer.push(l as u32);
             }
-            edges.extend(boundary_edges(&layer.mesh.triangles).into_iter().map(|[a, b]| Edge {
-                vertices: [(offsets[l] + a as usize) as u32, (offsets[l] + b as usize) as u32],
-                layer: l as u32,
+            edges.extend(boundary_edges(&layer.mesh.triangles).into_iter().map(|(t, k)| {
+                let tri = layer.mesh.triangles[t];
+                Edge {
+                    vertices: [tri[k], tri[(k + 1) % 3]].map(|i| (offsets[l] + i as usize) as u32),
+                    layer: l as u32,
+                    face: (first_face + t) as u32,
+                    corner: k as u32,
+                }
             }));
             let texels = layer.texture.pixels.iter().map(|&[r, g, b, a]| [r * a, g * a, b * a, a]).collect();
             textures.push(Texture {
@@ -280,13 +293,14 @@ impl SoftRasterizer {
     }
 }
 
-/// The edges used by exactly one triangle, as (from, to) in their triangle's winding, in a
-/// deterministic order.
-fn boundary_edges(triangles: &[[u32; 3]]) -> Vec<[u32; 2]> {
-    let mut all: Vec<([u32; 2], [u32; 2])> = triangles
+/// The edges used by exactly one triangle, as (triangle, corner k): the edge runs from corner k
+/// to corner k + 1 (mod 3) of that triangle, in its winding. Deterministic order.
+fn boundary_edges(triangles: &[[u32; 3]]) -> Vec<(usize, usize)> {
+    let mut all: Vec<([u32; 2], usize, usize)> = triangles
         .iter()
-        .flat_map(|t| (0..3).map(move |k| (t[k], t[(k + 1) % 3])))
-        .map(|(a, b)| ([a.min(b), a.max(b)], [a, b]))
+        .enumerate()
+        .flat_map(|(i, t)| (0..3).map(move |k| (t[k], t[(k + 1) % 3], i, k)))
+        .map(|(a, b, i, k)| ([a.min(b), a.max(b)], i, k))
         .collect();
     all.sort_unstable();
     let mut out = Vec::new();
@@ -294,7 +308,7 @@ fn boundary_edges(triangles: &[[u32; 3]]) -> Vec<[u32; 2]> {
     while i < all.len() {
         let j = (i..all.len()).find(|&j| all[j].0 != all[i].0).unwrap_or(all.len());
         if j - i == 1 {
-            out.push(all[i].1);
+            out.push((all[i].1, all[i].2));
         }
         i = j;
     }
@@ -308,7 +322,11 @@ mod tests {
 
     #[test]
     fn boundary_edges_of_two_triangles_skip_the_shared_one() {
-        let edges = boundary_edges(&[[0, 1, 2], [0, 2, 3]]);
+        let tris = [[0, 1, 2], [0, 2, 3]];
+        let edges: Vec<[u32; 2]> = boundary_edges(&tris)
+            .into_iter()
+            .map(|(t, k)| [tris[t][k], tris[t][(k + 1) % 3]])
+            .collect();
         assert_eq!(edges, [[0, 1], [3, 0], [1, 2], [2, 3]]);
     }
 

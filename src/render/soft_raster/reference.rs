@@ -78,50 +78,47 @@ pub(crate) fn render(raster: &SoftRasterizer, verts: &[f64], width: usize, heigh
     for y in 0..height {
         for x in 0..width {
             let p = [x as f64 + 0.5, y as f64 + 0.5];
-            // Per layer: inside any face?, best (signed d², face, weights) for the colour.
-            let mut is_inside = vec![false; layers];
-            let mut best: Vec<Option<(f64, usize, [f64; 3])>> = vec![None; layers];
+            // Per layer: the first face (in index order) containing p, with its weights.
+            let mut inner: Vec<Option<(usize, [f64; 3])>> = vec![None; layers];
             for (f, face) in raster.faces.iter().enumerate() {
                 let v = face.vertices.map(|i| [verts[2 * i as usize], verts[2 * i as usize + 1]]);
-                let is_in = inside(p, v);
-                let (d2, wq) = closest_boundary(p, v);
-                // A face counts for the colour when it contains p or lies within the cut radius.
-                if !is_in && (sigma == 0.0 || d2 > params.cut_distance2()) {
-                    continue;
-                }
                 let l = raster.face_layer[f] as usize;
-                is_inside[l] |= is_in;
-                let key = if is_in { d2 } else { -d2 };
-                let w = if is_in {
-                    barycentric(p, v).expect("inside implies non-zero area")
-                } else {
-                    wq
-                };
-                if best[l].is_none_or(|b| key > b.0) {
-                    best[l] = Some((key, f, w));
+                if inner[l].is_none() && inside(p, v) {
+                    inner[l] = Some((f, barycentric(p, v).expect("inside implies non-zero area")));
                 }
             }
-            // Per layer: distance² to the outline (the edges used by one triangle only).
-            let mut outline = vec![f64::INFINITY; layers];
+            // Per layer: distance² to the outline (the edges used by one triangle only), and the
+            // closest point as weights on the corners of the face that edge bounds (the first
+            // of equally close edges).
+            let mut outline: Vec<(f64, usize, [f64; 3])> = vec![(f64::INFINITY, 0, [0.0; 3]); layers];
             for edge in &raster.edges {
                 let [a, b] = edge.vertices.map(|i| [verts[2 * i as usize], verts[2 * i as usize + 1]]);
-                let (d2, _) = closest_boundary(p, [a, b, b]);
+                let (d2, w) = closest_boundary(p, [a, b, b]);
                 let l = edge.layer as usize;
-                outline[l] = outline[l].min(d2);
+                if d2 < outline[l].0 {
+                    let k = edge.corner as usize;
+                    let mut wf = [0.0; 3];
+                    (wf[k], wf[(k + 1) % 3]) = (w[0], w[1] + w[2]);
+                    outline[l] = (d2, edge.face as usize, wf);
+                }
             }
             let mut acc = bg;
             let mut all = 1.0;
             for l in 0..layers {
-                let Some((_, f, w)) = best[l] else { continue };
+                let within = sigma > 0.0 && outline[l].0 <= params.cut_distance2();
+                // Inside, the containing face gives the colour; outside, the closest outline
+                // point's face; outside and beyond the cut, A = 0 and the layer adds nothing.
+                let (f, w) = match (inner[l], within) {
+                    (Some(fw), _) => fw,
+                    (None, true) => (outline[l].1, outline[l].2),
+                    (None, false) => continue,
+                };
                 // Beyond the cut radius the sigmoid is within ε of 0 or 1 and is taken as that.
-                let a = if sigma == 0.0 || outline[l] > params.cut_distance2() {
-                    if is_inside[l] {
-                        1.0
-                    } else {
-                        0.0
-                    }
+                let a = if !within {
+                    1.0
                 } else {
-                    let z = if is_inside[l] { outline[l] } else { -outline[l] };
+                    let d2 = outline[l].0;
+                    let z = if inner[l].is_some() { d2 } else { -d2 };
                     1.0 / (1.0 + (-z / sigma).exp())
                 };
                 all *= 1.0 - a;
@@ -139,7 +136,8 @@ pub(crate) fn render(raster: &SoftRasterizer, verts: &[f64], width: usize, heigh
 }
 
 /// A plain hard rasterizer: each layer's triangles painted where the pixel centre is inside
-/// (edges included), textured at the interpolated UV, layers composited "over" back to front.
+/// (edges included; where a layer's triangles overlap, the first paints), textured at the
+/// interpolated UV, layers composited "over" back to front.
 pub(crate) fn hard(raster: &SoftRasterizer, verts: &[f64], width: usize, height: usize, bg: [f64; 4]) -> Vec<f64> {
     let mut image: Vec<f64> = (0..width * height).flat_map(|_| bg).collect();
     for l in 0..raster.textures.len() {
@@ -153,6 +151,9 @@ pub(crate) fn hard(raster: &SoftRasterizer, verts: &[f64], width: usize, height:
             for y in y0..y1 {
                 for x in x0..x1 {
                     let p = [x as f64 + 0.5, y as f64 + 0.5];
+                    if paint[y * width + x].is_some() {
+                        continue;
+                    }
                     if let (true, Some(w)) = (inside(p, v), barycentric(p, v)) {
                         let uvs = raster.faces[f].uvs;
                         let uv = [0, 1].map(|c| (0..3).map(|k| w[k] * uvs[k][c] as f64).sum::<f64>());

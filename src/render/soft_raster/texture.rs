@@ -2,11 +2,15 @@
 //! the renderer samples the template texture `I^uv`). Texel (i, j) has its centre at
 //! `((i + 0.5)/W, (j + 0.5)/H)`; lookups clamp to the edge texels. Values are premultiplied RGBA.
 
+use num_traits::NumCast;
+
 use super::{Real, Texture};
 
-/// The four texels around a lookup and the interpolation weights.
-struct Footprint<T> {
-    idx: [usize; 4],
+/// One lookup: the four texels around it and the interpolation weights, so the sample and its
+/// UV gradient share the work.
+pub(crate) struct Lookup<T> {
+    /// Texels (x0, y0), (x1, y0), (x0, y1), (x1, y1).
+    t: [[T; 4]; 4],
     fx: T,
     fy: T,
     /// d(x)/du and d(y)/dv in texels, zeroed on an axis where both texels clamp to one.
@@ -14,77 +18,94 @@ struct Footprint<T> {
     sy: T,
 }
 
+/// `floor(v)` clamped to [−1, n] as an integer, and whether the lower and upper neighbour
+/// (`floor`, `floor + 1`) clamp onto the same texel. The cast truncates toward zero, so 1 is
+/// added before it (non-negative after the clamp) and taken off after: no libm `floor` call.
 #[inline]
-fn footprint<T: Real>(tex: &Texture, uv: [T; 2]) -> Footprint<T> {
-    let half = T::from(0.5).expect("0.5 is representable");
-    let (w, h) = (tex.width, tex.height);
-    let x = uv[0] * T::from(w).expect("texture width fits a float") - half;
-    let y = uv[1] * T::from(h).expect("texture height fits a float") - half;
-    let (xf, yf) = (x.floor(), y.floor());
-    let (fx, fy) = (x - xf, y - yf);
-    let clampi = |v: T, n: usize| -> (usize, bool) {
-        let i = v.to_i64().unwrap_or(if v > T::zero() { i64::MAX } else { i64::MIN });
-        if i < 0 {
-            (0, true)
-        } else if i as u64 >= n as u64 {
-            (n - 1, true)
-        } else {
-            (i as usize, false)
+fn cell<T: Real>(v: T, n: usize) -> (usize, usize, T, bool) {
+    let one = T::one();
+    let lo = -one;
+    let hi = <T as NumCast>::from(n).expect("texture size fits a float");
+    let vc = v.max(lo).min(hi);
+    let i = (vc + one).to_usize().expect("clamped to [0, n + 1]") as i64 - 1;
+    let i = if <T as NumCast>::from(i).expect("small integer") > vc {
+        i - 1
+    } else {
+        i
+    };
+    let f = v - <T as NumCast>::from(i).expect("small integer");
+    let clamp = |k: i64| k.clamp(0, n as i64 - 1) as usize;
+    let (a, b) = (clamp(i), clamp(i + 1));
+    (a, b, f, a == b)
+}
+
+impl<T: Real> Lookup<T> {
+    /// Prepares the lookup of `tex` at `uv`.
+    #[inline]
+    pub fn new(tex: &Texture, uv: [T; 2]) -> Self {
+        let half = <T as From<f32>>::from(0.5);
+        let (w, h) = (tex.width, tex.height);
+        let x = uv[0] * <T as NumCast>::from(w).expect("texture width fits a float") - half;
+        let y = uv[1] * <T as NumCast>::from(h).expect("texture height fits a float") - half;
+        let (x0, x1, fx, flat_x) = cell(x, w);
+        let (y0, y1, fy, flat_y) = cell(y, h);
+        let texel = |i: usize| tex.texels[i].map(<T as From<f32>>::from);
+        Lookup {
+            t: [texel(y0 * w + x0), texel(y0 * w + x1), texel(y1 * w + x0), texel(y1 * w + x1)],
+            // Where both neighbours are one texel the weight does not matter; keep it in [0, 1].
+            fx: if flat_x { T::zero() } else { fx },
+            fy: if flat_y { T::zero() } else { fy },
+            sx: if flat_x {
+                T::zero()
+            } else {
+                <T as NumCast>::from(w).expect("fits")
+            },
+            sy: if flat_y {
+                T::zero()
+            } else {
+                <T as NumCast>::from(h).expect("fits")
+            },
         }
-    };
-    let (x0, cx0) = clampi(xf, w);
-    let (x1, cx1) = clampi(xf + T::one(), w);
-    let (y0, cy0) = clampi(yf, h);
-    let (y1, cy1) = clampi(yf + T::one(), h);
-    // Both neighbours clamped to the same texel: the lookup is constant along that axis.
-    let sx = if (cx0 || cx1) && x0 == x1 {
-        T::zero()
-    } else {
-        T::from(w).expect("fits")
-    };
-    let sy = if (cy0 || cy1) && y0 == y1 {
-        T::zero()
-    } else {
-        T::from(h).expect("fits")
-    };
-    Footprint {
-        idx: [y0 * w + x0, y0 * w + x1, y1 * w + x0, y1 * w + x1],
-        fx,
-        fy,
-        sx,
-        sy,
+    }
+
+    /// The bilinear sample.
+    #[inline]
+    pub fn sample(&self) -> [T; 4] {
+        let (t, one) = (&self.t, T::one());
+        let mut s = [T::zero(); 4];
+        for c in 0..4 {
+            let top = t[0][c] * (one - self.fx) + t[1][c] * self.fx;
+            let bot = t[2][c] * (one - self.fx) + t[3][c] * self.fx;
+            s[c] = top * (one - self.fy) + bot * self.fy;
+        }
+        s
+    }
+
+    /// `Σ_c g[c] · ∂S_c/∂(u, v)`: the texture's contribution to the UV gradient.
+    #[inline]
+    pub fn vjp(&self, g: [T; 4]) -> [T; 2] {
+        let (t, one) = (&self.t, T::one());
+        let (mut gu, mut gv) = (T::zero(), T::zero());
+        for c in 0..4 {
+            let dx = (t[1][c] - t[0][c]) * (one - self.fy) + (t[3][c] - t[2][c]) * self.fy;
+            let dy = (t[2][c] - t[0][c]) * (one - self.fx) + (t[3][c] - t[1][c]) * self.fx;
+            gu = gu + g[c] * dx;
+            gv = gv + g[c] * dy;
+        }
+        [gu * self.sx, gv * self.sy]
     }
 }
 
 /// The bilinear sample at `uv`.
-#[inline]
+#[cfg(test)]
 pub(crate) fn sample<T: Real>(tex: &Texture, uv: [T; 2]) -> [T; 4] {
-    let f = footprint(tex, uv);
-    let t = f.idx.map(|i| tex.texels[i].map(|c| T::from(c).expect("f32 fits")));
-    let one = T::one();
-    let mut s = [T::zero(); 4];
-    for c in 0..4 {
-        let top = t[0][c] * (one - f.fx) + t[1][c] * f.fx;
-        let bot = t[2][c] * (one - f.fx) + t[3][c] * f.fx;
-        s[c] = top * (one - f.fy) + bot * f.fy;
-    }
-    s
+    Lookup::new(tex, uv).sample()
 }
 
 /// `Σ_c g[c] · ∂S_c/∂(u, v)` at `uv`: the texture's contribution to the UV gradient.
-#[inline]
+#[cfg(test)]
 pub(crate) fn sample_vjp<T: Real>(tex: &Texture, uv: [T; 2], g: [T; 4]) -> [T; 2] {
-    let f = footprint(tex, uv);
-    let t = f.idx.map(|i| tex.texels[i].map(|c| T::from(c).expect("f32 fits")));
-    let one = T::one();
-    let (mut gu, mut gv) = (T::zero(), T::zero());
-    for c in 0..4 {
-        let dx = (t[1][c] - t[0][c]) * (one - f.fy) + (t[3][c] - t[2][c]) * f.fy;
-        let dy = (t[2][c] - t[0][c]) * (one - f.fx) + (t[3][c] - t[1][c]) * f.fx;
-        gu = gu + g[c] * dx;
-        gv = gv + g[c] * dy;
-    }
-    [gu * f.sx, gv * f.sy]
+    Lookup::new(tex, uv).vjp(g)
 }
 
 #[cfg(test)]
