@@ -50,7 +50,7 @@ pub struct TrainOptions {
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct SplitRecord {
-    /// The sequence folder the frames came from.
+    /// The folder holding the frame files (absolute).
     pub frames: PathBuf,
     /// Training frames' file names.
     pub train: Vec<String>,
@@ -180,7 +180,7 @@ pub fn train(config: &TrainConfig, options: &TrainOptions, progress: &dyn Progre
     )?;
     let names = frames.names();
     let record = SplitRecord {
-        frames: config.frames.clone(),
+        frames: std::fs::canonicalize(&frames.dir).unwrap_or_else(|_| frames.dir.clone()),
         train: train_idx.iter().map(|&i| names[i].clone()).collect(),
         test: test_idx.iter().map(|&i| names[i].clone()).collect(),
     };
