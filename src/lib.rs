@@ -11,6 +11,7 @@
 pub mod atomic_file;
 pub mod backend;
 pub mod error;
+pub mod edit;
 pub mod eval;
 pub mod geom;
 pub mod model;
