@@ -22,5 +22,6 @@ pub mod render;
 pub mod synth;
 #[cfg(test)]
 pub(crate) mod test_util;
+pub mod train;
 
 pub use error::{Error, Result};

@@ -3,9 +3,12 @@
 use clap::{Parser, Subcommand};
 
 mod build;
+mod eval;
+mod fit;
 mod info;
 mod render;
 mod synth;
+mod train;
 mod ui;
 
 pub use ui::Ui;
@@ -32,9 +35,12 @@ pub struct Common {
 #[derive(Debug, Subcommand)]
 enum Command {
     Build(build::BuildArgs),
+    Eval(eval::EvalArgs),
+    Fit(fit::FitArgs),
     Info(info::InfoArgs),
     Render(render::RenderArgs),
     Synth(synth::SynthArgs),
+    Train(train::TrainArgs),
 }
 
 /// Runs the parsed command line.
@@ -42,8 +48,11 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
     let ui = Ui::new(cli.common.quiet);
     match cli.command {
         Command::Build(args) => build::run(args, &ui),
+        Command::Eval(args) => eval::run(args, &ui),
+        Command::Fit(args) => fit::run(args, &ui),
         Command::Info(args) => info::run(args, &ui),
         Command::Render(args) => render::run(args, &ui),
         Command::Synth(args) => synth::run(args, &ui),
+        Command::Train(args) => train::run(args, &ui),
     }
 }

@@ -2,6 +2,8 @@
 //!
 //! Pictures are straight-alpha [`Picture`]s of the same size; see each function for its units.
 
+pub mod report;
+
 use crate::picture::Picture;
 
 /// Composites a straight-alpha pixel on white, channels in [0, 1].

@@ -9,7 +9,7 @@
 use burn::config::Config;
 use burn::module::Module;
 use burn::nn::conv::{Conv2d, Conv2dConfig};
-use burn::nn::{Linear, LinearConfig, PaddingConfig2d};
+use burn::nn::{Initializer, Linear, LinearConfig, PaddingConfig2d};
 use burn::tensor::activation::relu;
 use burn::tensor::{Device, Tensor, TensorData};
 
@@ -74,11 +74,9 @@ impl DeformationNetConfig {
         let [e1, e2] = self.encoder_hidden;
         let [d1, d2] = self.decoder_hidden;
         let out = 2 * self.vertices + 2;
-        let mut last = linear(d2, out);
-        last.weight = last.weight.map(|w| w.zeros_like());
-        if let Some(b) = last.bias.take() {
-            last.bias = Some(b.map(|b| b.zeros_like()));
-        }
+        // Zero-initialised through the config (not by mapping the Param afterwards, which would
+        // leave it untracked by autodiff), so the untrained network predicts the rest pose.
+        let last = LinearConfig::new(d2, out).with_initializer(Initializer::Zeros).init(device);
         DeformationNet {
             convs: vec![conv(4, c1), conv(c1, c2), conv(c2, c3)],
             encoder_fcs: vec![linear(flat, e1), linear(e1, e2), linear(e2, self.latent)],

@@ -1,0 +1,147 @@
+//! Training checkpoints: the weights, the optimiser state and the step, written so that a run
+//! killed at any moment leaves the previous checkpoint intact (issue 5: atomic checkpoints,
+//! `--resume` loses at most `checkpoint_every` steps).
+//!
+//! Layout: `checkpoints/step-000100/{weights.bpk, optimizer.bpk, state.json}` and
+//! `checkpoints/latest` naming the newest complete one. A checkpoint folder is written under a
+//! temporary name and renamed when complete; `latest` is then replaced atomically; older
+//! folders are removed last.
+
+use std::path::{Path, PathBuf};
+
+use serde::{Deserialize, Serialize};
+
+use crate::atomic_file::write_atomic;
+use crate::error::{Error, Result};
+
+/// The checkpoints folder inside a model folder.
+pub const CHECKPOINT_DIR: &str = "checkpoints";
+const LATEST: &str = "latest";
+const WEIGHTS: &str = "weights.bpk";
+const OPTIMIZER: &str = "optimizer.bpk";
+const STATE: &str = "state.json";
+
+/// What a checkpoint records besides the tensors.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct CheckpointState {
+    /// Optimiser steps done.
+    pub step: u64,
+    /// Seconds of training so far (for the log's clock after a resume).
+    pub elapsed: f64,
+    /// The training config as JSON, to refuse resuming a different run.
+    pub config: serde_json::Value,
+}
+
+/// A loaded checkpoint.
+#[derive(Debug)]
+pub struct Checkpoint {
+    /// Its state.
+    pub state: CheckpointState,
+    /// Burnpack bytes of the network.
+    pub weights: Vec<u8>,
+    /// Burnpack bytes of the optimiser state.
+    pub optimizer: Vec<u8>,
+    /// Where it was read from (for messages).
+    pub dir: PathBuf,
+}
+
+/// The newest complete checkpoint's folder under `model_dir`, if any.
+///
+/// # Errors
+/// [`Error::Io`]/[`Error::Format`] if `latest` exists but cannot be read or names nothing.
+pub fn latest(model_dir: &Path) -> Result<Option<PathBuf>> {
+    let pointer = model_dir.join(CHECKPOINT_DIR).join(LATEST);
+    if !pointer.exists() {
+        return Ok(None);
+    }
+    let name = std::fs::read_to_string(&pointer).map_err(|e| Error::io(&pointer, e))?;
+    let dir = model_dir.join(CHECKPOINT_DIR).join(name.trim());
+    if !dir.join(STATE).is_file() {
+        return Err(Error::format(&pointer, format!("names checkpoint {:?}, which is missing", name.trim())));
+    }
+    Ok(Some(dir))
+}
+
+/// Writes a checkpoint for `state.step` and makes it the latest, then removes older ones.
+///
+/// # Errors
+/// [`Error::Io`] naming the file that could not be written.
+pub fn save(model_dir: &Path, state: &CheckpointState, weights: &[u8], optimizer: &[u8]) -> Result<PathBuf> {
+    let root = model_dir.join(CHECKPOINT_DIR);
+    let name = format!("step-{:06}", state.step);
+    let partial = root.join(format!(".{name}.partial"));
+    let done = root.join(&name);
+    if partial.exists() {
+        std::fs::remove_dir_all(&partial).map_err(|e| Error::io(&partial, e))?;
+    }
+    std::fs::create_dir_all(&partial).map_err(|e| Error::io(&partial, e))?;
+    let json = serde_json::to_vec_pretty(state).map_err(|e| Error::format(partial.join(STATE), e.to_string()))?;
+    for (file, bytes) in [(WEIGHTS, weights), (OPTIMIZER, optimizer), (STATE, json.as_slice())] {
+        std::fs::write(partial.join(file), bytes).map_err(|e| Error::io(partial.join(file), e))?;
+    }
+    if done.exists() {
+        std::fs::remove_dir_all(&done).map_err(|e| Error::io(&done, e))?;
+    }
+    std::fs::rename(&partial, &done).map_err(|e| Error::io(&done, e))?;
+    write_atomic(&root.join(LATEST), name.as_bytes())?;
+    // Older checkpoints go only after `latest` points at the new one.
+    let entries = std::fs::read_dir(&root).map_err(|e| Error::io(&root, e))?;
+    for entry in entries.flatten() {
+        let path = entry.path();
+        let stale = entry.file_name().to_string_lossy().starts_with("step-") && path != done;
+        if stale && path.is_dir() {
+            std::fs::remove_dir_all(&path).map_err(|e| Error::io(&path, e))?;
+        }
+    }
+    Ok(done)
+}
+
+/// Reads the checkpoint folder `dir`.
+///
+/// # Errors
+/// [`Error::Io`]/[`Error::Format`] naming the file that is missing or unreadable.
+pub fn load(dir: &Path) -> Result<Checkpoint> {
+    let read = |file: &str| std::fs::read(dir.join(file)).map_err(|e| Error::io(dir.join(file), e));
+    let state_path = dir.join(STATE);
+    let state: CheckpointState =
+        serde_json::from_slice(&read(STATE)?).map_err(|e| Error::format(&state_path, format!("invalid checkpoint state: {e}")))?;
+    Ok(Checkpoint {
+        state,
+        weights: read(WEIGHTS)?,
+        optimizer: read(OPTIMIZER)?,
+        dir: dir.to_path_buf(),
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn save_replaces_the_previous_checkpoint_and_round_trips() {
+        let dir = tempfile::tempdir().unwrap();
+        assert!(latest(dir.path()).unwrap().is_none());
+        let state = |step| CheckpointState {
+            step,
+            elapsed: 1.5,
+            config: serde_json::json!({"seed": 3}),
+        };
+        save(dir.path(), &state(10), b"w10", b"o10").unwrap();
+        let second = save(dir.path(), &state(20), b"w20", b"o20").unwrap();
+        assert_eq!(latest(dir.path()).unwrap(), Some(second.clone()));
+        let c = load(&second).unwrap();
+        assert_eq!((c.state, c.weights, c.optimizer), (state(20), b"w20".to_vec(), b"o20".to_vec()));
+        let names: Vec<_> = std::fs::read_dir(dir.path().join(CHECKPOINT_DIR)).unwrap().map(|e| e.unwrap().file_name()).collect();
+        assert_eq!(names.len(), 2, "latest + step-000020 only: {names:?}");
+    }
+
+    #[test]
+    fn a_dangling_latest_pointer_is_an_error_naming_it() {
+        let dir = tempfile::tempdir().unwrap();
+        std::fs::create_dir_all(dir.path().join(CHECKPOINT_DIR)).unwrap();
+        std::fs::write(dir.path().join(CHECKPOINT_DIR).join(LATEST), "step-000005").unwrap();
+        let err = latest(dir.path()).unwrap_err().to_string();
+        assert!(err.contains("latest") && err.contains("step-000005"), "{err}");
+    }
+}

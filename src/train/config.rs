@@ -1,0 +1,252 @@
+//! The training config (`puppet train <config.toml>`): what to train on, how long, and the loss
+//! weights of neural-puppet.md eq. 4, 10 and 11. Relative paths are relative to the config file.
+//!
+//! ```toml
+//! puppet = "../data/kenney/robot"   # a puppet folder (puppet.json) or artwork to build one from
+//! frames = "../data/kenney/robot"   # a sequence: a folder of frames (or one holding frames/)
+//! output = "../runs/robot"          # the model folder written by training
+//! seed = 1
+//! test_fraction = 0.3               # held-out share of the frames (paper: 70/30)
+//!
+//! [model]                           # the network (DeformationNetConfig); all optional
+//! input_size = 128
+//!
+//! [train]
+//! steps = 2000
+//! batch = 16
+//! learning_rate = 1e-4
+//! sigma = [4.0, 0.5]                # σ (px² of the working square) at the first and last step
+//! checkpoint_every = 100
+//!
+//! [loss]                            # weights; see `LossWeights` for the units
+//! arap = 2500.0
+//! joints = 1e4
+//! masked = false                    # eq. 10–11: frames drawn over a background
+//! area = 2e-3
+//! ```
+
+use std::path::{Path, PathBuf};
+
+use serde::{Deserialize, Serialize};
+
+use crate::error::{Error, Result};
+
+/// A whole training config.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct TrainConfig {
+    /// A puppet folder, or character artwork (folder with character.toml, or .ora) to build one
+    /// from with the default build options.
+    pub puppet: PathBuf,
+    /// The frame sequence (all frames; the split picks the held-out ones).
+    pub frames: PathBuf,
+    /// The model folder to write (checkpoints, logs, the final model).
+    pub output: PathBuf,
+    /// Seeds the weights, the split and the batch order.
+    #[serde(default = "default_seed")]
+    pub seed: u64,
+    /// Share of frames held out for testing, in [0, 1).
+    #[serde(default = "default_test_fraction")]
+    pub test_fraction: f64,
+    /// The network's hyper-parameters.
+    #[serde(default)]
+    pub model: ModelSettings,
+    /// Optimisation settings.
+    #[serde(default)]
+    pub train: TrainSettings,
+    /// Loss weights.
+    #[serde(default)]
+    pub loss: LossWeights,
+}
+
+/// The network settings a config may change (the rest are the paper's).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct ModelSettings {
+    /// Working resolution S (frames are letterboxed into S×S).
+    pub input_size: usize,
+    /// Latent size (paper: 512).
+    pub latent: usize,
+    /// Output scale of the decoder in working pixels.
+    pub offset_scale: f32,
+}
+
+impl Default for ModelSettings {
+    fn default() -> Self {
+        ModelSettings {
+            input_size: 128,
+            latent: 512,
+            offset_scale: 16.0,
+        }
+    }
+}
+
+/// Optimisation settings.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct TrainSettings {
+    /// Optimiser steps.
+    pub steps: u64,
+    /// Frames per step (sampled without replacement, reshuffled every pass).
+    pub batch: usize,
+    /// Adam's step size.
+    pub learning_rate: f64,
+    /// Soft-rasterizer σ (px² of the working square) at the first and the last step; geometric
+    /// in between. Wide early (gradients reach far), crisp late (sharp fits).
+    pub sigma: [f32; 2],
+    /// Steps between checkpoints (a killed run loses at most this many).
+    pub checkpoint_every: u64,
+}
+
+impl Default for TrainSettings {
+    fn default() -> Self {
+        TrainSettings {
+            steps: 2000,
+            batch: 16,
+            learning_rate: 1e-4,
+            sigma: [4.0, 0.5],
+            checkpoint_every: 100,
+        }
+    }
+}
+
+/// Weights of eq. 4 (and eq. 10–11 for masked training).
+///
+/// Units, so the paper's numbers mean what they meant there (NMR: images in [0, 1], vertices in
+/// normalised device coordinates where the image spans [−1, 1]): L_rec is the mean over pixels
+/// and channels of the squared difference of premultiplied RGBA in [0, 1]; ARAP (eq. 2) and the
+/// joint term (eq. 3) are sums over edges / joints of squared lengths in NDC, i.e. working
+/// pixels divided by S/2; every term is averaged over the batch; the area term (eq. 11) compares
+/// mask sums as fractions of the image.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct LossWeights {
+    /// λ1, ARAP (paper: 2500).
+    pub arap: f64,
+    /// λ2, joints (paper: 1e4).
+    pub joints: f64,
+    /// Use the masked loss of eq. 10 and the area penalty of eq. 11 (frames over a background).
+    pub masked: bool,
+    /// Weight of eq. 11's area penalty (paper: 2e-3).
+    pub area: f64,
+}
+
+impl Default for LossWeights {
+    fn default() -> Self {
+        LossWeights {
+            arap: 2500.0,
+            joints: 1e4,
+            masked: false,
+            area: 2e-3,
+        }
+    }
+}
+
+fn default_seed() -> u64 {
+    1
+}
+
+fn default_test_fraction() -> f64 {
+    0.3
+}
+
+impl TrainConfig {
+    /// Reads `path`, resolves its relative paths against the file's folder, and validates it.
+    ///
+    /// # Errors
+    /// [`Error::Io`] if unreadable; [`Error::Format`] naming `path` for bad TOML, an unknown key
+    /// or an invalid value (see [`TrainConfig::validate`]).
+    pub fn load(path: &Path) -> Result<Self> {
+        let text = std::fs::read_to_string(path).map_err(|e| Error::io(path, e))?;
+        let mut config: TrainConfig = toml::from_str(&text).map_err(|e| Error::format(path, format!("invalid training config: {e}")))?;
+        let base = path.parent().unwrap_or(Path::new("."));
+        for p in [&mut config.puppet, &mut config.frames, &mut config.output] {
+            if p.is_relative() {
+                *p = base.join(&*p);
+            }
+        }
+        config.validate().map_err(|problem| Error::format(path, problem))?;
+        Ok(config)
+    }
+
+    /// Checks values that TOML types cannot: ranges and the input size.
+    ///
+    /// # Errors
+    /// The problem as a sentence naming the key.
+    pub fn validate(&self) -> std::result::Result<(), String> {
+        let t = &self.train;
+        let checks = [
+            (!(0.0..1.0).contains(&self.test_fraction), format!("test_fraction = {} is not in [0, 1)", self.test_fraction)),
+            (
+                self.model.input_size == 0 || self.model.input_size % 8 != 0,
+                format!("model.input_size = {} is not a positive multiple of 8", self.model.input_size),
+            ),
+            (self.model.latent == 0, "model.latent must be positive".into()),
+            (t.steps == 0, "train.steps must be positive".into()),
+            (t.batch == 0, "train.batch must be positive".into()),
+            (t.checkpoint_every == 0, "train.checkpoint_every must be positive".into()),
+            (
+                !(t.learning_rate.is_finite() && t.learning_rate > 0.0),
+                format!("train.learning_rate = {} must be positive", t.learning_rate),
+            ),
+            (
+                !t.sigma.iter().all(|s| s.is_finite() && *s > 0.0),
+                format!("train.sigma = {:?} must be two positive numbers", t.sigma),
+            ),
+            (
+                ![self.loss.arap, self.loss.joints, self.loss.area].iter().all(|w| w.is_finite() && *w >= 0.0),
+                "loss weights must be finite and non-negative".into(),
+            ),
+        ];
+        match checks.into_iter().find(|(bad, _)| *bad) {
+            Some((_, problem)) => Err(problem),
+            None => Ok(()),
+        }
+    }
+
+    /// σ at `step` of `steps` (geometric from `sigma[0]` to `sigma[1]`).
+    pub fn sigma_at(&self, step: u64) -> f32 {
+        let [a, b] = self.train.sigma;
+        let t = if self.train.steps > 1 { step as f32 / (self.train.steps - 1) as f32 } else { 1.0 };
+        a * (b / a).powf(t.clamp(0.0, 1.0))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn write(text: &str) -> (tempfile::TempDir, PathBuf) {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("train.toml");
+        std::fs::write(&path, text).unwrap();
+        (dir, path)
+    }
+
+    #[test]
+    fn defaults_fill_in_and_paths_resolve_against_the_file() {
+        let (dir, path) = write("puppet = \"p\"\nframes = \"f\"\noutput = \"o\"\n[train]\nsteps = 10\n");
+        let c = TrainConfig::load(&path).unwrap();
+        assert_eq!(c.puppet, dir.path().join("p"));
+        assert_eq!(c.train.steps, 10);
+        assert_eq!(c.train.batch, 16);
+        assert_eq!(c.loss.arap, 2500.0);
+        assert!((c.sigma_at(0) - 4.0).abs() < 1e-6 && (c.sigma_at(9) - 0.5).abs() < 1e-6);
+        assert!((c.sigma_at(3) - 4.0 * (0.125f32).powf(3.0 / 9.0)).abs() < 1e-5);
+    }
+
+    #[test]
+    fn bad_values_and_unknown_keys_name_the_file_and_key() {
+        for (text, needle) in [
+            ("puppet = \"p\"\nframes = \"f\"\noutput = \"o\"\ntest_fraction = 1.0\n", "test_fraction"),
+            ("puppet = \"p\"\nframes = \"f\"\noutput = \"o\"\n[train]\nbatch = 0\n", "train.batch"),
+            ("puppet = \"p\"\nframes = \"f\"\noutput = \"o\"\n[model]\ninput_size = 100\n", "input_size"),
+            ("puppet = \"p\"\nframes = \"f\"\noutput = \"o\"\n[train]\nlearning_rat = 1\n", "learning_rat"),
+            ("frames = \"f\"\noutput = \"o\"\n", "puppet"),
+        ] {
+            let (_dir, path) = write(text);
+            let err = TrainConfig::load(&path).unwrap_err().to_string();
+            assert!(err.contains("train.toml") && err.contains(needle), "{text:?} → {err}");
+        }
+    }
+}

@@ -1,0 +1,249 @@
+//! The training log: one CSV row per step (`log.csv`) and a loss-curve picture (`loss.png`,
+//! log-scale y, one line per term, labelled with a built-in 3×5 pixel font so no font files
+//! are needed).
+
+use std::fs::OpenOptions;
+use std::io::Write;
+use std::path::{Path, PathBuf};
+
+use crate::error::{Error, Result};
+use crate::picture::Picture;
+
+/// The CSV header; [`LogRow`] writes the same columns.
+pub const HEADER: &str = "step,total,rec,arap,joints,area,sigma,seconds";
+
+/// One step's numbers (weighted terms are not stored: the config holds the weights).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct LogRow {
+    /// Steps done after this one.
+    pub step: u64,
+    /// Eq. 4's total.
+    pub total: f64,
+    /// L_rec (or masked).
+    pub rec: f64,
+    /// L_reg, unweighted.
+    pub arap: f64,
+    /// L_joints, unweighted.
+    pub joints: f64,
+    /// L_area, unweighted.
+    pub area: f64,
+    /// σ used.
+    pub sigma: f64,
+    /// Training seconds so far.
+    pub seconds: f64,
+}
+
+/// Appends rows to `log.csv`; on resume, rows past the checkpoint are dropped first so the log
+/// has each step once.
+pub struct TrainLog {
+    path: PathBuf,
+    rows: Vec<LogRow>,
+}
+
+impl TrainLog {
+    /// Opens (or creates) the log at `path`, keeping the rows with `step <= keep_through`.
+    ///
+    /// # Errors
+    /// [`Error::Io`]/[`Error::Format`] naming the file.
+    pub fn open(path: &Path, keep_through: u64) -> Result<Self> {
+        let mut rows = Vec::new();
+        if path.exists() {
+            let text = std::fs::read_to_string(path).map_err(|e| Error::io(path, e))?;
+            for (n, line) in text.lines().enumerate().skip(1) {
+                let v: Vec<f64> = line.split(',').map(str::parse).collect::<std::result::Result<_, _>>().map_err(|_| Error::format(path, format!("line {}: not numbers", n + 1)))?;
+                if v.len() != 8 {
+                    return Err(Error::format(path, format!("line {}: {} columns, expected 8", n + 1, v.len())));
+                }
+                let row = LogRow {
+                    step: v[0] as u64,
+                    total: v[1],
+                    rec: v[2],
+                    arap: v[3],
+                    joints: v[4],
+                    area: v[5],
+                    sigma: v[6],
+                    seconds: v[7],
+                };
+                if row.step <= keep_through {
+                    rows.push(row);
+                }
+            }
+        }
+        let mut text = format!("{HEADER}\n");
+        for r in &rows {
+            text.push_str(&r.to_csv());
+        }
+        crate::atomic_file::write_atomic(path, text.as_bytes())?;
+        Ok(TrainLog { path: path.to_path_buf(), rows })
+    }
+
+    /// Appends one row to the file.
+    ///
+    /// # Errors
+    /// [`Error::Io`] naming the file.
+    pub fn push(&mut self, row: LogRow) -> Result<()> {
+        let mut file = OpenOptions::new().append(true).open(&self.path).map_err(|e| Error::io(&self.path, e))?;
+        file.write_all(row.to_csv().as_bytes()).map_err(|e| Error::io(&self.path, e))?;
+        self.rows.push(row);
+        Ok(())
+    }
+
+    /// All rows so far.
+    pub fn rows(&self) -> &[LogRow] {
+        &self.rows
+    }
+}
+
+impl LogRow {
+    fn to_csv(self) -> String {
+        format!(
+            "{},{},{},{},{},{},{},{:.3}\n",
+            self.step, self.total, self.rec, self.arap, self.joints, self.area, self.sigma, self.seconds
+        )
+    }
+}
+
+/// The loss curves (total, rec, and the weighted regularisers) on a log-scale y axis.
+pub fn plot(rows: &[LogRow], weights: [f64; 3]) -> Picture {
+    let (w, h, left, bottom, top, right) = (720u32, 400u32, 44i64, 20i64, 24i64, 12i64);
+    let mut pic = Picture::filled(w, h, [1.0, 1.0, 1.0, 1.0]);
+    let series: [(&str, [f32; 3], Box<dyn Fn(&LogRow) -> f64>); 5] = [
+        ("total", [0.0, 0.0, 0.0], Box::new(|r: &LogRow| r.total)),
+        ("rec", [0.1, 0.35, 0.9], Box::new(|r: &LogRow| r.rec)),
+        ("arap", [0.95, 0.5, 0.0], Box::new(move |r: &LogRow| r.arap * weights[0])),
+        ("joints", [0.1, 0.65, 0.2], Box::new(move |r: &LogRow| r.joints * weights[1])),
+        ("area", [0.7, 0.1, 0.6], Box::new(move |r: &LogRow| r.area * weights[2])),
+    ];
+    let positive: Vec<f64> = rows.iter().flat_map(|r| series.iter().map(move |s| s.2(r))).filter(|v| *v > 0.0 && v.is_finite()).collect();
+    let (lo, hi) = positive.iter().fold((f64::MAX, f64::MIN), |(a, b), v| (a.min(*v), b.max(*v)));
+    let (lo, hi) = if positive.is_empty() { (-3.0, 0.0) } else { (lo.log10().floor(), hi.log10().ceil().max(lo.log10().floor() + 1.0)) };
+    let last = rows.last().map_or(1, |r| r.step.max(1)) as f64;
+    let px = |step: f64| left + ((step / last) * (w as i64 - left - right) as f64) as i64;
+    let py = |v: f64| top + ((hi - v.log10()) / (hi - lo) * (h as i64 - top - bottom) as f64) as i64;
+    let grey = [0.85, 0.85, 0.85];
+    for decade in lo as i64..=hi as i64 {
+        let y = py(10f64.powi(decade as i32));
+        line(&mut pic, [left, y], [w as i64 - right, y], grey);
+        text(&mut pic, &format!("1e{decade}"), [2, y - 2], [0.3, 0.3, 0.3]);
+    }
+    line(&mut pic, [left, top], [left, h as i64 - bottom], [0.0; 3]);
+    line(&mut pic, [left, h as i64 - bottom], [w as i64 - right, h as i64 - bottom], [0.0; 3]);
+    text(&mut pic, "0", [left, h as i64 - bottom + 6], [0.3; 3]);
+    let last_label = format!("step {}", last as u64);
+    text(&mut pic, &last_label, [w as i64 - right - 4 * last_label.len() as i64, h as i64 - bottom + 6], [0.3; 3]);
+    let mut legend_x = left + 8;
+    for (name, colour, value) in &series {
+        let mut prev: Option<[i64; 2]> = None;
+        for r in rows {
+            let v = value(r);
+            let p = (v > 0.0 && v.is_finite()).then(|| [px(r.step as f64), py(v)]);
+            if let (Some(a), Some(b)) = (prev, p) {
+                line(&mut pic, a, b, *colour);
+            }
+            prev = p;
+        }
+        line(&mut pic, [legend_x, 10], [legend_x + 10, 10], *colour);
+        text(&mut pic, name, [legend_x + 14, 8], *colour);
+        legend_x += 14 + 4 * name.len() as i64 + 16;
+    }
+    pic
+}
+
+fn put(pic: &mut Picture, x: i64, y: i64, c: [f32; 3]) {
+    if x >= 0 && y >= 0 && x < pic.width as i64 && y < pic.height as i64 {
+        pic.pixels[(y * pic.width as i64 + x) as usize] = [c[0], c[1], c[2], 1.0];
+    }
+}
+
+fn line(pic: &mut Picture, a: [i64; 2], b: [i64; 2], c: [f32; 3]) {
+    let n = (b[0] - a[0]).abs().max((b[1] - a[1]).abs()).max(1);
+    for i in 0..=n {
+        put(pic, a[0] + (b[0] - a[0]) * i / n, a[1] + (b[1] - a[1]) * i / n, c);
+    }
+}
+
+/// Draws `s` with a 3×5 font (4 px advance); characters without a glyph are skipped.
+fn text(pic: &mut Picture, s: &str, at: [i64; 2], c: [f32; 3]) {
+    for (i, ch) in s.chars().enumerate() {
+        let Some(rows) = glyph(ch) else { continue };
+        for (y, row) in rows.iter().enumerate() {
+            for x in 0..3 {
+                if row & (4 >> x) != 0 {
+                    put(pic, at[0] + 4 * i as i64 + x, at[1] + y as i64, c);
+                }
+            }
+        }
+    }
+}
+
+/// Rows of a 3×5 glyph, most significant of the 3 bits on the left.
+fn glyph(ch: char) -> Option<[u8; 5]> {
+    Some(match ch {
+        '0' => [7, 5, 5, 5, 7],
+        '1' => [2, 6, 2, 2, 7],
+        '2' => [7, 1, 7, 4, 7],
+        '3' => [7, 1, 3, 1, 7],
+        '4' => [5, 5, 7, 1, 1],
+        '5' => [7, 4, 7, 1, 7],
+        '6' => [7, 4, 7, 5, 7],
+        '7' => [7, 1, 1, 2, 2],
+        '8' => [7, 5, 7, 5, 7],
+        '9' => [7, 5, 7, 1, 7],
+        '-' => [0, 0, 7, 0, 0],
+        '.' => [0, 0, 0, 0, 2],
+        'a' => [0, 6, 3, 5, 7],
+        'c' => [0, 7, 4, 4, 7],
+        'e' => [7, 5, 7, 4, 7],
+        'i' => [2, 0, 2, 2, 2],
+        'j' => [1, 0, 1, 5, 7],
+        'l' => [6, 2, 2, 2, 7],
+        'n' => [0, 6, 5, 5, 5],
+        'o' => [0, 7, 5, 5, 7],
+        'p' => [0, 7, 5, 7, 4],
+        'r' => [0, 7, 4, 4, 4],
+        's' => [0, 7, 6, 1, 7],
+        't' => [2, 7, 2, 2, 3],
+        _ => return None,
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn row(step: u64, total: f64) -> LogRow {
+        LogRow {
+            step,
+            total,
+            rec: total / 2.0,
+            arap: 1e-5,
+            joints: 0.0,
+            area: 0.0,
+            sigma: 1.0,
+            seconds: step as f64,
+        }
+    }
+
+    #[test]
+    fn reopening_keeps_rows_up_to_the_checkpoint() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("log.csv");
+        let mut log = TrainLog::open(&path, 0).unwrap();
+        for s in 1..=5 {
+            log.push(row(s, 1.0 / s as f64)).unwrap();
+        }
+        let log = TrainLog::open(&path, 3).unwrap();
+        assert_eq!(log.rows().iter().map(|r| r.step).collect::<Vec<_>>(), [1, 2, 3]);
+        assert_eq!(std::fs::read_to_string(&path).unwrap().lines().count(), 4);
+        assert_eq!(log.rows()[1], row(2, 0.5));
+    }
+
+    #[test]
+    fn the_plot_draws_each_series_in_its_colour() {
+        let rows: Vec<LogRow> = (1..=50).map(|s| row(s, 1.0 / s as f64)).collect();
+        let pic = plot(&rows, [2500.0, 1e4, 0.0]);
+        let count = |c: [f32; 3]| pic.pixels.iter().filter(|p| p[..3] == c).count();
+        assert!(count([0.1, 0.35, 0.9]) > 300, "rec line");
+        assert!(count([0.95, 0.5, 0.0]) > 300, "arap line");
+    }
+}

@@ -1,0 +1,181 @@
+//! The training losses of neural-puppet.md §3.2 and appendix (eq. 1–4, 10, 11) as Burn tensor
+//! functions, and [`Objective`], which holds what they need for one puppet and sums eq. 4.
+//!
+//! Units (see [`LossWeights`]): images premultiplied RGBA in [0, 1]; vertices in working pixels
+//! converted to NDC (÷ S/2) for ARAP and joints, so the paper's λ1 = 2500, λ2 = 1e4 apply.
+
+use std::sync::Arc;
+
+use burn::tensor::{Device, Int, Tensor, TensorData};
+
+use super::arap_op::arap_loss;
+use super::config::LossWeights;
+use crate::error::Result;
+use crate::geom::arap::ArapEnergy;
+use crate::puppet::Puppet;
+use crate::render::burn_op::Rendered;
+
+/// Eq. 1, `‖x − R(V, F, I^uv)‖²` as a mean over batch, channels and pixels.
+pub fn reconstruction(rendered: Tensor<4>, target: Tensor<4>) -> Tensor<1> {
+    (rendered - target).powf_scalar(2.0).mean()
+}
+
+/// Eq. 10: the squared difference between the frame seen through the rendered silhouette
+/// `x ⊙ R(V, F, I¹)` and the render, normalised by the silhouette's area; RGB only (the frame is
+/// opaque), averaged over the batch. `target_rgb` `[B, 3, H, W]`, `mask` `[B, 1, H, W]`.
+pub fn masked_reconstruction(rendered: Tensor<4>, mask: Tensor<4>, target_rgb: Tensor<4>) -> Tensor<1> {
+    let [b, _, _, _] = rendered.dims();
+    let rgb = rendered.narrow(1, 0, 3);
+    let diff = (target_rgb * mask.clone() - rgb).powf_scalar(2.0).reshape([b as i32, -1]).sum_dim(1);
+    let area = mask.reshape([b as i32, -1]).sum_dim(1).add_scalar(1e-6);
+    (diff / area).mean()
+}
+
+/// Eq. 11: `|Σ R(V_pred) − Σ R(V_init)|²`, each sum as a fraction of the image, batch mean.
+pub fn area(mask: Tensor<4>, rest_area: f32) -> Tensor<1> {
+    let [b, _, h, w] = mask.dims();
+    let fraction = mask.reshape([b as i32, -1]).sum_dim(1).div_scalar((h * w) as f32);
+    fraction.sub_scalar(rest_area).powf_scalar(2.0).mean()
+}
+
+/// Eq. 3, `Σ ‖p_i − q_i‖²` per batch item, `[B]`, for joint vertex index pairs `a[i]`, `b[i]`.
+pub fn joint_loss(vertices: Tensor<3>, a: Tensor<1, Int>, b: Tensor<1, Int>) -> Tensor<1> {
+    let [batch, _, _] = vertices.dims();
+    let d = vertices.clone().select(1, a) - vertices.select(1, b);
+    d.powf_scalar(2.0).reshape([batch as i32, -1]).sum_dim(1).squeeze_dim(1)
+}
+
+/// All layers' triangles with global vertex indices (layers are disjoint components).
+pub fn global_triangles(puppet: &Puppet) -> Vec<[u32; 3]> {
+    let offsets = puppet.vertex_offsets();
+    puppet
+        .layers
+        .iter()
+        .zip(&offsets)
+        .flat_map(|(layer, &o)| layer.mesh.triangles.iter().map(move |t| t.map(|i| i + o as u32)))
+        .collect()
+}
+
+/// One evaluation of eq. 4 (or its masked variant), the total and each term, batch means.
+#[derive(Clone, Debug)]
+pub struct LossTerms {
+    /// The weighted sum that is minimised.
+    pub total: Tensor<1>,
+    /// L_rec (eq. 1) or L_rec^masked (eq. 10).
+    pub rec: Tensor<1>,
+    /// L_reg (eq. 2), NDC units, unweighted.
+    pub arap: Tensor<1>,
+    /// L_joints (eq. 3), NDC units, unweighted.
+    pub joints: Tensor<1>,
+    /// L_area (eq. 11), unweighted (zero unless masked).
+    pub area: Tensor<1>,
+}
+
+/// Everything the losses need for one puppet at one working size.
+#[derive(Clone, Debug)]
+pub struct Objective {
+    weights: LossWeights,
+    arap: Arc<ArapEnergy<f32>>,
+    joint_a: Vec<i64>,
+    joint_b: Vec<i64>,
+    ndc_scale: f32,
+    rest_area: f32,
+}
+
+impl Objective {
+    /// Prepares the ARAP energy on the rest vertices `rest` (working pixels of an S×S square), the
+    /// joint pairs, and the rest silhouette's area fraction (for eq. 11).
+    ///
+    /// # Errors
+    /// [`crate::Error::Invalid`] if the mesh is degenerate (see [`ArapEnergy::new`]).
+    pub fn new(puppet: &Puppet, rest: &[[f32; 2]], size: usize, rest_area: f32, weights: LossWeights) -> Result<Self> {
+        let half = size as f32 / 2.0;
+        let ndc: Vec<[f32; 2]> = rest.iter().map(|p| [p[0] / half, p[1] / half]).collect();
+        let arap = Arc::new(ArapEnergy::new(&ndc, &global_triangles(puppet))?);
+        let (joint_a, joint_b) = puppet
+            .joints
+            .iter()
+            .map(|j| (puppet.global_index(j.a) as i64, puppet.global_index(j.b) as i64))
+            .unzip();
+        Ok(Objective {
+            weights,
+            arap,
+            joint_a,
+            joint_b,
+            ndc_scale: 1.0 / half,
+            rest_area,
+        })
+    }
+
+    /// Eq. 4 for predicted vertices `[B, V, 2]` (working pixels), their render, and the target:
+    /// premultiplied RGBA `[B, 4, S, S]` (or, masked, the opaque frame whose RGB is used).
+    ///
+    /// # Errors
+    /// Shape errors from the ARAP operation.
+    pub fn evaluate(&self, vertices: Tensor<3>, rendered: &Rendered, target: Tensor<4>, device: &Device) -> Result<LossTerms> {
+        let ndc = vertices.mul_scalar(self.ndc_scale);
+        let arap = arap_loss(ndc.clone(), &self.arap)?.mean();
+        let joints = if self.joint_a.is_empty() {
+            Tensor::zeros([1], device)
+        } else {
+            let index = |v: &[i64]| Tensor::<1, Int>::from_data(TensorData::new(v.to_vec(), [v.len()]), device);
+            joint_loss(ndc, index(&self.joint_a), index(&self.joint_b)).mean()
+        };
+        let (rec, area_term) = if self.weights.masked {
+            let rgb = target.narrow(1, 0, 3);
+            (
+                masked_reconstruction(rendered.image.clone(), rendered.mask.clone(), rgb),
+                area(rendered.mask.clone(), self.rest_area),
+            )
+        } else {
+            (reconstruction(rendered.image.clone(), target), Tensor::zeros([1], device))
+        };
+        let w = &self.weights;
+        let total = rec.clone()
+            + arap.clone().mul_scalar(w.arap)
+            + joints.clone().mul_scalar(w.joints)
+            + area_term.clone().mul_scalar(if w.masked { w.area } else { 0.0 });
+        Ok(LossTerms {
+            total,
+            rec,
+            arap,
+            joints,
+            area: area_term,
+        })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn tensor4(values: Vec<f32>, shape: [usize; 4]) -> Tensor<4> {
+        Tensor::from_data(TensorData::new(values, shape), &crate::backend::device())
+    }
+
+    fn scalar(t: Tensor<1>) -> f32 {
+        t.into_data().try_to_vec::<f32>().unwrap()[0]
+    }
+
+    #[test]
+    fn terms_match_hand_computed_values() {
+        let r = tensor4(vec![0.5, 0.0, 1.0, 0.25], [1, 1, 2, 2]);
+        let x = tensor4(vec![0.0, 0.0, 0.5, 0.25], [1, 1, 2, 2]);
+        assert!((scalar(reconstruction(r, x)) - (0.25 + 0.25) / 4.0).abs() < 1e-7);
+
+        // eq. 10 with one RGB pixel inside a half-covered mask: ((1·0.5 − 0.2)²·3) / (0.5 + 0)
+        let rendered = tensor4(vec![0.2, 0.2, 0.2, 0.5, 0.0, 0.0, 0.0, 0.0], [1, 4, 1, 2]);
+        let mask = tensor4(vec![0.5, 0.0], [1, 1, 1, 2]);
+        let target = tensor4(vec![1.0, 1.0, 1.0, 1.0, 1.0, 1.0], [1, 3, 1, 2]);
+        let want = 3.0 * 0.3f32.powi(2) / 0.5;
+        let got = scalar(masked_reconstruction(rendered, mask.clone(), target));
+        assert!((got - want).abs() < 1e-4, "{got} vs {want}");
+        assert!((scalar(area(mask, 0.5)) - (0.25f32 - 0.5).powi(2)).abs() < 1e-7);
+
+        let device = crate::backend::device();
+        let v = Tensor::<3>::from_data(TensorData::new(vec![0.0f32, 0.0, 3.0, 4.0, 1.0, 1.0], [1, 3, 2]), &device);
+        let idx = |v: Vec<i64>| Tensor::<1, Int>::from_data(TensorData::new(v, [2]), &device);
+        let j = joint_loss(v, idx(vec![0, 2]), idx(vec![1, 0]));
+        assert!((scalar(j) - (25.0 + 2.0)).abs() < 1e-6);
+    }
+}
