@@ -10,8 +10,8 @@
 
 pub mod atomic_file;
 pub mod backend;
-pub mod error;
 pub mod edit;
+pub mod error;
 pub mod eval;
 pub mod geom;
 pub mod model;

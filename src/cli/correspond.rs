@@ -15,7 +15,7 @@ use puppet::model::Model;
 use puppet::picture::Picture;
 use puppet::progress::Progress;
 use puppet::train::sequence::Frames;
-use puppet::train::SplitRecord;
+use puppet::train::trainer::SplitRecord;
 
 use super::Ui;
 
@@ -66,15 +66,24 @@ pub fn run(args: CorrespondArgs, ui: &Ui) -> anyhow::Result<()> {
         return run_sequence(&args, seq, ui);
     }
     anyhow::ensure!(args.frames.len() == 2, "give two frames A and B (or --sequence DIR)");
-    anyhow::ensure!(args.spacing.is_finite() && args.spacing >= 1.0, "--spacing {}: must be at least 1", args.spacing);
+    anyhow::ensure!(
+        args.spacing.is_finite() && args.spacing >= 1.0,
+        "--spacing {}: must be at least 1",
+        args.spacing
+    );
     let model = Model::load(&args.model, &device)?;
     let a = load_frame(&args.frames[0], &model)?;
     let b = load_frame(&args.frames[1], &model)?;
     let points: Vec<[f32; 2]> = match &args.points {
         Some(path) => {
             let text = std::fs::read_to_string(path).with_context(|| format!("reading {}", path.display()))?;
-            let pts: Vec<[f32; 2]> = serde_json::from_str(&text).map_err(|e| anyhow::anyhow!("{}: not a JSON list of [x, y] points: {e}", path.display()))?;
-            anyhow::ensure!(pts.iter().flatten().all(|c| c.is_finite()), "{}: a point is not finite", path.display());
+            let pts: Vec<[f32; 2]> =
+                serde_json::from_str(&text).map_err(|e| anyhow::anyhow!("{}: not a JSON list of [x, y] points: {e}", path.display()))?;
+            anyhow::ensure!(
+                pts.iter().flatten().all(|c| c.is_finite()),
+                "{}: a point is not finite",
+                path.display()
+            );
             pts
         }
         None => grid_points(&a, args.spacing),
@@ -133,11 +142,20 @@ fn run_sequence(args: &CorrespondArgs, seq: &std::path::Path, ui: &Ui) -> anyhow
         .truth
         .as_ref()
         .with_context(|| format!("{}: no truth.json (PCK needs a synthetic sequence)", seq.display()))?;
-    let split = SplitRecord::load(&args.model)?.with_context(|| format!("{}: no split.json (was it trained by `puppet train`?)", args.model.display()))?;
-    let test = split
-        .test_indices(&frames.names())
-        .with_context(|| format!("{}: the model's held-out frames are not all in {}", args.model.display(), seq.display()))?;
-    anyhow::ensure!(test.len() >= 2, "{}: fewer than two held-out frames, no pair to score", args.model.display());
+    let split = SplitRecord::load(&args.model)?
+        .with_context(|| format!("{}: no split.json (was it trained by `puppet train`?)", args.model.display()))?;
+    let test = split.test_indices(&frames.names()).with_context(|| {
+        format!(
+            "{}: the model's held-out frames are not all in {}",
+            args.model.display(),
+            seq.display()
+        )
+    })?;
+    anyhow::ensure!(
+        test.len() >= 2,
+        "{}: fewer than two held-out frames, no pair to score",
+        args.model.display()
+    );
     for (file, f) in frames.files.iter().zip(&frames.frames) {
         model.check_frame(f).map_err(|e| anyhow::anyhow!("{}: {e}", file.display()))?;
     }
@@ -151,7 +169,12 @@ fn run_sequence(args: &CorrespondArgs, seq: &std::path::Path, ui: &Ui) -> anyhow
     let sequence_dir = frames.dir.parent().unwrap_or(seq).to_path_buf();
     let scored = pck_pairs(truth, &sequence_dir, &frames.files, &fits, &model.puppet, &pairs)?;
     puppet::atomic_file::write_atomic(&args.output, &serde_json::to_vec(&scored)?)?;
-    let table: Vec<String> = scored.alphas.iter().zip(&scored.ours).map(|(a, p)| format!("PCK@{a} {:.2}%", 100.0 * p)).collect();
+    let table: Vec<String> = scored
+        .alphas
+        .iter()
+        .zip(&scored.ours)
+        .map(|(a, p)| format!("PCK@{a} {:.2}%", 100.0 * p))
+        .collect();
     ui.say(format!(
         "{} held-out pairs, {} keypoints: {} → {}",
         pairs.len(),

@@ -94,7 +94,11 @@ pub fn run(args: InbetweenArgs, ui: &Ui) -> anyhow::Result<()> {
     sprite_sheet(&latent, args.columns)?.save_png(&dir.join("sprites.png"))?;
     if let Some(gif) = &args.gif {
         // There and back, so the loop has no jump.
-        let frames: Vec<Picture> = latent.iter().chain(latent.iter().rev().skip(1).take(latent.len().saturating_sub(2))).cloned().collect();
+        let frames: Vec<Picture> = latent
+            .iter()
+            .chain(latent.iter().rev().skip(1).take(latent.len().saturating_sub(2)))
+            .cloned()
+            .collect();
         write_gif(gif, &frames, args.delay, [1.0; 3])?;
         ui.say(format!("wrote {}", gif.display()));
     }

@@ -63,19 +63,28 @@ pub fn parse_pin(s: &str) -> Result<Pin, String> {
     let (a, b) = s.split_once(':').ok_or_else(bad)?;
     let point = |t: &str| -> Result<[f32; 2], String> {
         let (x, y) = t.split_once(',').ok_or_else(bad)?;
-        let (x, y) = (x.trim().parse::<f32>().map_err(|_| bad())?, y.trim().parse::<f32>().map_err(|_| bad())?);
+        let (x, y) = (
+            x.trim().parse::<f32>().map_err(|_| bad())?,
+            y.trim().parse::<f32>().map_err(|_| bad())?,
+        );
         if x.is_finite() && y.is_finite() {
             Ok([x, y])
         } else {
             Err(bad())
         }
     };
-    Ok(Pin { from: point(a)?, to: point(b)? })
+    Ok(Pin {
+        from: point(a)?,
+        to: point(b)?,
+    })
 }
 
 /// `out.png` → `out<suffix>`.
 fn beside(output: &Path, suffix: &str) -> PathBuf {
-    let stem = output.file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_else(|| "pose".into());
+    let stem = output
+        .file_stem()
+        .map(|s| s.to_string_lossy().into_owned())
+        .unwrap_or_else(|| "pose".into());
     output.with_file_name(format!("{stem}{suffix}"))
 }
 
@@ -88,7 +97,11 @@ pub fn run(args: PoseArgs, ui: &Ui) -> anyhow::Result<()> {
         alpha_joints: args.alpha_joints,
     };
     options.validate()?;
-    anyhow::ensure!(args.gif.is_none() || args.gif_frames >= 2, "--gif-frames {}: need at least 2", args.gif_frames);
+    anyhow::ensure!(
+        args.gif.is_none() || args.gif_frames >= 2,
+        "--gif-frames {}: need at least 2",
+        args.gif_frames
+    );
     let device = puppet::backend::device();
     let model = Model::load(&args.model, &device)?;
     let frame = load_frame(&args.image, &model)?;
@@ -110,8 +123,14 @@ pub fn run(args: PoseArgs, ui: &Ui) -> anyhow::Result<()> {
     let arap_pic = render_crisp(&model.puppet, &arap, w, h)?;
     ours.save_png(&args.output)?;
     arap_pic.save_png(&beside(&args.output, "_arap.png"))?;
-    PoseFile { vertices: dragged.vertices.clone() }.save(&beside(&args.output, ".json"))?;
-    let drawn: Vec<Picture> = [&frame, &fit, &ours, &arap_pic].iter().map(|p| pin_overlay(p, &args.pins)).collect();
+    PoseFile {
+        vertices: dragged.vertices.clone(),
+    }
+    .save(&beside(&args.output, ".json"))?;
+    let drawn: Vec<Picture> = [&frame, &fit, &ours, &arap_pic]
+        .iter()
+        .map(|p| pin_overlay(p, &args.pins))
+        .collect();
     let refs: Vec<&Picture> = drawn.iter().collect();
     puppet::synth::output::contact_sheet(&refs, 4).save_png(&beside(&args.output, "_sheet.png"))?;
     if let Some(gif) = &args.gif {

@@ -28,7 +28,10 @@ pub const ARAP_ITERATIONS: usize = 20;
 pub fn arap_drag(puppet: &Puppet, fitted: &[[f32; 2]], pins: &[(Binding, [f32; 2])]) -> Result<Vec<[f32; 2]>> {
     let n = puppet.vertex_count();
     if fitted.len() != n {
-        return Err(Error::Invalid(format!("arap drag: {} fitted vertices for a puppet of {n}", fitted.len())));
+        return Err(Error::Invalid(format!(
+            "arap drag: {} fitted vertices for a puppet of {n}",
+            fitted.len()
+        )));
     }
     if pins.is_empty() {
         return Err(Error::Invalid("arap drag: no pin".into()));
@@ -46,7 +49,10 @@ pub fn arap_drag(puppet: &Puppet, fitted: &[[f32; 2]], pins: &[(Binding, [f32; 2
         i
     }
     for j in &puppet.joints {
-        let (a, b) = (find(&mut parent, puppet.global_index(j.a)), find(&mut parent, puppet.global_index(j.b)));
+        let (a, b) = (
+            find(&mut parent, puppet.global_index(j.a)),
+            find(&mut parent, puppet.global_index(j.b)),
+        );
         if a != b {
             parent[a.max(b)] = a.min(b);
         }
@@ -108,7 +114,9 @@ pub fn arap_drag(puppet: &Puppet, fitted: &[[f32; 2]], pins: &[(Binding, [f32; 2
         if members.is_empty() {
             return;
         }
-        let c = members.iter().fold([0.0, 0.0], |s, &i| [s[0] + initial[i][0], s[1] + initial[i][1]]);
+        let c = members
+            .iter()
+            .fold([0.0, 0.0], |s, &i| [s[0] + initial[i][0], s[1] + initial[i][1]]);
         let c = [c[0] / members.len() as f64, c[1] / members.len() as f64];
         let d = |i: usize| (initial[i][0] - c[0]).powi(2) + (initial[i][1] - c[1]).powi(2);
         let best = members.iter().copied().min_by(|&a, &b| d(a).total_cmp(&d(b))).unwrap_or(members[0]);

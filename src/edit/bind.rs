@@ -68,7 +68,11 @@ pub fn bind(puppet: &Puppet, vertices: &[[f32; 2]], p: [f32; 2]) -> Result<Bindi
             let g = t.map(|i| (offsets[l] + i as usize) as u32);
             let corners = g.map(|i| vertices[i as usize]);
             let Some(w) = barycentric(corners, p) else { continue };
-            let binding = Binding { layer: l, vertices: g, weights: w };
+            let binding = Binding {
+                layer: l,
+                vertices: g,
+                weights: w,
+            };
             if w.iter().all(|&x| x >= -1e-5) {
                 return Ok(binding);
             }
@@ -143,7 +147,10 @@ mod tests {
         let mut rng = crate::test_util::Rng::new(6);
         let mut bound = 0;
         for _ in 0..400 {
-            let p = [rng.uniform(0.0, puppet.width as f64) as f32, rng.uniform(0.0, puppet.height as f64) as f32];
+            let p = [
+                rng.uniform(0.0, puppet.width as f64) as f32,
+                rng.uniform(0.0, puppet.height as f64) as f32,
+            ];
             let Ok(b) = bind(&puppet, &rest, p) else { continue };
             bound += 1;
             let q = b.position(&rest);

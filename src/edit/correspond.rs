@@ -24,7 +24,12 @@ pub struct Correspondence {
 ///
 /// # Errors
 /// [`Error::Invalid`] if either pose does not have one position per puppet vertex.
-pub fn correspond(puppet: &Puppet, from_vertices: &[[f32; 2]], to_vertices: &[[f32; 2]], points: &[[f32; 2]]) -> Result<Vec<Option<Correspondence>>> {
+pub fn correspond(
+    puppet: &Puppet,
+    from_vertices: &[[f32; 2]],
+    to_vertices: &[[f32; 2]],
+    points: &[[f32; 2]],
+) -> Result<Vec<Option<Correspondence>>> {
     for (name, v) in [("frame a", from_vertices), ("frame b", to_vertices)] {
         if v.len() != puppet.vertex_count() {
             return Err(Error::Invalid(format!(
@@ -72,12 +77,17 @@ mod tests {
                 moved[v] = apply(l, rest[v]);
             }
         }
-        let points: Vec<[f32; 2]> = (0..20).flat_map(|i| (0..20).map(move |j| [2.4 * i as f32 + 0.7, 2.0 * j as f32 + 0.3])).collect();
+        let points: Vec<[f32; 2]> = (0..20)
+            .flat_map(|i| (0..20).map(move |j| [2.4 * i as f32 + 0.7, 2.0 * j as f32 + 0.3]))
+            .collect();
         let out = correspond(&puppet, &rest, &moved, &points).unwrap();
         let mut mapped = 0;
         for c in out.into_iter().flatten() {
             let want = apply(c.binding.layer, c.binding.position(&rest));
-            assert!((want[0] - c.to[0]).abs() < 1e-3 && (want[1] - c.to[1]).abs() < 1e-3, "{c:?} vs {want:?}");
+            assert!(
+                (want[0] - c.to[0]).abs() < 1e-3 && (want[1] - c.to[1]).abs() < 1e-3,
+                "{c:?} vs {want:?}"
+            );
             mapped += 1;
         }
         assert!(mapped > 60, "only {mapped} points on the puppet");

@@ -42,7 +42,13 @@ pub struct InbetweenScore {
 /// # Errors
 /// [`Error::Invalid`] if no held-out frame has both neighbours among the training frames, or a
 /// frame is not the puppet's size.
-pub fn inbetween_scores(model: &Model, frames: &[Picture], training: &[usize], held_out: &[usize], device: &Device) -> Result<Vec<InbetweenScore>> {
+pub fn inbetween_scores(
+    model: &Model,
+    frames: &[Picture],
+    training: &[usize],
+    held_out: &[usize],
+    device: &Device,
+) -> Result<Vec<InbetweenScore>> {
     let train_pics: Vec<Picture> = training.iter().filter_map(|&i| frames.get(i).cloned()).collect();
     let (w, h) = (model.puppet.width, model.puppet.height);
     let mut out = Vec::new();
@@ -67,7 +73,9 @@ pub fn inbetween_scores(model: &Model, frames: &[Picture], training: &[usize], h
         });
     }
     if out.is_empty() {
-        return Err(Error::Invalid("in-between scores: no held-out frame has both neighbours among the training frames".into()));
+        return Err(Error::Invalid(
+            "in-between scores: no held-out frame has both neighbours among the training frames".into(),
+        ));
     }
     Ok(out)
 }
@@ -97,8 +105,10 @@ mod tests {
         assert_eq!(scores.iter().map(|s| s.frame).collect::<Vec<_>>(), vec![1, 3]);
         for s in &scores {
             // An untrained model predicts the rest pose: every method renders the rest frame.
-            assert!((s.latent - s.hold).abs() < 1e-6 && (s.vertex - s.hold).abs() < 1e-6 && (s.fit - s.hold).abs() < 1e-6, "{s:?}");
-            assert!(s.hold > 0.0 && (s.nearest - s.hold).abs() < 1e-6);
+            // (up to f32 rounding of the vertices' trip through the letterbox)
+            let same = |x: f64| (x - s.hold).abs() < 1e-3;
+            assert!(same(s.latent) && same(s.vertex) && same(s.fit) && same(s.nearest), "{s:?}");
+            assert!(s.hold > 1000.0, "the shifted frame differs from the rest frame: {s:?}");
         }
         assert!(inbetween_scores(&model, &frames, &[0, 1], &[3], &device).is_err());
     }

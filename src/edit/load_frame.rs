@@ -66,7 +66,9 @@ mod tests {
         let err = load_frame(&rgb, &model).unwrap_err().to_string();
         assert!(err.contains("rgb.png") && err.contains("no alpha"), "{err}");
         let opaque = dir.path().join("opaque.png");
-        image::RgbaImage::from_pixel(48, 40, image::Rgba([9, 9, 9, 255])).save(&opaque).unwrap();
+        image::RgbaImage::from_pixel(48, 40, image::Rgba([9, 9, 9, 255]))
+            .save(&opaque)
+            .unwrap();
         assert!(load_frame(&opaque, &model).unwrap_err().to_string().contains("opaque everywhere"));
     }
 }

@@ -10,7 +10,9 @@ pub mod bind;
 pub mod correspond;
 pub mod inbetween;
 pub mod inbetween_eval;
+pub mod load_frame;
 pub mod pck_pairs;
+pub mod pin_overlay;
 pub mod pose;
 
 pub use arap_drag::arap_drag;

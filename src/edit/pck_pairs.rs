@@ -90,7 +90,14 @@ pub fn visible_keypoints(truth: &Truth, sequence_dir: &Path, f: usize, puppet: &
 /// # Errors
 /// As [`visible_keypoints`]; [`Error::Invalid`] for an index out of range or a fit of the wrong
 /// size.
-pub fn pck_pairs(truth: &Truth, sequence_dir: &Path, files: &[PathBuf], fits: &[Vec<[f32; 2]>], puppet: &Puppet, pairs: &[(usize, usize)]) -> Result<PckPairs> {
+pub fn pck_pairs(
+    truth: &Truth,
+    sequence_dir: &Path,
+    files: &[PathBuf],
+    fits: &[Vec<[f32; 2]>],
+    puppet: &Puppet,
+    pairs: &[(usize, usize)],
+) -> Result<PckPairs> {
     let mut out = Vec::with_capacity(pairs.len());
     let mut sums = [0.0f64; 3];
     for &(a, b) in pairs {
@@ -100,7 +107,10 @@ pub fn pck_pairs(truth: &Truth, sequence_dir: &Path, files: &[PathBuf], fits: &[
         let keypoints = visible_keypoints(truth, sequence_dir, a, puppet)?;
         let points_a: Vec<[f32; 2]> = keypoints.iter().map(|k| k.2).collect();
         let truth_b: Vec<[f32; 2]> = keypoints.iter().map(|&(part, r, _)| truth.map_point(b, part, r)).collect();
-        let ours_b: Vec<Option<[f32; 2]>> = correspond(puppet, &fits[a], &fits[b], &points_a)?.into_iter().map(|c| c.map(|c| c.to)).collect();
+        let ours_b: Vec<Option<[f32; 2]>> = correspond(puppet, &fits[a], &fits[b], &points_a)?
+            .into_iter()
+            .map(|c| c.map(|c| c.to))
+            .collect();
         // A miss is placed at infinity so it never counts as correct.
         let predicted: Vec<[f32; 2]> = ours_b.iter().map(|p| p.unwrap_or([f32::INFINITY; 2])).collect();
         for (s, &alpha) in sums.iter_mut().zip(&ALPHAS) {
@@ -126,7 +136,10 @@ pub fn pck_pairs(truth: &Truth, sequence_dir: &Path, files: &[PathBuf], fits: &[
 
 /// All ordered pairs (a, b), a ≠ b, of `frames`.
 pub fn ordered_pairs(frames: &[usize]) -> Vec<(usize, usize)> {
-    frames.iter().flat_map(|&a| frames.iter().filter(move |&&b| b != a).map(move |&b| (a, b))).collect()
+    frames
+        .iter()
+        .flat_map(|&a| frames.iter().filter(move |&&b| b != a).map(move |&b| (a, b)))
+        .collect()
 }
 
 #[cfg(test)]

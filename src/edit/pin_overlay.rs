@@ -18,7 +18,11 @@ pub fn pin_overlay(picture: &Picture, pins: &[Pin]) -> Picture {
     };
     let radius = (picture.width.max(picture.height) as f32 / 64.0).max(1.5);
     for pin in pins {
-        paint(&mut out, |p| segment_distance(p, pin.from, pin.to) - 0.5 * radius * 0.5, [0.35, 0.35, 0.35]);
+        paint(
+            &mut out,
+            |p| segment_distance(p, pin.from, pin.to) - 0.5 * radius * 0.5,
+            [0.35, 0.35, 0.35],
+        );
         paint(&mut out, |p| (dist(p, pin.from) - radius).abs() - 0.35 * radius, [0.1, 0.1, 0.1]);
         paint(&mut out, |p| dist(p, pin.to) - radius, [0.9, 0.1, 0.1]);
     }
@@ -62,7 +66,13 @@ mod tests {
     #[test]
     fn target_is_red_source_ringed_and_far_pixels_untouched() {
         let pic = Picture::filled(64, 64, [0.0; 4]);
-        let out = pin_overlay(&pic, &[Pin { from: [10.5, 10.5], to: [50.5, 40.5] }]);
+        let out = pin_overlay(
+            &pic,
+            &[Pin {
+                from: [10.5, 10.5],
+                to: [50.5, 40.5],
+            }],
+        );
         let at = |x: u32, y: u32| out.get(x, y);
         assert!(at(50, 40)[0] > 0.8 && at(50, 40)[1] < 0.2, "{:?}", at(50, 40));
         assert!(at(12, 10)[0] < 0.7, "the ring passes (12, 10): {:?}", at(12, 10));

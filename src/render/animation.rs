@@ -22,7 +22,12 @@ fn common_size(frames: &[Picture], what: &Path) -> Result<(u32, u32)> {
         .ok_or_else(|| Error::Invalid(format!("{}: no frames to write", what.display())))?;
     let size = (first.width, first.height);
     if size.0 == 0 || size.1 == 0 {
-        return Err(Error::Invalid(format!("{}: frames are {}×{} (empty)", what.display(), size.0, size.1)));
+        return Err(Error::Invalid(format!(
+            "{}: frames are {}×{} (empty)",
+            what.display(),
+            size.0,
+            size.1
+        )));
     }
     if let Some((k, f)) = frames.iter().enumerate().find(|(_, f)| (f.width, f.height) != size) {
         return Err(Error::Invalid(format!(
@@ -47,7 +52,12 @@ fn flatten(p: &Picture, background: [f32; 3]) -> Picture {
             .iter()
             .map(|&[r, g, b, a]| {
                 let a = a.clamp(0.0, 1.0);
-                [r * a + background[0] * (1.0 - a), g * a + background[1] * (1.0 - a), b * a + background[2] * (1.0 - a), 1.0]
+                [
+                    r * a + background[0] * (1.0 - a),
+                    g * a + background[1] * (1.0 - a),
+                    b * a + background[2] * (1.0 - a),
+                    1.0,
+                ]
             })
             .collect(),
     }
@@ -70,7 +80,11 @@ pub fn gif_bytes(frames: &[Picture], delay_ms: u32, background: [f32; 3], what: 
         encoder.set_repeat(Repeat::Infinite).map_err(image_error)?;
         let delay = Delay::from_numer_denom_ms(delay_ms.max(1), 1);
         encoder
-            .encode_frames(frames.iter().map(|f| Frame::from_parts(flatten(f, background).to_rgba8(), 0, 0, delay)))
+            .encode_frames(
+                frames
+                    .iter()
+                    .map(|f| Frame::from_parts(flatten(f, background).to_rgba8(), 0, 0, delay)),
+            )
             .map_err(image_error)?;
     }
     Ok(bytes)
@@ -159,7 +173,10 @@ mod tests {
             assert_eq!((got.width(), got.height()), (6, 4));
             for (a, b) in got.pixels().zip(want.pixels()) {
                 // Palette quantisation: a few levels per channel at most on so few colours.
-                assert!(a.0.iter().zip(b.0).all(|(x, y)| (*x as i32 - y as i32).abs() <= 8), "frame {k}: {a:?} vs {b:?}");
+                assert!(
+                    a.0.iter().zip(b.0).all(|(x, y)| (*x as i32 - y as i32).abs() <= 8),
+                    "frame {k}: {a:?} vs {b:?}"
+                );
             }
         }
     }
@@ -174,7 +191,11 @@ mod tests {
         for (p, f) in paths.iter().zip(&frames) {
             let back = Picture::load(p).unwrap();
             assert_eq!(back.pixels.len(), f.pixels.len());
-            assert!(back.pixels.iter().zip(&f.pixels).all(|(a, b)| (0..4).all(|c| (a[c] - b[c]).abs() < 1.0 / 255.0)));
+            assert!(back
+                .pixels
+                .iter()
+                .zip(&f.pixels)
+                .all(|(a, b)| (0..4).all(|c| (a[c] - b[c]).abs() < 1.0 / 255.0)));
         }
         let sheet = sprite_sheet(&frames, 2).unwrap();
         assert_eq!((sheet.width, sheet.height), (12, 12));

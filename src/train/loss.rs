@@ -26,7 +26,10 @@ pub fn reconstruction(rendered: Tensor<4>, target: Tensor<4>) -> Tensor<1> {
 pub fn masked_reconstruction(rendered: Tensor<4>, mask: Tensor<4>, target_rgb: Tensor<4>) -> Tensor<1> {
     let [b, _, _, _] = rendered.dims();
     let rgb = rendered.narrow(1, 0, 3);
-    let diff = (target_rgb * mask.clone() - rgb).powf_scalar(2.0).reshape([b as i32, -1]).sum_dim(1);
+    let diff = (target_rgb * mask.clone() - rgb)
+        .powf_scalar(2.0)
+        .reshape([b as i32, -1])
+        .sum_dim(1);
     let area = mask.reshape([b as i32, -1]).sum_dim(1).add_scalar(1e-6);
     (diff / area).mean()
 }

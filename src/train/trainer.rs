@@ -67,7 +67,9 @@ impl SplitRecord {
             return Ok(None);
         }
         let text = std::fs::read_to_string(&path).map_err(|e| Error::io(&path, e))?;
-        serde_json::from_str(&text).map(Some).map_err(|e| Error::format(&path, format!("invalid split record: {e}")))
+        serde_json::from_str(&text)
+            .map(Some)
+            .map_err(|e| Error::format(&path, format!("invalid split record: {e}")))
     }
 
     /// Indices into `names` of the held-out frames, if every one of them is there.
@@ -122,13 +124,23 @@ pub fn train(config: &TrainConfig, options: &TrainOptions, progress: &dyn Progre
                 dir.display()
             )))
         }
-        (None, true) => return Err(Error::Invalid(format!("{}: --resume, but there is no checkpoint to resume from", out.display()))),
+        (None, true) => {
+            return Err(Error::Invalid(format!(
+                "{}: --resume, but there is no checkpoint to resume from",
+                out.display()
+            )))
+        }
         _ => {}
     }
 
     let puppet = load_or_build_puppet(&config.puppet, progress)?;
     let frames = Frames::load(&config.frames)?;
-    if let Some((file, f)) = frames.files.iter().zip(&frames.frames).find(|(_, f)| (f.width, f.height) != (puppet.width, puppet.height)) {
+    if let Some((file, f)) = frames
+        .files
+        .iter()
+        .zip(&frames.frames)
+        .find(|(_, f)| (f.width, f.height) != (puppet.width, puppet.height))
+    {
         return Err(Error::format(
             file,
             format!(
@@ -144,7 +156,10 @@ pub fn train(config: &TrainConfig, options: &TrainOptions, progress: &dyn Progre
     let (train_idx, test_idx) = split(frames.frames.len(), config.test_fraction, config.seed)
         .map_err(|e| Error::Invalid(format!("{}: {e}", config.frames.display())))?;
     if config.test_fraction > 0.0 && test_idx.is_empty() {
-        return Err(Error::Invalid(format!("{}: the split leaves no test frame", config.frames.display())));
+        return Err(Error::Invalid(format!(
+            "{}: the split leaves no test frame",
+            config.frames.display()
+        )));
     }
 
     let device = crate::backend::train_device();
@@ -156,21 +171,37 @@ pub fn train(config: &TrainConfig, options: &TrainOptions, progress: &dyn Progre
     let mut model = Model::new(net_config, puppet, &device)?;
     let size = model.letterbox.size as usize;
     model.save(out)?;
-    write_atomic(&out.join(CONFIG_FILE), toml::to_string_pretty(config).map_err(|e| Error::Invalid(e.to_string()))?.as_bytes())?;
+    write_atomic(
+        &out.join(CONFIG_FILE),
+        toml::to_string_pretty(config)
+            .map_err(|e| Error::Invalid(e.to_string()))?
+            .as_bytes(),
+    )?;
     let names = frames.names();
     let record = SplitRecord {
         frames: config.frames.clone(),
         train: train_idx.iter().map(|&i| names[i].clone()).collect(),
         test: test_idx.iter().map(|&i| names[i].clone()).collect(),
     };
-    write_atomic(&out.join(SPLIT_FILE), &serde_json::to_vec_pretty(&record).map_err(|e| Error::Invalid(e.to_string()))?)?;
+    write_atomic(
+        &out.join(SPLIT_FILE),
+        &serde_json::to_vec_pretty(&record).map_err(|e| Error::Invalid(e.to_string()))?,
+    )?;
 
     // The rasterizer renders the working square: vertices in working pixels, textures by UV.
     let raster = Arc::new(SoftRasterizer::new(&model.puppet)?);
-    let rest: Vec<[f32; 2]> = model.puppet.rest_vertices().into_iter().map(|p| model.letterbox.to_work(p)).collect();
+    let rest: Vec<[f32; 2]> = model
+        .puppet
+        .rest_vertices()
+        .into_iter()
+        .map(|p| model.letterbox.to_work(p))
+        .collect();
     let rest_area = rest_coverage(&raster, &rest, size)?;
     let objective = Objective::new(&model.puppet, &rest, size, rest_area, config.loss.clone())?;
-    let inputs: Vec<Vec<f32>> = train_idx.iter().map(|&i| model.letterbox.premultiplied_planes(&frames.frames[i])).collect();
+    let inputs: Vec<Vec<f32>> = train_idx
+        .iter()
+        .map(|&i| model.letterbox.premultiplied_planes(&frames.frames[i]))
+        .collect();
 
     let mut optimizer: ModuleOptimizer = AdamConfig::new().with_epsilon(1e-8).init();
     let config_json = serde_json::to_value(config).map_err(|e| Error::Invalid(e.to_string()))?;
@@ -190,7 +221,11 @@ pub fn train(config: &TrainConfig, options: &TrainOptions, progress: &dyn Progre
         (step, elapsed) = (c.state.step, c.state.elapsed);
     }
     let mut log = TrainLog::open(&out.join(LOG_FILE), step)?;
-    let weights = [config.loss.arap, config.loss.joints, if config.loss.masked { config.loss.area } else { 0.0 }];
+    let weights = [
+        config.loss.arap,
+        config.loss.joints,
+        if config.loss.masked { config.loss.area } else { 0.0 },
+    ];
 
     let stop = options.pause_at.map_or(config.train.steps, |p| p.min(config.train.steps));
     progress.stage("training", config.train.steps);
@@ -216,8 +251,20 @@ pub fn train(config: &TrainConfig, options: &TrainOptions, progress: &dyn Progre
         };
         let rendered = soft_raster(vertices.clone(), &raster, size, size, params)?;
         let terms = objective.evaluate(vertices, &rendered, images, &device)?;
-        let value = |t: &Tensor<1>| t.clone().into_data().convert::<f64>().try_to_vec::<f64>().map_or(f64::NAN, |v| v[0]);
-        let (total, rec, arap, joints, area) = (value(&terms.total), value(&terms.rec), value(&terms.arap), value(&terms.joints), value(&terms.area));
+        let value = |t: &Tensor<1>| {
+            t.clone()
+                .into_data()
+                .convert::<f64>()
+                .try_to_vec::<f64>()
+                .map_or(f64::NAN, |v| v[0])
+        };
+        let (total, rec, arap, joints, area) = (
+            value(&terms.total),
+            value(&terms.rec),
+            value(&terms.arap),
+            value(&terms.joints),
+            value(&terms.area),
+        );
         if !total.is_finite() {
             let keep = checkpoint::latest(out)?.map_or("none was written yet".to_string(), |d| d.display().to_string());
             return Err(Error::Invalid(format!(
@@ -246,7 +293,9 @@ pub fn train(config: &TrainConfig, options: &TrainOptions, progress: &dyn Progre
         log.push(row)?;
         last = Some(row);
         progress.advance(1);
-        progress.message(&format!("loss {total:.3e} (rec {rec:.3e}, arap {arap:.2e}, joints {joints:.2e}) σ {sigma:.2}"));
+        progress.message(&format!(
+            "loss {total:.3e} (rec {rec:.3e}, arap {arap:.2e}, joints {joints:.2e}) σ {sigma:.2}"
+        ));
     }
     let seconds = started.elapsed().as_secs_f64();
     let finished = step >= config.train.steps;
@@ -275,7 +324,9 @@ fn save_checkpoint(
     weights: [f64; 3],
 ) -> Result<()> {
     let dir = out.join(checkpoint::CHECKPOINT_DIR);
-    let optim = optimizer.into_bytes().map_err(|e| Error::format(&dir, format!("cannot encode optimiser state: {e:?}")))?;
+    let optim = optimizer
+        .into_bytes()
+        .map_err(|e| Error::format(&dir, format!("cannot encode optimiser state: {e:?}")))?;
     let state = CheckpointState {
         step,
         elapsed,
