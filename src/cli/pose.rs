@@ -156,7 +156,7 @@ pub fn run(args: PoseArgs, ui: &Ui) -> anyhow::Result<()> {
     }
     let errors: Vec<String> = dragged.pin_error.iter().map(|e| format!("{e:.1}")).collect();
     ui.say(format!(
-        "{} pin(s), {} steps in {:.1} ms: pin error [{}] px, L_deform {:.1} → {:.1} → {} (+ _arap.png, _sheet.png, .json)",
+        "{} pin(s), {} steps in {:.1} ms: pin error [{}] px, L_deform {:.3e} → {:.3e} → {} (+ _arap.png, _sheet.png, .json)",
         args.pins.len(),
         options.steps,
         took.as_secs_f64() * 1e3,

@@ -14,6 +14,13 @@
 //! η = 3·10⁻⁴ are used in the units the paper's NMR-based code had. Pins are given and results
 //! returned in frame pixels.
 //!
+//! **Step size.** The paper's fixed η = 3·10⁻⁴ depends on how strongly its decoder reacts to
+//! z; on ours a fixed η either barely moves the pin or diverges (measured on a checkpoint of
+//! configs/edit-walk-23.toml: η = 1 left L_deform unchanged to 4 digits, η = 30 blew it up to
+//! 10⁶, because ARAP's curvature in z dwarfs L_user's). So each step of eq. 9 starts from the
+//! current η and backtracks: the step is taken only if it lowers L_deform, η then doubles;
+//! otherwise η is quartered and the step retried. `PoseOptions::eta` is the first η.
+//!
 //! [`PoseEditor`] keeps the encoded frame, the fitted pose and the pins' bindings, so an
 //! interactive editor can call [`PoseEditor::drag`] on every mouse move: each call continues from
 //! the latent the previous one reached (a few steps each, as the paper's 2–5), and
@@ -46,7 +53,7 @@ pub struct Pin {
 pub struct PoseOptions {
     /// Gradient steps per drag (paper: 2 to 5).
     pub steps: usize,
-    /// Step size η of eq. 9.
+    /// Step size η of eq. 9 — the first step's; later steps adapt it (module doc).
     pub eta: f32,
     /// Weight α1 of the ARAP regulariser (paper: 25).
     pub alpha_reg: f32,
@@ -65,8 +72,15 @@ impl Default for PoseOptions {
     }
 }
 
-/// The default step size η (see [`PoseOptions::eta`]).
+/// The default initial step size η (see [`PoseOptions::eta`]; the paper's fixed η).
 pub const DEFAULT_ETA: f32 = 3e-4;
+
+/// Step-size halvings (by 4) tried per gradient step before giving up.
+const MAX_BACKTRACKS: usize = 12;
+
+/// The adapted step size stays below this multiple of [`PoseOptions::eta`] (2^20: the doubling
+/// may cover many orders of magnitude over a long interactive drag, but not run away).
+const MAX_GROWTH: f32 = 1_048_576.0;
 
 impl PoseOptions {
     /// Checks the options.
@@ -122,6 +136,8 @@ pub struct PoseEditor<'m> {
     weights: Option<Tensor<2>>,
     /// Working pixels → NDC.
     ndc_scale: f32,
+    /// The current step size (adapted from [`PoseOptions::eta`]; NaN until the first drag).
+    eta: f32,
     regularisers: Regularisers,
 }
 
@@ -157,6 +173,7 @@ impl<'m> PoseEditor<'m> {
             bindings: Vec::new(),
             weights: None,
             ndc_scale: 1.0 / half,
+            eta: f32::NAN,
             regularisers: Regularisers { arap, joints },
         })
     }
@@ -199,9 +216,10 @@ impl<'m> PoseEditor<'m> {
         Ok(())
     }
 
-    /// Returns to the fitted latent.
+    /// Returns to the fitted latent (and forgets the adapted step size).
     pub fn reset(&mut self) {
         self.z = self.z0.clone();
+        self.eta = f32::NAN;
     }
 
     /// Runs `options.steps` gradient steps of eq. 9 from the current latent towards `targets`
@@ -212,6 +230,9 @@ impl<'m> PoseEditor<'m> {
     /// target is not finite, or the options are invalid.
     pub fn drag(&mut self, targets: &[[f32; 2]], options: &PoseOptions) -> Result<Dragged> {
         options.validate()?;
+        if !self.eta.is_finite() {
+            self.eta = options.eta;
+        }
         let Some(weights) = self.weights.clone() else {
             return Err(Error::Invalid("pose: no pins to drag".into()));
         };
@@ -237,7 +258,24 @@ impl<'m> PoseEditor<'m> {
             let g = z
                 .grad(&grads)
                 .ok_or_else(|| Error::Invalid("pose: no gradient reached the latent".into()))?;
-            self.z = self.z.clone() - g.mul_scalar(options.eta);
+            // Eq. 9 with a backtracking step size (module doc): grow η after a step that lowers
+            // L_deform, shrink it until one does.
+            let before = *losses.last().unwrap_or(&f32::INFINITY);
+            let mut accepted = None;
+            for _ in 0..MAX_BACKTRACKS {
+                let candidate = self.z.clone() - g.clone().mul_scalar(self.eta);
+                let after = self.deform_loss(candidate.clone(), &weights, &target, options)?.into_scalar::<f32>();
+                if after.is_finite() && after < before {
+                    accepted = Some(candidate);
+                    self.eta = (self.eta * 2.0).min(options.eta * MAX_GROWTH);
+                    break;
+                }
+                self.eta *= 0.25;
+            }
+            match accepted {
+                Some(z) => self.z = z,
+                None => break, // no step lowers the loss: a (local) minimum at this precision
+            }
         }
         let final_loss = self.deform_loss(self.z.clone(), &weights, &target, options)?;
         losses.push(final_loss.into_scalar::<f32>());
