@@ -1,80 +1,143 @@
-//! Which Burn CPU backend trains fastest (DESIGN.md: choose the backend in src/backend.rs by
-//! measurement). One training step of the paper's encoder-decoder (neural-puppet.md §3.2: three
-//! convolutions k5 s2 p2, three FC layers to a 512-d latent, three FC layers to 2·V + 2 outputs)
-//! with an MSE loss and Adam, batch 16 at 64² (128² takes minutes per sample on `ndarray`).
+//! Training speed of the deformation network alone (issue 5's speed goal; neural-puppet.md §3.2):
+//! one step of `puppet::model::deformation::DeformationNet` — encode, decode, add the rest
+//! vertices, an MSE loss against target vertices, backward, optimiser update — at batch 16,
+//! 128² input, V = 600 vertices (the first FC layer is 32768 → 1024: 33.5 M of the 36.6 M
+//! weights). `bench/train_torch.py` runs the same network in PyTorch; benches/README.md has both.
 //!
-//! Run once per backend feature:
-//! `cargo bench --bench backend` (flex),
-//! `cargo bench --bench backend --no-default-features --features ndarray`,
-//! `cargo bench --bench backend --no-default-features --features cpu`.
+//! Ids `backend/train_step/<backend>/<optimizer>/batch=16/px=128`. With `BACKEND_CPU_REPORT=1`
+//! it first prints wall and process CPU time per step (the machine is shared: CPU time per step
+//! does not depend on other jobs, and CPU / wall says how many cores the step kept busy).
+//! `BACKEND_PX=64` changes the input size (the `ndarray` backend takes minutes at 128²).
+//!
+//! ```sh
+//! BACKEND_CPU_REPORT=1 cargo bench --bench backend
+//! BACKEND_CPU_REPORT=1 cargo bench --bench backend --no-default-features --features flex  # system allocator
+//! BACKEND_PX=64 cargo bench --bench backend --no-default-features --features ndarray
+//! ```
 
-use burn::module::Module;
-use burn::nn::conv::{Conv2d, Conv2dConfig};
-use burn::nn::{Linear, LinearConfig, PaddingConfig2d};
 use burn::optim::{AdamConfig, GradientsParams};
-use burn::tensor::activation::relu;
 use burn::tensor::{Distribution, Tensor};
 use criterion::{criterion_group, criterion_main, Criterion, Throughput};
+use puppet::model::deformation::{rest_tensor, DeformationNet, DeformationNetConfig};
+use puppet::train::optim::{adam, AdamSettings};
 
-const BATCH: usize = 16;
-const SIZE: usize = 64;
-const VERTICES: usize = 600;
+// The binary's allocator and its setting (src/main.rs); `--no-default-features --features flex`
+// measures without both, `BACKEND_PURGE=1` with mimalloc's default purging.
+#[cfg(feature = "mimalloc")]
+#[global_allocator]
+static GLOBAL: mimalloc::MiMalloc = mimalloc::MiMalloc;
 
-#[derive(Module, Debug)]
-struct Net {
-    convs: Vec<Conv2d>,
-    fcs: Vec<Linear>,
+/// As `keep_freed_memory` in src/main.rs: mimalloc keeps freed memory instead of returning it to
+/// the OS, unless `BACKEND_PURGE` is set.
+#[cfg(feature = "mimalloc")]
+fn keep_freed_memory() {
+    if std::env::var_os("BACKEND_PURGE").is_none() {
+        // mimalloc v3's `mi_option_purge_delay` (mimalloc.h); -1: never purge.
+        const MI_OPTION_PURGE_DELAY: libmimalloc_sys::mi_option_t = 15;
+        // SAFETY: stores an integer in mimalloc's thread-safe option table; no pointers.
+        unsafe { libmimalloc_sys::mi_option_set(MI_OPTION_PURGE_DELAY, -1) };
+    }
 }
 
-impl Net {
-    fn new(device: &burn::tensor::Device) -> Self {
-        let conv = |i, o| {
-            Conv2dConfig::new([i, o], [5, 5])
-                .with_stride([2, 2])
-                .with_padding(PaddingConfig2d::Explicit(2, 2, 2, 2))
-                .init(device)
-        };
-        let flat = 128 * (SIZE / 8) * (SIZE / 8);
-        let dims = [flat, 1024, 512, 512, 512, 1024, 2 * VERTICES + 2];
-        Net {
-            convs: vec![conv(4, 32), conv(32, 64), conv(64, 128)],
-            fcs: dims.windows(2).map(|d| LinearConfig::new(d[0], d[1]).init(device)).collect(),
+const BATCH: usize = 16;
+const VERTICES: usize = 600;
+const LEARNING_RATE: f64 = 1e-4;
+
+/// The input size: `BACKEND_PX` or 128.
+fn input_size() -> usize {
+    std::env::var("BACKEND_PX").ok().and_then(|s| s.parse().ok()).unwrap_or(128)
+}
+
+/// One network-alone training step's inputs and state.
+struct Step {
+    net: Option<DeformationNet>,
+    optim: burn::optim::ModuleOptimizer,
+    images: Tensor<4>,
+    rest: Tensor<2>,
+    target: Tensor<3>,
+}
+
+impl Step {
+    fn new(optim: burn::optim::ModuleOptimizer, size: usize) -> Self {
+        let device = puppet::backend::train_device();
+        let net = DeformationNetConfig::new(VERTICES).with_input_size(size).init(&device);
+        let rest: Vec<[f32; 2]> = (0..VERTICES).map(|i| [(i % 40) as f32 * 3.0, (i / 40) as f32 * 8.0]).collect();
+        Step {
+            net: Some(net),
+            optim,
+            images: Tensor::random([BATCH, 4, size, size], Distribution::Uniform(0.0, 1.0), &device),
+            rest: rest_tensor(&rest, &device),
+            target: Tensor::random([BATCH, VERTICES, 2], Distribution::Uniform(0.0, 120.0), &device),
         }
     }
 
-    fn forward(&self, x: Tensor<4>) -> Tensor<2> {
-        let mut x = x;
-        for c in &self.convs {
-            x = relu(c.forward(x));
-        }
-        let mut h: Tensor<2> = x.flatten(1, 3);
-        let last = self.fcs.len() - 1;
-        for (i, fc) in self.fcs.iter().enumerate() {
-            h = fc.forward(h);
-            if i != last {
-                h = relu(h);
-            }
-        }
-        h
+    /// Forward, MSE on the vertices, backward, update. The network is moved into the optimiser
+    /// (not cloned), as a training loop would, so an in-place optimiser can reuse its buffers.
+    fn run(&mut self) {
+        let net = self.net.take().expect("put back at the end of every step");
+        let v = net.vertices(net.encode(self.images.clone()), &self.rest);
+        let loss = (v - self.target.clone()).powf_scalar(2.0).mean();
+        let grads = GradientsParams::from_grads(loss.backward(), &net);
+        self.net = Some(self.optim.step(LEARNING_RATE, net, grads));
     }
+}
+
+/// The optimisers compared: Burn's Adam with PyTorch's epsilon, and ours
+/// (`puppet::train::optim::adam`, one in-place pass per weight tensor). `BACKEND_OPTIM` picks one.
+fn optimizers() -> Vec<(&'static str, burn::optim::ModuleOptimizer)> {
+    let all = vec![
+        ("burn_adam", AdamConfig::new().with_epsilon(1e-8).init()),
+        ("fused_adam", adam(&AdamSettings::new())),
+    ];
+    match std::env::var("BACKEND_OPTIM") {
+        Ok(only) => all.into_iter().filter(|(name, _)| *name == only).collect(),
+        Err(_) => all,
+    }
+}
+
+/// CPU time (user + system) of this process so far, in seconds, from /proc/self/stat (Linux;
+/// 0 elsewhere).
+fn cpu_seconds() -> f64 {
+    let stat = std::fs::read_to_string("/proc/self/stat").unwrap_or_default();
+    // Fields after the parenthesised command name; utime and stime are fields 14 and 15.
+    let rest = stat.rsplit_once(')').map_or("", |(_, r)| r);
+    let f: Vec<f64> = rest.split_whitespace().skip(11).take(2).filter_map(|x| x.parse().ok()).collect();
+    f.iter().sum::<f64>() / 100.0 // USER_HZ is 100 on Linux
+}
+
+/// Prints wall and CPU time per step and images/s, over `n` steps after two warm-up steps.
+fn report_cpu(name: &str, n: usize, step: &mut Step) {
+    step.run();
+    step.run();
+    let (wall, cpu) = (std::time::Instant::now(), cpu_seconds());
+    for _ in 0..n {
+        step.run();
+    }
+    let (wall, cpu) = (wall.elapsed().as_secs_f64() / n as f64, (cpu_seconds() - cpu) / n as f64);
+    println!(
+        "cpu-report {name}: wall {:.1} ms, cpu {:.1} ms per step of {BATCH} ({:.1} images/s, {:.0} % CPU)",
+        wall * 1e3,
+        cpu * 1e3,
+        BATCH as f64 / wall,
+        100.0 * cpu / wall
+    );
 }
 
 fn training_step(c: &mut Criterion) {
-    let device = puppet::backend::train_device();
-    let mut net = Net::new(&device);
-    let mut adam = AdamConfig::new().with_epsilon(1e-8).init();
-    let images = Tensor::<4>::random([BATCH, 4, SIZE, SIZE], Distribution::Uniform(0.0, 1.0), &device);
-    let target = Tensor::<2>::random([BATCH, 2 * VERTICES + 2], Distribution::Uniform(-1.0, 1.0), &device);
+    #[cfg(feature = "mimalloc")]
+    keep_freed_memory();
+    let size = input_size();
     let mut group = c.benchmark_group("backend");
     group.sample_size(10);
     group.throughput(Throughput::Elements(BATCH as u64));
-    group.bench_function(format!("train_step/{}/batch={BATCH}/px={SIZE}", puppet::backend::name()), |b| {
-        b.iter(|| {
-            let loss = (net.forward(images.clone()) - target.clone()).powf_scalar(2.0).mean();
-            let grads = GradientsParams::from_grads(loss.backward(), &net);
-            net = adam.step(1e-4, net.clone(), grads);
-        })
-    });
+    for (name, optim) in optimizers() {
+        let id = format!("train_step/{}/{name}/batch={BATCH}/px={size}", puppet::backend::name());
+        let mut step = Step::new(optim, size);
+        if std::env::var_os("BACKEND_CPU_REPORT").is_some() {
+            report_cpu(&id, 10, &mut step);
+        }
+        group.bench_function(id, |b| b.iter(|| step.run()));
+    }
     group.finish();
 }
 

@@ -7,8 +7,8 @@ use puppet::model::Model;
 use puppet::picture::Picture;
 use puppet::progress::Progress;
 use puppet::puppet::pose_file::PoseFile;
-use puppet::render::preview::wireframe_preview;
 use puppet::render::render_crisp;
+use puppet::render::preview::wireframe_preview;
 use puppet::train::Frames;
 
 use super::Ui;
@@ -69,12 +69,7 @@ pub fn run(args: FitArgs, ui: &Ui) -> anyhow::Result<()> {
     ui.finish();
     let sheet_path = args.output.join("sheet.png");
     sheet(&rows).save_png(&sheet_path)?;
-    ui.say(format!(
-        "fitted {} frames → {} (side by side: {})",
-        rows.len(),
-        args.output.display(),
-        sheet_path.display()
-    ));
+    ui.say(format!("fitted {} frames → {} (side by side: {})", rows.len(), args.output.display(), sheet_path.display()));
     Ok(())
 }
 
@@ -107,3 +102,4 @@ fn sheet(rows: &[[Picture; 3]]) -> Picture {
     }
     out
 }
+

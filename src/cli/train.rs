@@ -34,14 +34,8 @@ pub fn run(args: TrainArgs, ui: &Ui) -> anyhow::Result<()> {
     let summary = train::train(&config, &options, ui)?;
     ui.finish();
     let (n_train, n_test) = summary.split;
-    let last = summary
-        .last
-        .map_or(String::new(), |r| format!(", last loss {:.4e} (rec {:.4e})", r.total, r.rec));
-    let state = if summary.finished {
-        "done"
-    } else {
-        "paused (continue with --resume)"
-    };
+    let last = summary.last.map_or(String::new(), |r| format!(", last loss {:.4e} (rec {:.4e})", r.total, r.rec));
+    let state = if summary.finished { "done" } else { "paused (continue with --resume)" };
     ui.say(format!(
         "{state}: {} steps on {n_train} frames ({n_test} held out), {:.1} images/s{last} → {}",
         summary.steps,

@@ -46,28 +46,18 @@ pub struct Report {
 /// # Errors
 /// Frame-size mismatches (naming the file) and ground truth that does not fit the puppet.
 pub fn evaluate(model: &Model, frames: &Frames, indices: &[usize], device: &Device) -> Result<Report> {
-    let indices: Vec<usize> = if indices.is_empty() {
-        (0..frames.frames.len()).collect()
-    } else {
-        indices.to_vec()
-    };
+    let indices: Vec<usize> = if indices.is_empty() { (0..frames.frames.len()).collect() } else { indices.to_vec() };
     let names = frames.names();
     let mut scores = Vec::with_capacity(indices.len());
     for chunk in indices.chunks(16) {
         let pictures: Vec<_> = chunk.iter().map(|&i| &frames.frames[i]).collect();
         for (&i, picture) in chunk.iter().zip(&pictures) {
-            model
-                .check_frame(picture)
-                .map_err(|e| Error::format(&frames.files[i], e.to_string()))?;
+            model.check_frame(picture).map_err(|e| Error::format(&frames.files[i], e.to_string()))?;
         }
         let fits = model.fit(&pictures, device)?;
         for ((&i, picture), fit) in chunk.iter().zip(&pictures).zip(&fits) {
             let render = render_crisp(&model.puppet, fit, picture.width, picture.height)?;
-            let truth = frames
-                .truth
-                .as_ref()
-                .map(|t| truth_scores(t, i, model, fit, picture.width, picture.height))
-                .transpose()?;
+            let truth = frames.truth.as_ref().map(|t| truth_scores(t, i, model, fit, picture.width, picture.height)).transpose()?;
             scores.push(FrameScores {
                 frame: names[i].clone(),
                 l2: l2(&render, picture),

@@ -63,15 +63,11 @@ impl Model {
     /// weights that do not fit the config or the puppet.
     pub fn load(dir: &Path, device: &Device) -> Result<Self> {
         if !dir.is_dir() {
-            return Err(Error::format(
-                dir,
-                "not a model folder (expected net.json, weights.bpk and puppet/ written by `puppet train`)",
-            ));
+            return Err(Error::format(dir, "not a model folder (expected net.json, weights.bpk and puppet/ written by `puppet train`)"));
         }
         let net_path = dir.join(NET_FILE);
         let text = std::fs::read_to_string(&net_path).map_err(|e| Error::io(&net_path, e))?;
-        let config: DeformationNetConfig =
-            serde_json::from_str(&text).map_err(|e| Error::format(&net_path, format!("invalid network config: {e}")))?;
+        let config: DeformationNetConfig = serde_json::from_str(&text).map_err(|e| Error::format(&net_path, format!("invalid network config: {e}")))?;
         let puppet = format::load(&dir.join(PUPPET_DIR))?;
         check_config(&config, &puppet).map_err(|e| Error::format(&net_path, e.to_string()))?;
         let mut model = Model::new(config, puppet, device)?;
@@ -147,11 +143,7 @@ impl Model {
         let [batch, v, _] = vertices.dims();
         let flat: Vec<f32> = vertices.into_data().convert::<f32>().try_into_vec::<f32>().unwrap_or_default();
         (0..batch)
-            .map(|b| {
-                (0..v)
-                    .map(|i| self.letterbox.to_frame([flat[(b * v + i) * 2], flat[(b * v + i) * 2 + 1]]))
-                    .collect()
-            })
+            .map(|b| (0..v).map(|i| self.letterbox.to_frame([flat[(b * v + i) * 2], flat[(b * v + i) * 2 + 1]])).collect())
             .collect()
     }
 
@@ -174,10 +166,7 @@ fn check_config(config: &DeformationNetConfig, puppet: &Puppet) -> Result<()> {
         )));
     }
     if config.input_size == 0 || config.input_size % 8 != 0 {
-        return Err(Error::Invalid(format!(
-            "input size {} is not a positive multiple of 8",
-            config.input_size
-        )));
+        return Err(Error::Invalid(format!("input size {} is not a positive multiple of 8", config.input_size)));
     }
     Ok(())
 }
@@ -187,11 +176,7 @@ fn check_config(config: &DeformationNetConfig, puppet: &Puppet) -> Result<()> {
 /// # Errors
 /// [`Error::Format`] naming `path` if Burn cannot serialise them.
 pub fn weights_bytes(net: &DeformationNet, path: &Path) -> Result<Vec<u8>> {
-    let bytes = net
-        .clone()
-        .into_record()
-        .into_bytes()
-        .map_err(|e| Error::format(path, format!("cannot encode weights: {e:?}")))?;
+    let bytes = net.clone().into_record().into_bytes().map_err(|e| Error::format(path, format!("cannot encode weights: {e:?}")))?;
     Ok(bytes.to_vec())
 }
 
@@ -200,8 +185,7 @@ pub fn weights_bytes(net: &DeformationNet, path: &Path) -> Result<Vec<u8>> {
 /// # Errors
 /// [`Error::Format`] naming `path` if the bytes are not a record of this network.
 pub fn load_weights(net: DeformationNet, bytes: Vec<u8>, path: &Path) -> Result<DeformationNet> {
-    let record =
-        ModuleRecord::from_bytes(Bytes::from_bytes_vec(bytes)).map_err(|e| Error::format(path, format!("not a weights file: {e:?}")))?;
+    let record = ModuleRecord::from_bytes(Bytes::from_bytes_vec(bytes)).map_err(|e| Error::format(path, format!("not a weights file: {e:?}")))?;
     net.try_load_record(record)
         .map_err(|e| Error::format(path, format!("weights do not fit this network: {e:?}")))
 }

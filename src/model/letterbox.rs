@@ -66,12 +66,7 @@ impl Letterbox {
                 let (tx, ty) = (gx - x0, gy - y0);
                 let (x0, y0) = (x0 as i64, y0 as i64);
                 let mut value = [0.0f32; 4];
-                for (dx, dy, w) in [
-                    (0, 0, (1.0 - tx) * (1.0 - ty)),
-                    (1, 0, tx * (1.0 - ty)),
-                    (0, 1, (1.0 - tx) * ty),
-                    (1, 1, tx * ty),
-                ] {
+                for (dx, dy, w) in [(0, 0, (1.0 - tx) * (1.0 - ty)), (1, 0, tx * (1.0 - ty)), (0, 1, (1.0 - tx) * ty), (1, 1, tx * ty)] {
                     if w > 0.0 {
                         let p = fetch(x0 + dx, y0 + dy);
                         for c in 0..4 {

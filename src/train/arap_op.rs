@@ -55,9 +55,7 @@ pub fn arap_loss(vertices: Tensor<3>, energy: &Arc<ArapEnergy<f32>>) -> Result<T
         let (energies, _) = evaluate(host::<Inner>(plain))?;
         Ok(Tensor::from_primitive::<Inner>(energies_tensor(energies)))
     } else {
-        Err(Error::Invalid(
-            "arap: the vertex tensor is not on the compiled-in backend (crate::backend::device)".into(),
-        ))
+        Err(Error::Invalid("arap: the vertex tensor is not on the compiled-in backend (crate::backend::device)".into()))
     }
 }
 
@@ -116,11 +114,7 @@ mod tests {
         let e = arap_loss(v.clone(), &energy).unwrap();
         let got: Vec<f32> = v.grad(&(e * w).sum().backward()).unwrap().into_data().try_to_vec::<f32>().unwrap();
 
-        let as64 = |b: usize, x: &[f32]| -> Vec<[f64; 2]> {
-            (0..nv)
-                .map(|i| [x[(b * nv + i) * 2] as f64, x[(b * nv + i) * 2 + 1] as f64])
-                .collect()
-        };
+        let as64 = |b: usize, x: &[f32]| -> Vec<[f64; 2]> { (0..nv).map(|i| [x[(b * nv + i) * 2] as f64, x[(b * nv + i) * 2 + 1] as f64]).collect() };
         let h = 1e-4;
         let mut worst = 0f64;
         for b in 0..2 {
@@ -135,11 +129,7 @@ mod tests {
             }
         }
         assert!(worst < 2e-3, "relative error {worst}");
-        let plain = arap_loss(
-            Tensor::from_data(TensorData::new(verts, [2, nv, 2]), &crate::backend::device()),
-            &energy,
-        )
-        .unwrap();
+        let plain = arap_loss(Tensor::from_data(TensorData::new(verts, [2, nv, 2]), &crate::backend::device()), &energy).unwrap();
         assert_eq!(plain.dims(), [2]);
     }
 }

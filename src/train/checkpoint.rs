@@ -58,10 +58,7 @@ pub fn latest(model_dir: &Path) -> Result<Option<PathBuf>> {
     let name = std::fs::read_to_string(&pointer).map_err(|e| Error::io(&pointer, e))?;
     let dir = model_dir.join(CHECKPOINT_DIR).join(name.trim());
     if !dir.join(STATE).is_file() {
-        return Err(Error::format(
-            &pointer,
-            format!("names checkpoint {:?}, which is missing", name.trim()),
-        ));
+        return Err(Error::format(&pointer, format!("names checkpoint {:?}, which is missing", name.trim())));
     }
     Ok(Some(dir))
 }
@@ -135,10 +132,7 @@ mod tests {
         assert_eq!(latest(dir.path()).unwrap(), Some(second.clone()));
         let c = load(&second).unwrap();
         assert_eq!((c.state, c.weights, c.optimizer), (state(20), b"w20".to_vec(), b"o20".to_vec()));
-        let names: Vec<_> = std::fs::read_dir(dir.path().join(CHECKPOINT_DIR))
-            .unwrap()
-            .map(|e| e.unwrap().file_name())
-            .collect();
+        let names: Vec<_> = std::fs::read_dir(dir.path().join(CHECKPOINT_DIR)).unwrap().map(|e| e.unwrap().file_name()).collect();
         assert_eq!(names.len(), 2, "latest + step-000020 only: {names:?}");
     }
 

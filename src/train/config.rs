@@ -113,11 +113,12 @@ impl Default for TrainSettings {
 /// Weights of eq. 4 (and eq. 10–11 for masked training).
 ///
 /// Units, so the paper's numbers mean what they meant there (NMR: images in [0, 1], vertices in
-/// normalised device coordinates where the image spans [−1, 1]): L_rec is the mean over pixels
-/// and channels of the squared difference of premultiplied RGBA in [0, 1]; ARAP (eq. 2) and the
-/// joint term (eq. 3) are sums over edges / joints of squared lengths in NDC, i.e. working
-/// pixels divided by S/2; every term is averaged over the batch; the area term (eq. 11) compares
-/// mask sums as fractions of the image.
+/// normalised device coordinates where the image spans [−1, 1]): L_rec is eq. 1 as written, the
+/// squared norm of the premultiplied-RGBA difference summed over the pixels and channels of an
+/// image (eq. 10's masked variant is, as written, normalised by the silhouette's area); ARAP
+/// (eq. 2) and the joint term (eq. 3) are sums over edges / joints of squared lengths in NDC,
+/// i.e. working pixels divided by S/2; every term is averaged over the batch; the area term
+/// (eq. 11) compares mask sums as fractions of the image.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
 pub struct LossWeights {
@@ -176,10 +177,7 @@ impl TrainConfig {
     pub fn validate(&self) -> std::result::Result<(), String> {
         let t = &self.train;
         let checks = [
-            (
-                !(0.0..1.0).contains(&self.test_fraction),
-                format!("test_fraction = {} is not in [0, 1)", self.test_fraction),
-            ),
+            (!(0.0..1.0).contains(&self.test_fraction), format!("test_fraction = {} is not in [0, 1)", self.test_fraction)),
             (
                 self.model.input_size == 0 || self.model.input_size % 8 != 0,
                 format!("model.input_size = {} is not a positive multiple of 8", self.model.input_size),
@@ -197,9 +195,7 @@ impl TrainConfig {
                 format!("train.sigma = {:?} must be two positive numbers", t.sigma),
             ),
             (
-                ![self.loss.arap, self.loss.joints, self.loss.area]
-                    .iter()
-                    .all(|w| w.is_finite() && *w >= 0.0),
+                ![self.loss.arap, self.loss.joints, self.loss.area].iter().all(|w| w.is_finite() && *w >= 0.0),
                 "loss weights must be finite and non-negative".into(),
             ),
         ];
@@ -212,11 +208,7 @@ impl TrainConfig {
     /// σ at `step` of `steps` (geometric from `sigma[0]` to `sigma[1]`).
     pub fn sigma_at(&self, step: u64) -> f32 {
         let [a, b] = self.train.sigma;
-        let t = if self.train.steps > 1 {
-            step as f32 / (self.train.steps - 1) as f32
-        } else {
-            1.0
-        };
+        let t = if self.train.steps > 1 { step as f32 / (self.train.steps - 1) as f32 } else { 1.0 };
         a * (b / a).powf(t.clamp(0.0, 1.0))
     }
 }
@@ -247,22 +239,10 @@ mod tests {
     #[test]
     fn bad_values_and_unknown_keys_name_the_file_and_key() {
         for (text, needle) in [
-            (
-                "puppet = \"p\"\nframes = \"f\"\noutput = \"o\"\ntest_fraction = 1.0\n",
-                "test_fraction",
-            ),
-            (
-                "puppet = \"p\"\nframes = \"f\"\noutput = \"o\"\n[train]\nbatch = 0\n",
-                "train.batch",
-            ),
-            (
-                "puppet = \"p\"\nframes = \"f\"\noutput = \"o\"\n[model]\ninput_size = 100\n",
-                "input_size",
-            ),
-            (
-                "puppet = \"p\"\nframes = \"f\"\noutput = \"o\"\n[train]\nlearning_rat = 1\n",
-                "learning_rat",
-            ),
+            ("puppet = \"p\"\nframes = \"f\"\noutput = \"o\"\ntest_fraction = 1.0\n", "test_fraction"),
+            ("puppet = \"p\"\nframes = \"f\"\noutput = \"o\"\n[train]\nbatch = 0\n", "train.batch"),
+            ("puppet = \"p\"\nframes = \"f\"\noutput = \"o\"\n[model]\ninput_size = 100\n", "input_size"),
+            ("puppet = \"p\"\nframes = \"f\"\noutput = \"o\"\n[train]\nlearning_rat = 1\n", "learning_rat"),
             ("frames = \"f\"\noutput = \"o\"\n", "puppet"),
         ] {
             let (_dir, path) = write(text);

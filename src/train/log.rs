@@ -50,11 +50,7 @@ impl TrainLog {
         if path.exists() {
             let text = std::fs::read_to_string(path).map_err(|e| Error::io(path, e))?;
             for (n, line) in text.lines().enumerate().skip(1) {
-                let v: Vec<f64> = line
-                    .split(',')
-                    .map(str::parse)
-                    .collect::<std::result::Result<_, _>>()
-                    .map_err(|_| Error::format(path, format!("line {}: not numbers", n + 1)))?;
+                let v: Vec<f64> = line.split(',').map(str::parse).collect::<std::result::Result<_, _>>().map_err(|_| Error::format(path, format!("line {}: not numbers", n + 1)))?;
                 if v.len() != 8 {
                     return Err(Error::format(path, format!("line {}: {} columns, expected 8", n + 1, v.len())));
                 }
@@ -78,10 +74,7 @@ impl TrainLog {
             text.push_str(&r.to_csv());
         }
         crate::atomic_file::write_atomic(path, text.as_bytes())?;
-        Ok(TrainLog {
-            path: path.to_path_buf(),
-            rows,
-        })
+        Ok(TrainLog { path: path.to_path_buf(), rows })
     }
 
     /// Appends one row to the file.
@@ -89,10 +82,7 @@ impl TrainLog {
     /// # Errors
     /// [`Error::Io`] naming the file.
     pub fn push(&mut self, row: LogRow) -> Result<()> {
-        let mut file = OpenOptions::new()
-            .append(true)
-            .open(&self.path)
-            .map_err(|e| Error::io(&self.path, e))?;
+        let mut file = OpenOptions::new().append(true).open(&self.path).map_err(|e| Error::io(&self.path, e))?;
         file.write_all(row.to_csv().as_bytes()).map_err(|e| Error::io(&self.path, e))?;
         self.rows.push(row);
         Ok(())
@@ -124,17 +114,9 @@ pub fn plot(rows: &[LogRow], weights: [f64; 3]) -> Picture {
         ("joints", [0.1, 0.65, 0.2], Box::new(move |r: &LogRow| r.joints * weights[1])),
         ("area", [0.7, 0.1, 0.6], Box::new(move |r: &LogRow| r.area * weights[2])),
     ];
-    let positive: Vec<f64> = rows
-        .iter()
-        .flat_map(|r| series.iter().map(move |s| s.2(r)))
-        .filter(|v| *v > 0.0 && v.is_finite())
-        .collect();
+    let positive: Vec<f64> = rows.iter().flat_map(|r| series.iter().map(move |s| s.2(r))).filter(|v| *v > 0.0 && v.is_finite()).collect();
     let (lo, hi) = positive.iter().fold((f64::MAX, f64::MIN), |(a, b), v| (a.min(*v), b.max(*v)));
-    let (lo, hi) = if positive.is_empty() {
-        (-3.0, 0.0)
-    } else {
-        (lo.log10().floor(), hi.log10().ceil().max(lo.log10().floor() + 1.0))
-    };
+    let (lo, hi) = if positive.is_empty() { (-3.0, 0.0) } else { (lo.log10().floor(), hi.log10().ceil().max(lo.log10().floor() + 1.0)) };
     let last = rows.last().map_or(1, |r| r.step.max(1)) as f64;
     let px = |step: f64| left + ((step / last) * (w as i64 - left - right) as f64) as i64;
     let py = |v: f64| top + ((hi - v.log10()) / (hi - lo) * (h as i64 - top - bottom) as f64) as i64;
@@ -148,12 +130,7 @@ pub fn plot(rows: &[LogRow], weights: [f64; 3]) -> Picture {
     line(&mut pic, [left, h as i64 - bottom], [w as i64 - right, h as i64 - bottom], [0.0; 3]);
     text(&mut pic, "0", [left, h as i64 - bottom + 6], [0.3; 3]);
     let last_label = format!("step {}", last as u64);
-    text(
-        &mut pic,
-        &last_label,
-        [w as i64 - right - 4 * last_label.len() as i64, h as i64 - bottom + 6],
-        [0.3; 3],
-    );
+    text(&mut pic, &last_label, [w as i64 - right - 4 * last_label.len() as i64, h as i64 - bottom + 6], [0.3; 3]);
     let mut legend_x = left + 8;
     for (name, colour, value) in &series {
         let mut prev: Option<[i64; 2]> = None;

@@ -1,8 +1,9 @@
 //! The training losses of neural-puppet.md §3.2 and appendix (eq. 1–4, 10, 11) as Burn tensor
 //! functions, and [`Objective`], which holds what they need for one puppet and sums eq. 4.
 //!
-//! Units (see [`LossWeights`]): images premultiplied RGBA in [0, 1]; vertices in working pixels
-//! converted to NDC (÷ S/2) for ARAP and joints, so the paper's λ1 = 2500, λ2 = 1e4 apply.
+//! Units (see [`LossWeights`]): images premultiplied RGBA in [0, 1], eq. 1 a sum over pixels as
+//! written; vertices in working pixels converted to NDC (÷ S/2) for ARAP and joints, so the
+//! paper's λ1 = 2500, λ2 = 1e4 apply.
 
 use std::sync::Arc;
 
@@ -15,9 +16,11 @@ use crate::geom::arap::ArapEnergy;
 use crate::puppet::Puppet;
 use crate::render::burn_op::Rendered;
 
-/// Eq. 1, `‖x − R(V, F, I^uv)‖²` as a mean over batch, channels and pixels.
+/// Eq. 1, `‖x − R(V, F, I^uv)‖²`: the squared norm over channels and pixels of each image,
+/// averaged over the batch.
 pub fn reconstruction(rendered: Tensor<4>, target: Tensor<4>) -> Tensor<1> {
-    (rendered - target).powf_scalar(2.0).mean()
+    let [b, _, _, _] = rendered.dims();
+    (rendered - target).powf_scalar(2.0).reshape([b as i32, -1]).sum_dim(1).mean()
 }
 
 /// Eq. 10: the squared difference between the frame seen through the rendered silhouette
@@ -26,10 +29,7 @@ pub fn reconstruction(rendered: Tensor<4>, target: Tensor<4>) -> Tensor<1> {
 pub fn masked_reconstruction(rendered: Tensor<4>, mask: Tensor<4>, target_rgb: Tensor<4>) -> Tensor<1> {
     let [b, _, _, _] = rendered.dims();
     let rgb = rendered.narrow(1, 0, 3);
-    let diff = (target_rgb * mask.clone() - rgb)
-        .powf_scalar(2.0)
-        .reshape([b as i32, -1])
-        .sum_dim(1);
+    let diff = (target_rgb * mask.clone() - rgb).powf_scalar(2.0).reshape([b as i32, -1]).sum_dim(1);
     let area = mask.reshape([b as i32, -1]).sum_dim(1).add_scalar(1e-6);
     (diff / area).mean()
 }
@@ -164,7 +164,7 @@ mod tests {
     fn terms_match_hand_computed_values() {
         let r = tensor4(vec![0.5, 0.0, 1.0, 0.25], [1, 1, 2, 2]);
         let x = tensor4(vec![0.0, 0.0, 0.5, 0.25], [1, 1, 2, 2]);
-        assert!((scalar(reconstruction(r, x)) - (0.25 + 0.25) / 4.0).abs() < 1e-7);
+        assert!((scalar(reconstruction(r, x)) - (0.25 + 0.25)).abs() < 1e-7);
 
         // eq. 10 with one RGB pixel inside a half-covered mask: ((1·0.5 − 0.2)²·3) / (0.5 + 0)
         let rendered = tensor4(vec![0.2, 0.2, 0.2, 0.5, 0.0, 0.0, 0.0, 0.0], [1, 4, 1, 2]);

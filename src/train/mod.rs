@@ -7,6 +7,7 @@ pub mod checkpoint;
 pub mod config;
 pub mod log;
 pub mod loss;
+pub mod optim;
 pub mod sequence;
 pub mod trainer;
 

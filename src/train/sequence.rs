@@ -35,11 +35,7 @@ impl Frames {
     /// no PNG, or naming the frame whose size differs from the first; [`Error::Image`] for a
     /// frame that does not decode; truth.json problems name that file.
     pub fn load(path: &Path) -> Result<Self> {
-        let dir = if path.join("frames").is_dir() {
-            path.join("frames")
-        } else {
-            path.to_path_buf()
-        };
+        let dir = if path.join("frames").is_dir() { path.join("frames") } else { path.to_path_buf() };
         let entries = std::fs::read_dir(&dir).map_err(|e| Error::io(&dir, e))?;
         let mut files: Vec<PathBuf> = entries
             .filter_map(|e| e.ok().map(|e| e.path()))
@@ -75,10 +71,7 @@ impl Frames {
 
     /// File names (no folder) of the frames, for logs and split records.
     pub fn names(&self) -> Vec<String> {
-        self.files
-            .iter()
-            .map(|f| f.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default())
-            .collect()
+        self.files.iter().map(|f| f.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default()).collect()
     }
 }
 
@@ -89,11 +82,7 @@ impl Frames {
 /// [`Error::Invalid`] if the split would leave no training frame, or no test frame although one
 /// was asked for.
 pub fn split(n: usize, test_fraction: f64, seed: u64) -> Result<(Vec<usize>, Vec<usize>)> {
-    let tests = if test_fraction > 0.0 {
-        ((n as f64 * test_fraction).round() as usize).max(1)
-    } else {
-        0
-    };
+    let tests = if test_fraction > 0.0 { ((n as f64 * test_fraction).round() as usize).max(1) } else { 0 };
     if n == 0 || tests >= n {
         return Err(Error::Invalid(format!(
             "{n} frames cannot be split with test_fraction {test_fraction}: no frame would be left for training"
@@ -134,11 +123,7 @@ fn natural_cmp(a: &str, b: &str) -> std::cmp::Ordering {
                 };
                 let (na, nb) = (take(&mut a), take(&mut b));
                 let (ta, tb) = (na.trim_start_matches('0'), nb.trim_start_matches('0'));
-                let ord = ta
-                    .len()
-                    .cmp(&tb.len())
-                    .then_with(|| ta.cmp(tb))
-                    .then_with(|| na.len().cmp(&nb.len()));
+                let ord = ta.len().cmp(&tb.len()).then_with(|| ta.cmp(tb)).then_with(|| na.len().cmp(&nb.len()));
                 if ord != std::cmp::Ordering::Equal {
                     return ord;
                 }

@@ -6,20 +6,22 @@ use std::path::{Path, PathBuf};
 use std::sync::Arc;
 use std::time::Instant;
 
-use burn::optim::{AdamConfig, GradientsParams, ModuleOptimizer};
-use burn::tensor::{Bytes, Tensor, TensorData};
+use burn::optim::{GradientsParams, ModuleOptimizer};
+use burn::tensor::{Bytes, Device, Tensor, TensorData};
 use serde::{Deserialize, Serialize};
 
 use super::checkpoint::{self, CheckpointState};
 use super::config::TrainConfig;
 use super::log::{plot, LogRow, TrainLog};
-use super::loss::Objective;
+use super::loss::{LossTerms, Objective};
+use super::optim::{adam, AdamSettings};
 use super::sequence::{shuffled, split, Frames};
 use crate::atomic_file::write_atomic;
 use crate::error::{Error, Result};
 use crate::model::bundle::{load_weights, weights_bytes};
 use crate::model::deformation::DeformationNetConfig;
 use crate::model::Model;
+use crate::picture::Picture;
 use crate::progress::Progress;
 use crate::puppet::{artwork, build, format, Puppet};
 use crate::render::burn_op::soft_raster;
@@ -67,9 +69,7 @@ impl SplitRecord {
             return Ok(None);
         }
         let text = std::fs::read_to_string(&path).map_err(|e| Error::io(&path, e))?;
-        serde_json::from_str(&text)
-            .map(Some)
-            .map_err(|e| Error::format(&path, format!("invalid split record: {e}")))
+        serde_json::from_str(&text).map(Some).map_err(|e| Error::format(&path, format!("invalid split record: {e}")))
     }
 
     /// Indices into `names` of the held-out frames, if every one of them is there.
@@ -124,23 +124,13 @@ pub fn train(config: &TrainConfig, options: &TrainOptions, progress: &dyn Progre
                 dir.display()
             )))
         }
-        (None, true) => {
-            return Err(Error::Invalid(format!(
-                "{}: --resume, but there is no checkpoint to resume from",
-                out.display()
-            )))
-        }
+        (None, true) => return Err(Error::Invalid(format!("{}: --resume, but there is no checkpoint to resume from", out.display()))),
         _ => {}
     }
 
     let puppet = load_or_build_puppet(&config.puppet, progress)?;
     let frames = Frames::load(&config.frames)?;
-    if let Some((file, f)) = frames
-        .files
-        .iter()
-        .zip(&frames.frames)
-        .find(|(_, f)| (f.width, f.height) != (puppet.width, puppet.height))
-    {
+    if let Some((file, f)) = frames.files.iter().zip(&frames.frames).find(|(_, f)| (f.width, f.height) != (puppet.width, puppet.height)) {
         return Err(Error::format(
             file,
             format!(
@@ -156,10 +146,7 @@ pub fn train(config: &TrainConfig, options: &TrainOptions, progress: &dyn Progre
     let (train_idx, test_idx) = split(frames.frames.len(), config.test_fraction, config.seed)
         .map_err(|e| Error::Invalid(format!("{}: {e}", config.frames.display())))?;
     if config.test_fraction > 0.0 && test_idx.is_empty() {
-        return Err(Error::Invalid(format!(
-            "{}: the split leaves no test frame",
-            config.frames.display()
-        )));
+        return Err(Error::Invalid(format!("{}: the split leaves no test frame", config.frames.display())));
     }
 
     let device = crate::backend::train_device();
@@ -168,42 +155,18 @@ pub fn train(config: &TrainConfig, options: &TrainOptions, progress: &dyn Progre
         .with_input_size(config.model.input_size)
         .with_latent(config.model.latent)
         .with_offset_scale(config.model.offset_scale);
-    let mut model = Model::new(net_config, puppet, &device)?;
-    let size = model.letterbox.size as usize;
+    let model = Model::new(net_config, puppet, &device)?;
     model.save(out)?;
-    write_atomic(
-        &out.join(CONFIG_FILE),
-        toml::to_string_pretty(config)
-            .map_err(|e| Error::Invalid(e.to_string()))?
-            .as_bytes(),
-    )?;
+    write_atomic(&out.join(CONFIG_FILE), toml::to_string_pretty(config).map_err(|e| Error::Invalid(e.to_string()))?.as_bytes())?;
     let names = frames.names();
     let record = SplitRecord {
         frames: config.frames.clone(),
         train: train_idx.iter().map(|&i| names[i].clone()).collect(),
         test: test_idx.iter().map(|&i| names[i].clone()).collect(),
     };
-    write_atomic(
-        &out.join(SPLIT_FILE),
-        &serde_json::to_vec_pretty(&record).map_err(|e| Error::Invalid(e.to_string()))?,
-    )?;
+    write_atomic(&out.join(SPLIT_FILE), &serde_json::to_vec_pretty(&record).map_err(|e| Error::Invalid(e.to_string()))?)?;
 
-    // The rasterizer renders the working square: vertices in working pixels, textures by UV.
-    let raster = Arc::new(SoftRasterizer::new(&model.puppet)?);
-    let rest: Vec<[f32; 2]> = model
-        .puppet
-        .rest_vertices()
-        .into_iter()
-        .map(|p| model.letterbox.to_work(p))
-        .collect();
-    let rest_area = rest_coverage(&raster, &rest, size)?;
-    let objective = Objective::new(&model.puppet, &rest, size, rest_area, config.loss.clone())?;
-    let inputs: Vec<Vec<f32>> = train_idx
-        .iter()
-        .map(|&i| model.letterbox.premultiplied_planes(&frames.frames[i]))
-        .collect();
-
-    let mut optimizer: ModuleOptimizer = AdamConfig::new().with_epsilon(1e-8).init();
+    let mut trainer = Trainer::new(config, model, &train_idx.iter().map(|&i| &frames.frames[i]).collect::<Vec<_>>(), &device)?;
     let config_json = serde_json::to_value(config).map_err(|e| Error::Invalid(e.to_string()))?;
     let (mut step, mut elapsed) = (0u64, 0f64);
     if let Some(dir) = previous {
@@ -214,94 +177,54 @@ pub fn train(config: &TrainConfig, options: &TrainOptions, progress: &dyn Progre
                 "this checkpoint was written with a different config (only train.steps may change for --resume)",
             ));
         }
-        model.net = load_weights(model.net, c.weights, &dir.join("weights.bpk"))?;
-        optimizer = optimizer
-            .from_bytes(Bytes::from_bytes_vec(c.optimizer))
-            .map_err(|e| Error::format(dir.join("optimizer.bpk"), format!("cannot read optimiser state: {e:?}")))?;
+        trainer.restore(c.weights, c.optimizer, &dir)?;
         (step, elapsed) = (c.state.step, c.state.elapsed);
     }
     let mut log = TrainLog::open(&out.join(LOG_FILE), step)?;
-    let weights = [
-        config.loss.arap,
-        config.loss.joints,
-        if config.loss.masked { config.loss.area } else { 0.0 },
-    ];
+    let weights = [config.loss.arap, config.loss.joints, if config.loss.masked { config.loss.area } else { 0.0 }];
 
     let stop = options.pause_at.map_or(config.train.steps, |p| p.min(config.train.steps));
     progress.stage("training", config.train.steps);
     progress.advance(step);
-    let batches = BatchOrder::new(train_idx.len(), config.train.batch, config.seed);
     let started = Instant::now();
     let first_step = step;
     let mut last = None;
     while step < stop {
         let t0 = Instant::now();
-        let batch = batches.batch(step);
-        let mut data = Vec::with_capacity(batch.len() * 4 * size * size);
-        for &i in &batch {
-            data.extend_from_slice(&inputs[i]);
-        }
-        let images: Tensor<4> = Tensor::from_data(TensorData::new(data, [batch.len(), 4, size, size]), &device);
-        let sigma = config.sigma_at(step);
-        let vertices = model.net.vertices(model.net.encode(images.clone()), &model.rest_work(&device));
-        let params = Params {
-            sigma,
-            background: Background::Transparent,
-            ..Params::default()
-        };
-        let rendered = soft_raster(vertices.clone(), &raster, size, size, params)?;
-        let terms = objective.evaluate(vertices, &rendered, images, &device)?;
-        let value = |t: &Tensor<1>| {
-            t.clone()
-                .into_data()
-                .convert::<f64>()
-                .try_to_vec::<f64>()
-                .map_or(f64::NAN, |v| v[0])
-        };
-        let (total, rec, arap, joints, area) = (
-            value(&terms.total),
-            value(&terms.rec),
-            value(&terms.arap),
-            value(&terms.joints),
-            value(&terms.area),
-        );
-        if !total.is_finite() {
+        let (losses, terms) = trainer.losses(step)?;
+        if !losses.total.is_finite() {
             let keep = checkpoint::latest(out)?.map_or("none was written yet".to_string(), |d| d.display().to_string());
             return Err(Error::Invalid(format!(
-                "step {}: the loss is not finite (total {total}, rec {rec}, arap {arap}, joints {joints}); stopped — the last good checkpoint is {keep} (try a lower train.learning_rate)",
-                step + 1
+                "step {}: the loss is not finite (total {}, rec {}, arap {}, joints {}); stopped — the last good checkpoint is {keep} (try a lower train.learning_rate)",
+                step + 1,
+                losses.total,
+                losses.rec,
+                losses.arap,
+                losses.joints
             )));
         }
-        // The weights that produced this finite loss are checkpointed before they change.
-        if step > first_step && step % config.train.checkpoint_every == 0 {
-            save_checkpoint(out, &model, &optimizer, step, elapsed, &config_json, &log, weights)?;
+        // The weights that produced this finite loss are checkpointed before they change (the
+        // untrained ones too, so a run that diverges at once still has one to resume from).
+        if (step > first_step || step == 0) && step % config.train.checkpoint_every == 0 {
+            save_checkpoint(out, &trainer, step, elapsed, &config_json, &log, weights)?;
         }
-        let grads = GradientsParams::from_grads(terms.total.backward(), &model.net);
-        model.net = optimizer.step(config.train.learning_rate, model.net, grads);
+        trainer.update(terms);
         step += 1;
         elapsed += t0.elapsed().as_secs_f64();
-        let row = LogRow {
-            step,
-            total,
-            rec,
-            arap,
-            joints,
-            area,
-            sigma: sigma as f64,
-            seconds: elapsed,
-        };
+        let row = LogRow { step, seconds: elapsed, ..losses };
         log.push(row)?;
         last = Some(row);
         progress.advance(1);
         progress.message(&format!(
-            "loss {total:.3e} (rec {rec:.3e}, arap {arap:.2e}, joints {joints:.2e}) σ {sigma:.2}"
+            "loss {:.3e} (rec {:.3e}, arap {:.2e}, joints {:.2e}) σ {:.2}",
+            row.total, row.rec, row.arap, row.joints, row.sigma
         ));
     }
     let seconds = started.elapsed().as_secs_f64();
     let finished = step >= config.train.steps;
-    save_checkpoint(out, &model, &optimizer, step, elapsed, &config_json, &log, weights)?;
+    save_checkpoint(out, &trainer, step, elapsed, &config_json, &log, weights)?;
     if finished {
-        model.save(out)?;
+        trainer.model.save(out)?;
     }
     Ok(TrainSummary {
         steps: step,
@@ -312,11 +235,9 @@ pub fn train(config: &TrainConfig, options: &TrainOptions, progress: &dyn Progre
     })
 }
 
-#[allow(clippy::too_many_arguments)] // one call site each; a struct would only rename them
 fn save_checkpoint(
     out: &Path,
-    model: &Model,
-    optimizer: &ModuleOptimizer,
+    trainer: &Trainer,
     step: u64,
     elapsed: f64,
     config: &serde_json::Value,
@@ -324,16 +245,133 @@ fn save_checkpoint(
     weights: [f64; 3],
 ) -> Result<()> {
     let dir = out.join(checkpoint::CHECKPOINT_DIR);
-    let optim = optimizer
-        .into_bytes()
-        .map_err(|e| Error::format(&dir, format!("cannot encode optimiser state: {e:?}")))?;
+    let (net, optim) = trainer.state_bytes(&dir)?;
     let state = CheckpointState {
         step,
         elapsed,
         config: config.clone(),
     };
-    checkpoint::save(out, &state, &weights_bytes(&model.net, &dir)?, &optim)?;
+    checkpoint::save(out, &state, &net, &optim)?;
     plot(log.rows(), weights).save_png(&out.join(PLOT_FILE))
+}
+
+/// One model under training: the network, its optimiser, the rasterizer and the losses, and the
+/// training frames as network inputs. [`Trainer::step`] is one optimiser step.
+pub struct Trainer {
+    /// The model being trained.
+    pub model: Model,
+    optimizer: ModuleOptimizer,
+    raster: Arc<SoftRasterizer>,
+    objective: Objective,
+    inputs: Vec<Vec<f32>>,
+    batches: BatchOrder,
+    config: TrainConfig,
+    device: Device,
+}
+
+impl Trainer {
+    /// Prepares training `model` on `frames` (the puppet's size) with `config`'s settings.
+    ///
+    /// # Errors
+    /// A frame of the wrong size; a degenerate mesh.
+    pub fn new(config: &TrainConfig, model: Model, frames: &[&Picture], device: &Device) -> Result<Self> {
+        let size = model.letterbox.size as usize;
+        for f in frames {
+            model.check_frame(f)?;
+        }
+        // The rasterizer renders the working square: vertices in working pixels, textures by UV.
+        let raster = Arc::new(SoftRasterizer::new(&model.puppet)?);
+        let rest: Vec<[f32; 2]> = model.puppet.rest_vertices().into_iter().map(|p| model.letterbox.to_work(p)).collect();
+        let rest_area = rest_coverage(&raster, &rest, size)?;
+        let objective = Objective::new(&model.puppet, &rest, size, rest_area, config.loss.clone())?;
+        let inputs = frames.iter().map(|f| model.letterbox.premultiplied_planes(f)).collect();
+        Ok(Trainer {
+            model,
+            optimizer: adam(&AdamSettings::new()),
+            raster,
+            objective,
+            inputs,
+            batches: BatchOrder::new(frames.len(), config.train.batch, config.seed),
+            config: config.clone(),
+            device: device.clone(),
+        })
+    }
+
+    /// Loads a checkpoint's weights and optimiser state (read from `dir`, for messages).
+    ///
+    /// # Errors
+    /// [`Error::Format`] naming the file that does not fit.
+    pub fn restore(&mut self, weights: Vec<u8>, optimizer: Vec<u8>, dir: &Path) -> Result<()> {
+        self.model.net = load_weights(self.model.net.clone(), weights, &dir.join("weights.bpk"))?;
+        self.optimizer = self
+            .optimizer
+            .clone()
+            .from_bytes(Bytes::from_bytes_vec(optimizer))
+            .map_err(|e| Error::format(dir.join("optimizer.bpk"), format!("cannot read optimiser state: {e:?}")))?;
+        Ok(())
+    }
+
+    /// The network's and the optimiser's state as burnpack bytes.
+    ///
+    /// # Errors
+    /// [`Error::Format`] naming `dir` if Burn cannot encode them.
+    pub fn state_bytes(&self, dir: &Path) -> Result<(Vec<u8>, Vec<u8>)> {
+        let optim = self.optimizer.into_bytes().map_err(|e| Error::format(dir, format!("cannot encode optimiser state: {e:?}")))?;
+        Ok((weights_bytes(&self.model.net, dir)?, optim.to_vec()))
+    }
+
+    /// The forward pass of step `step` (its batch and σ): the losses as numbers, and as tensors
+    /// for [`Trainer::update`].
+    ///
+    /// # Errors
+    /// Shape errors from the rasterizer or ARAP operations.
+    pub fn losses(&self, step: u64) -> Result<(LogRow, LossTerms)> {
+        let size = self.model.letterbox.size as usize;
+        let batch = self.batches.batch(step);
+        let mut data = Vec::with_capacity(batch.len() * 4 * size * size);
+        for &i in &batch {
+            data.extend_from_slice(&self.inputs[i]);
+        }
+        let images: Tensor<4> = Tensor::from_data(TensorData::new(data, [batch.len(), 4, size, size]), &self.device);
+        let sigma = self.config.sigma_at(step);
+        let net = &self.model.net;
+        let vertices = net.vertices(net.encode(images.clone()), &self.model.rest_work(&self.device));
+        let params = Params {
+            sigma,
+            background: Background::Transparent,
+            ..Params::default()
+        };
+        let rendered = soft_raster(vertices.clone(), &self.raster, size, size, params)?;
+        let terms = self.objective.evaluate(vertices, &rendered, images, &self.device)?;
+        let value = |t: &Tensor<1>| t.clone().into_data().convert::<f64>().try_to_vec::<f64>().map_or(f64::NAN, |v| v[0]);
+        let row = LogRow {
+            step: step + 1,
+            total: value(&terms.total),
+            rec: value(&terms.rec),
+            arap: value(&terms.arap),
+            joints: value(&terms.joints),
+            area: value(&terms.area),
+            sigma: sigma as f64,
+            seconds: 0.0,
+        };
+        Ok((row, terms))
+    }
+
+    /// Backpropagates `terms.total` and takes one Adam step.
+    pub fn update(&mut self, terms: LossTerms) {
+        let grads = GradientsParams::from_grads(terms.total.backward(), &self.model.net);
+        self.model.net = self.optimizer.step(self.config.train.learning_rate, self.model.net.clone(), grads);
+    }
+
+    /// One whole optimiser step (forward, backward, update); returns its losses.
+    ///
+    /// # Errors
+    /// As [`Trainer::losses`].
+    pub fn step(&mut self, step: u64) -> Result<LogRow> {
+        let (row, terms) = self.losses(step)?;
+        self.update(terms);
+        Ok(row)
+    }
 }
 
 /// Configs of the same run, ignoring `train.steps` (which a resume may extend).
