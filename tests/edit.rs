@@ -33,7 +33,10 @@ fn setup(tmp: &Path) -> (PathBuf, PathBuf, PathBuf) {
     rest.save_png(&a).unwrap();
     let shifted: Vec<[f32; 2]> = model.puppet.rest_vertices().iter().map(|v| [v[0] + 2.0, v[1]]).collect();
     let b = tmp.join("b.png");
-    puppet::render::render_crisp(&model.puppet, &shifted, 64, 64).unwrap().save_png(&b).unwrap();
+    puppet::render::render_crisp(&model.puppet, &shifted, 64, 64)
+        .unwrap()
+        .save_png(&b)
+        .unwrap();
     (dir, a, b)
 }
 
@@ -53,7 +56,21 @@ fn inbetween_writes_steps_sheets_and_a_gif() {
     std::fs::copy(&b, training.join("t1.png")).unwrap();
     let run = puppet(
         tmp.path(),
-        &["inbetween", "--model", s(&model), s(&a), s(&b), "--steps", "3", "-o", s(&out), "--gif", s(&gif), "--training", s(&training)],
+        &[
+            "inbetween",
+            "--model",
+            s(&model),
+            s(&a),
+            s(&b),
+            "--steps",
+            "3",
+            "-o",
+            s(&out),
+            "--gif",
+            s(&gif),
+            "--training",
+            s(&training),
+        ],
     );
     run.assert_ok();
     assert!(run.stdout.contains("5 steps"), "{}", run.stdout);
@@ -85,7 +102,20 @@ fn pose_writes_the_posed_frame_the_arap_comparison_and_the_drag_gif() {
     // The arm box spans x 40..52, y 26..34: grab its tip, lift it.
     let run = puppet(
         tmp.path(),
-        &["pose", "--model", s(&model), s(&a), "--pin", "50,30:50,20", "-o", s(&out), "--gif", s(&gif), "--gif-frames", "3"],
+        &[
+            "pose",
+            "--model",
+            s(&model),
+            s(&a),
+            "--pin",
+            "50,30:50,20",
+            "-o",
+            s(&out),
+            "--gif",
+            s(&gif),
+            "--gif-frames",
+            "3",
+        ],
     );
     run.assert_ok();
     assert!(run.stdout.contains("pin error"), "{}", run.stdout);
@@ -105,7 +135,20 @@ fn correspond_maps_points_and_reports_those_off_the_character() {
     let points = tmp.path().join("pts.json");
     std::fs::write(&points, "[[32, 40], [1, 1], [46, 30]]").unwrap();
     let out = tmp.path().join("c.json");
-    let run = puppet(tmp.path(), &["correspond", "--model", s(&model), s(&a), s(&b), "--points", s(&points), "-o", s(&out)]);
+    let run = puppet(
+        tmp.path(),
+        &[
+            "correspond",
+            "--model",
+            s(&model),
+            s(&a),
+            s(&b),
+            "--points",
+            s(&points),
+            "-o",
+            s(&out),
+        ],
+    );
     run.assert_ok();
     assert!(run.stdout.contains("2 of 3 points mapped"), "{}", run.stdout);
     let json: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(&out).unwrap()).unwrap();
@@ -125,7 +168,21 @@ fn pins_off_the_character_are_refused_naming_the_pin_and_the_frame() {
     let tmp = tempfile::tempdir().unwrap();
     let (model, a, _) = setup(tmp.path());
     let out = tmp.path().join("p.png");
-    let run = puppet(tmp.path(), &["pose", "--model", s(&model), s(&a), "--pin", "50,30:50,20", "--pin", "2,2:5,5", "-o", s(&out)]);
+    let run = puppet(
+        tmp.path(),
+        &[
+            "pose",
+            "--model",
+            s(&model),
+            s(&a),
+            "--pin",
+            "50,30:50,20",
+            "--pin",
+            "2,2:5,5",
+            "-o",
+            s(&out),
+        ],
+    );
     run.assert_error(&["a.png", "pin 2", "not on the character", "px away"]);
     assert!(!out.exists());
 }
@@ -144,7 +201,10 @@ fn a_model_for_a_different_puppet_is_refused() {
     }
     std::fs::write(other.join("character.toml"), toml).unwrap();
     puppet(tmp.path(), &["build", s(&other), "-o", s(&model.join("puppet"))]).assert_ok();
-    let run = puppet(tmp.path(), &["inbetween", "--model", s(&model), s(&a), s(&a), "-o", s(&tmp.path().join("o"))]);
+    let run = puppet(
+        tmp.path(),
+        &["inbetween", "--model", s(&model), s(&a), s(&a), "-o", s(&tmp.path().join("o"))],
+    );
     run.assert_error(&["net.json", "different puppet"]);
 }
 
@@ -153,15 +213,40 @@ fn frames_of_the_wrong_size_or_without_alpha_and_zero_steps_are_refused() {
     let tmp = tempfile::tempdir().unwrap();
     let (model, a, _) = setup(tmp.path());
     let small = tmp.path().join("small.png");
-    image::RgbaImage::from_pixel(32, 48, image::Rgba([0, 0, 0, 0])).save(&small).unwrap();
+    image::RgbaImage::from_pixel(32, 48, image::Rgba([0, 0, 0, 0]))
+        .save(&small)
+        .unwrap();
     let rgb = tmp.path().join("rgb.png");
     image::RgbImage::from_pixel(64, 64, image::Rgb([200, 10, 10])).save(&rgb).unwrap();
     let o = tmp.path().join("o");
     puppet(tmp.path(), &["inbetween", "--model", s(&model), s(&a), s(&small), "-o", s(&o)]).assert_error(&["small.png", "32×48", "64×64"]);
-    puppet(tmp.path(), &["pose", "--model", s(&model), s(&rgb), "--pin", "1,1:2,2", "-o", s(&o)]).assert_error(&["rgb.png", "no alpha"]);
+    puppet(
+        tmp.path(),
+        &["pose", "--model", s(&model), s(&rgb), "--pin", "1,1:2,2", "-o", s(&o)],
+    )
+    .assert_error(&["rgb.png", "no alpha"]);
     puppet(tmp.path(), &["correspond", "--model", s(&model), s(&a), s(&small)]).assert_error(&["small.png", "32×48"]);
-    puppet(tmp.path(), &["inbetween", "--model", s(&model), s(&a), s(&a), "--steps", "0", "-o", s(&o)]).assert_error(&["--steps 0"]);
-    puppet(tmp.path(), &["pose", "--model", s(&model), s(&a), "--pin", "50,30:50,20", "--steps", "0", "-o", s(&o)]).assert_error(&["--steps 0"]);
+    puppet(
+        tmp.path(),
+        &["inbetween", "--model", s(&model), s(&a), s(&a), "--steps", "0", "-o", s(&o)],
+    )
+    .assert_error(&["--steps 0"]);
+    puppet(
+        tmp.path(),
+        &[
+            "pose",
+            "--model",
+            s(&model),
+            s(&a),
+            "--pin",
+            "50,30:50,20",
+            "--steps",
+            "0",
+            "-o",
+            s(&o),
+        ],
+    )
+    .assert_error(&["--steps 0"]);
     let run = puppet(tmp.path(), &["pose", "--model", s(&model), s(&a), "--pin", "50,30", "-o", s(&o)]);
     assert_eq!(run.code, 2, "a malformed pin is a usage error: {}", run.stderr);
     assert!(run.stderr.contains("is not a pin"), "{}", run.stderr);

@@ -34,7 +34,7 @@ pub struct DemoArgs {
     #[arg(short, long, default_value = "out/demo", value_name = "DIR")]
     pub output: PathBuf,
     /// Training steps of the short run.
-    #[arg(long, default_value_t = 240)]
+    #[arg(long, default_value_t = 300)]
     pub steps: u64,
 }
 
@@ -63,7 +63,7 @@ pub fn run(args: DemoArgs, ui: &Ui) -> anyhow::Result<()> {
     let config_text = format!(
         "# Written by `puppet demo`: a short run on the Kenney robot at 64×64 working pixels.\n\
          puppet = {:?}\nframes = {:?}\noutput = {:?}\nseed = 1\ntest_fraction = 0.3\n\n\
-         [model]\ninput_size = 64\n\n[train]\nsteps = {}\nbatch = 8\nlearning_rate = 3e-4\nsigma = [2.0, 0.3]\ncheckpoint_every = {}\n\n\
+         [model]\ninput_size = 64\n\n[train]\nsteps = {}\nbatch = 8\nlearning_rate = 1e-4\nsigma = [2.0, 0.25]\ncheckpoint_every = {}\n\n\
          [loss]\narap = 2500.0\njoints = 1e4\n",
         abs(&robot).display().to_string(),
         abs(&robot.join("frames")).display().to_string(),

@@ -264,7 +264,9 @@ impl<'m> PoseEditor<'m> {
             let mut accepted = None;
             for _ in 0..MAX_BACKTRACKS {
                 let candidate = self.z.clone() - g.clone().mul_scalar(self.eta);
-                let after = self.deform_loss(candidate.clone(), &weights, &target, options)?.into_scalar::<f32>();
+                let after = self
+                    .deform_loss(candidate.clone(), &weights, &target, options)?
+                    .into_scalar::<f32>();
                 if after.is_finite() && after < before {
                     accepted = Some(candidate);
                     self.eta = (self.eta * 2.0).min(options.eta * MAX_GROWTH);
