@@ -46,6 +46,10 @@ pub struct CorrespondArgs {
     /// A synthetic sequence with truth.json: score PCK on the held-out pairs instead.
     #[arg(long, value_name = "DIR", conflicts_with_all = ["frames", "points"])]
     pub sequence: Option<PathBuf>,
+    /// With --sequence: score pairs of the odd-numbered frames (held out by a model trained on
+    /// the even frames, configs/edit-walk-23.toml) instead of split.json's test frames.
+    #[arg(long, requires = "sequence")]
+    pub odd: bool,
     /// Output JSON.
     #[arg(short, long, default_value = "correspondences.json")]
     pub output: PathBuf,

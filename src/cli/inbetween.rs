@@ -29,9 +29,17 @@ pub struct InbetweenArgs {
     #[arg(long, value_name = "DIR")]
     pub model: PathBuf,
     /// The first frame (RGBA PNG of the puppet's frame size).
-    pub a: PathBuf,
+    #[arg(required_unless_present = "score")]
+    pub a: Option<PathBuf>,
     /// The last frame.
-    pub b: PathBuf,
+    #[arg(required_unless_present = "score")]
+    pub b: Option<PathBuf>,
+    /// Score instead: on this sequence (frames in natural order), generate every odd-numbered
+    /// frame from its two even neighbours at t = ½ and print the L2 to the true frame for latent
+    /// interpolation, vertex interpolation, the nearest even frame, repeating the previous frame,
+    /// and the model's own fit (for a model trained on the even frames only).
+    #[arg(long, value_name = "SEQUENCE", conflicts_with_all = ["a", "b", "gif", "training"])]
+    pub score: Option<PathBuf>,
     /// Number of in-between frames strictly between A and B (1 to 10000).
     #[arg(long, default_value_t = 8)]
     pub steps: usize,
@@ -58,8 +66,14 @@ pub fn run(args: InbetweenArgs, ui: &Ui) -> anyhow::Result<()> {
     puppet::edit::inbetween::steps_t(args.steps)?;
     let device = puppet::backend::device();
     let model = Model::load(&args.model, &device)?;
-    let a = load_frame(&args.a, &model)?;
-    let b = load_frame(&args.b, &model)?;
+    if let Some(seq) = &args.score {
+        return score(&model, seq, ui);
+    }
+    let (Some(a_path), Some(b_path)) = (&args.a, &args.b) else {
+        anyhow::bail!("give two frames A and B (or --score SEQUENCE)");
+    };
+    let a = load_frame(a_path, &model)?;
+    let b = load_frame(b_path, &model)?;
     let training = match &args.training {
         Some(dir) => load_training(dir, &model)?,
         None => Vec::new(),
@@ -105,10 +119,37 @@ pub fn run(args: InbetweenArgs, ui: &Ui) -> anyhow::Result<()> {
     ui.say(format!(
         "{} steps from {} to {} → {} (latent/, vertex/{}, sheet.png, sprites.png)",
         out.t.len(),
-        args.a.display(),
-        args.b.display(),
+        a_path.display(),
+        b_path.display(),
         dir.display(),
         if nearest.is_empty() { "" } else { ", nearest/" }
+    ));
+    Ok(())
+}
+
+/// `--score`: the in-between table of `edit::inbetween_eval` on the odd frames of `seq`.
+fn score(model: &Model, seq: &std::path::Path, ui: &Ui) -> anyhow::Result<()> {
+    let device = puppet::backend::device();
+    let frames = puppet::train::Frames::load(seq)?;
+    for (file, f) in frames.files.iter().zip(&frames.frames) {
+        model.check_frame(f).map_err(|e| anyhow::anyhow!("{}: {e}", file.display()))?;
+    }
+    let n = frames.frames.len();
+    let even: Vec<usize> = (0..n).step_by(2).collect();
+    let odd: Vec<usize> = (1..n).step_by(2).collect();
+    ui.stage("score", 0);
+    let scores = puppet::edit::inbetween_eval::inbetween_scores(model, &frames.frames, &even, &odd, &device)?;
+    ui.finish();
+    let mean = |f: fn(&puppet::edit::inbetween_eval::InbetweenScore) -> f64| scores.iter().map(f).sum::<f64>() / scores.len() as f64;
+    ui.say(format!(
+        "{} held-out frames of {}: mean L2 — latent {:.1}, vertex {:.1}, nearest even frame {:.1}, previous frame {:.1}, fit of the true frame {:.1}",
+        scores.len(),
+        seq.display(),
+        mean(|s| s.latent),
+        mean(|s| s.vertex),
+        mean(|s| s.nearest),
+        mean(|s| s.hold),
+        mean(|s| s.fit)
     ));
     Ok(())
 }
