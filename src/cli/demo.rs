@@ -246,7 +246,7 @@ struct PageData {
 
 fn page(d: &PageData) -> String {
     let mut s = String::new();
-    let _ = write!(
+    let _ = writeln!(
         s,
         "<!doctype html>\n<html><head><meta charset=\"utf-8\"><title>puppet demo — Kenney robot</title>\n<style>\
          body{{font-family:sans-serif;max-width:1100px;margin:1em auto;color:#222}} img{{image-rendering:pixelated;border:1px solid #ccc;margin:4px}}\
@@ -254,13 +254,13 @@ fn page(d: &PageData) -> String {
          .row{{display:flex;flex-wrap:wrap;align-items:flex-start;gap:8px}} figcaption{{font-size:90%;color:#555}}</style></head><body>\n\
          <h1>puppet demo: the Kenney robot</h1>\n<p>Neural Puppet (§3–4) end to end on the bundled CC0 robot: a layered puppet built from one labelled frame, \
          a deformation network trained for {} steps ({:.1} images/s) on {} frames with {} held out, then fits, in-betweens and a dragged pose. \
-         Whole run: <b>{:.0} s</b>.</p>\n",
+         Whole run: <b>{:.0} s</b>.</p>",
         d.steps, d.images_per_second, d.split.0, d.split.1, d.total
     );
-    let _ = write!(
+    let _ = writeln!(
         s,
         "<h2>1. The puppet</h2><div class=\"row\"><figure><img src=\"puppet.png\" width=\"288\"><figcaption>{} layers ({}), {} vertices, {} joints (rings), rest pose</figcaption></figure>\
-         <figure><img src=\"fit_idle.png\" width=\"288\"><figcaption>the mesh fitted to the idle frame by the trained network</figcaption></figure></div>\n",
+         <figure><img src=\"fit_idle.png\" width=\"288\"><figcaption>the mesh fitted to the idle frame by the trained network</figcaption></figure></div>",
         d.layer_names.len(),
         d.layer_names.join(", "),
         d.vertices,
@@ -280,24 +280,24 @@ fn page(d: &PageData) -> String {
     }
     s.push_str("</table>\n<h2>3. In-betweens (§4.1)</h2>");
     for (stem, a, b) in &d.gifs {
-        let _ = write!(
+        let _ = writeln!(
             s,
             "<h3>{a} → {b}</h3><div class=\"row\"><figure><img src=\"{stem}.gif\" width=\"192\"><figcaption>latent interpolation, there and back</figcaption></figure>\
-             <figure><img src=\"{stem}_sheet.png\" width=\"800\"><figcaption>rows: latent interpolation (ours), vertex-space interpolation, nearest frame of the sequence</figcaption></figure></div>\n"
+             <figure><img src=\"{stem}_sheet.png\" width=\"800\"><figcaption>rows: latent interpolation (ours), vertex-space interpolation, nearest frame of the sequence</figcaption></figure></div>"
         );
     }
-    let _ = write!(
+    let _ = writeln!(
         s,
         "<h2>4. A dragged pose (§4.2)</h2><p>The point ({:.0}, {:.0}) on layer “{}” is pinned and dragged to ({:.0}, {:.0}); \
          {} gradient steps on the latent (eq. 7–9, α1 = 25, α2 = 50) took {:.1} ms and leave the pin {:.1} px from its target.</p>\
          <div class=\"row\"><figure><img src=\"pose_sheet.png\" width=\"800\"><figcaption>input | fit | ours (latent) | direct vertex-space ARAP</figcaption></figure>\
-         <figure><img src=\"drag.gif\" width=\"192\"><figcaption>the drag as an editor would run it: 12 updates, each continuing from the last</figcaption></figure></div>\n",
+         <figure><img src=\"drag.gif\" width=\"192\"><figcaption>the drag as an editor would run it: 12 updates, each continuing from the last</figcaption></figure></div>",
         d.pin.from[0], d.pin.from[1], d.layer, d.pin.to[0], d.pin.to[1], d.pose_steps, d.drag_ms, d.pin_error
     );
     s.push_str("<h2>Time</h2><table>");
     for (what, secs) in &d.timings {
         let _ = write!(s, "<tr><th>{what}</th><td>{secs:.1} s</td></tr>");
     }
-    let _ = write!(s, "<tr><th>total</th><td>{:.1} s</td></tr></table>\n</body></html>\n", d.total);
+    let _ = writeln!(s, "<tr><th>total</th><td>{:.1} s</td></tr></table>\n</body></html>", d.total);
     s
 }

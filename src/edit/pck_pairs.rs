@@ -50,12 +50,23 @@ pub struct PckPairs {
     pub ours: Vec<f64>,
 }
 
-/// The visible keypoints of frame `f`: `(part index, rest point, position in f)`.
+/// A keypoint: a template vertex as placed in one frame by the truth.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Keypoint {
+    /// Index of its part in [`Truth::parts`].
+    pub part: usize,
+    /// Its rest (template) position, pixels.
+    pub rest: [f32; 2],
+    /// Its position in the frame, pixels.
+    pub position: [f32; 2],
+}
+
+/// The visible keypoints of frame `f` (module doc).
 ///
 /// # Errors
 /// [`Error::Invalid`] if a layer of `puppet` names no part of `truth`; label-map read errors
 /// name the file.
-pub fn visible_keypoints(truth: &Truth, sequence_dir: &Path, f: usize, puppet: &Puppet) -> Result<Vec<(usize, [f32; 2], [f32; 2])>> {
+pub fn visible_keypoints(truth: &Truth, sequence_dir: &Path, f: usize, puppet: &Puppet) -> Result<Vec<Keypoint>> {
     let frame = truth
         .frames
         .get(f)
@@ -77,7 +88,11 @@ pub fn visible_keypoints(truth: &Truth, sequence_dir: &Path, f: usize, puppet: &
             let l = labels.get(x as u32, y as u32);
             let rgb = [l[0], l[1], l[2]].map(|c| (c * 255.0).round() as u8);
             if l[3] > 0.5 && rgb == colour {
-                out.push((part, r, p));
+                out.push(Keypoint {
+                    part,
+                    rest: r,
+                    position: p,
+                });
             }
         }
     }
@@ -105,8 +120,8 @@ pub fn pck_pairs(
             return Err(Error::Invalid(format!("pck: pair ({a}, {b}) is past the {} frames", files.len())));
         }
         let keypoints = visible_keypoints(truth, sequence_dir, a, puppet)?;
-        let points_a: Vec<[f32; 2]> = keypoints.iter().map(|k| k.2).collect();
-        let truth_b: Vec<[f32; 2]> = keypoints.iter().map(|&(part, r, _)| truth.map_point(b, part, r)).collect();
+        let points_a: Vec<[f32; 2]> = keypoints.iter().map(|k| k.position).collect();
+        let truth_b: Vec<[f32; 2]> = keypoints.iter().map(|k| truth.map_point(b, k.part, k.rest)).collect();
         let ours_b: Vec<Option<[f32; 2]>> = correspond(puppet, &fits[a], &fits[b], &points_a)?
             .into_iter()
             .map(|c| c.map(|c| c.to))
