@@ -326,7 +326,7 @@ mod tests {
     use crate::model::deformation::DeformationNetConfig;
     use crate::test_util::layered_puppet;
 
-    fn small_model() -> (Model, Device) {
+    fn small_model(scale: f64) -> (Model, Device) {
         let device = crate::backend::device();
         let puppet = layered_puppet();
         let config = DeformationNetConfig::new(puppet.vertex_count())
@@ -335,13 +335,13 @@ mod tests {
             .with_latent(16)
             .with_decoder_hidden([32, 32]);
         let mut model = Model::new(config, puppet, &device).unwrap();
-        model.net = crate::edit::test_support::randomise_last_layer(model.net, 0.05);
+        model.net = crate::edit::test_support::randomise_last_layer(model.net, scale);
         (model, device)
     }
 
     #[test]
     fn gradient_steps_decrease_the_loss_and_move_the_pin_towards_its_target() {
-        let (model, device) = small_model();
+        let (model, device) = small_model(0.3);
         let frame = crate::render::render_crisp(&model.puppet, &model.puppet.rest_vertices(), 48, 40).unwrap();
         let mut editor = PoseEditor::new(&model, &frame, &device).unwrap();
         let from = [40.0, 22.5];
@@ -375,7 +375,7 @@ mod tests {
 
     #[test]
     fn the_arap_term_pulls_a_distorted_pose_towards_rigidity() {
-        let (model, device) = small_model();
+        let (model, device) = small_model(0.05);
         let frame = crate::render::render_crisp(&model.puppet, &model.puppet.rest_vertices(), 48, 40).unwrap();
         let mut editor = PoseEditor::new(&model, &frame, &device).unwrap();
         let from = [40.0, 22.5];
@@ -389,12 +389,14 @@ mod tests {
             alpha_joints: 0.0,
         };
         let out = editor.drag(&[here], &options).unwrap();
-        assert!(out.loss.last().unwrap() < &(0.9 * out.loss[0]), "{:?}", out.loss);
+        assert!(out.loss.last().unwrap() < &(0.97 * out.loss[0]), "{:?}", out.loss);
+        // Backtracking only takes steps that lower L_deform.
+        assert!(out.loss.windows(2).all(|w| w[1] <= w[0]), "{:?}", out.loss);
     }
 
     #[test]
     fn bad_pins_and_options_are_refused() {
-        let (model, device) = small_model();
+        let (model, device) = small_model(0.05);
         let frame = crate::render::render_crisp(&model.puppet, &model.puppet.rest_vertices(), 48, 40).unwrap();
         let mut editor = PoseEditor::new(&model, &frame, &device).unwrap();
         let err = editor.set_pins(&[[24.0, 20.0], [-50.0, 3.0]]).unwrap_err().to_string();
