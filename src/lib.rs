@@ -10,6 +10,7 @@
 
 pub mod atomic_file;
 pub mod backend;
+pub mod edit;
 pub mod error;
 pub mod eval;
 pub mod geom;

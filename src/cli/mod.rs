@@ -3,9 +3,13 @@
 use clap::{Parser, Subcommand};
 
 mod build;
+mod correspond;
+mod demo;
 mod eval;
 mod fit;
+mod inbetween;
 mod info;
+mod pose;
 mod render;
 mod synth;
 mod train;
@@ -35,9 +39,13 @@ pub struct Common {
 #[derive(Debug, Subcommand)]
 enum Command {
     Build(build::BuildArgs),
+    Correspond(correspond::CorrespondArgs),
+    Demo(demo::DemoArgs),
     Eval(eval::EvalArgs),
     Fit(fit::FitArgs),
+    Inbetween(inbetween::InbetweenArgs),
     Info(info::InfoArgs),
+    Pose(pose::PoseArgs),
     Render(render::RenderArgs),
     Synth(synth::SynthArgs),
     Train(train::TrainArgs),
@@ -48,9 +56,13 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
     let ui = Ui::new(cli.common.quiet);
     match cli.command {
         Command::Build(args) => build::run(args, &ui),
+        Command::Correspond(args) => correspond::run(args, &ui),
+        Command::Demo(args) => demo::run(args, &ui),
         Command::Eval(args) => eval::run(args, &ui),
         Command::Fit(args) => fit::run(args, &ui),
+        Command::Inbetween(args) => inbetween::run(args, &ui),
         Command::Info(args) => info::run(args, &ui),
+        Command::Pose(args) => pose::run(args, &ui),
         Command::Render(args) => render::run(args, &ui),
         Command::Synth(args) => synth::run(args, &ui),
         Command::Train(args) => train::run(args, &ui),

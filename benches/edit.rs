@@ -1,0 +1,87 @@
+//! Latency of what an interactive editor does per mouse move (issue 6, neural-puppet.md §4.1–4.2):
+//! one drag update (5 gradient steps of eq. 9 through the decoder + a crisp render of the
+//! 96×128 frame) and one in-between frame (one decode + a crisp render), on the Kenney robot's
+//! puppet with the paper-size network at 128² input. Weights are random (the decoder's last
+//! layer too, so the latent moves the pose as in a trained model); time does not depend on them.
+//! Ids: `edit/drag/steps=5/pins=1`, `edit/inbetween/frame`.
+
+use std::hint::black_box;
+
+use burn::module::{Module, ModuleMapper, Param};
+use burn::tensor::{Distribution, Tensor};
+use criterion::{criterion_group, criterion_main, Criterion};
+use puppet::edit::inbetween::Interpolator;
+use puppet::edit::pose::{PoseEditor, PoseOptions};
+use puppet::model::deformation::DeformationNetConfig;
+use puppet::model::Model;
+use puppet::progress::Silent;
+use puppet::render::render_crisp;
+
+/// Gives all-zero weight tensors (the decoder's zero-initialised last layer) small random values.
+struct Noise;
+impl ModuleMapper for Noise {
+    fn map_float<const D: usize>(&mut self, param: Param<Tensor<D>>) -> Param<Tensor<D>> {
+        param.map(|t| {
+            if t.clone().abs().max().into_scalar::<f32>() == 0.0 {
+                Tensor::random(t.shape(), Distribution::Uniform(-0.02, 0.02), &t.device())
+            } else {
+                t
+            }
+        })
+    }
+}
+
+fn robot_model() -> Model {
+    let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("data/kenney/robot");
+    let art = puppet::puppet::artwork::load(&dir, &Default::default()).expect("the bundled robot loads");
+    let (p, _) = puppet::puppet::build::build(&art, &Default::default(), &Silent).expect("the robot builds");
+    let device = puppet::backend::device();
+    let mut model = Model::new(DeformationNetConfig::new(p.vertex_count()), p, &device).expect("a model for the robot");
+    model.net = model.net.map(&mut Noise);
+    model
+}
+
+fn bench(c: &mut Criterion) {
+    let device = puppet::backend::device();
+    let model = robot_model();
+    let (w, h) = (model.puppet.width, model.puppet.height);
+    let frame = render_crisp(&model.puppet, &model.puppet.rest_vertices(), w, h).expect("rest render");
+    let mut group = c.benchmark_group("edit");
+
+    let mut editor = PoseEditor::new(&model, &frame, &device).expect("fit");
+    // The front hand's centre, dragged up and out by a few pixels per update.
+    let hand = model.puppet.layer_index("hand_r").unwrap_or(model.puppet.layers.len() - 1);
+    let offsets = model.puppet.vertex_offsets();
+    let part = &editor.fitted()[offsets[hand]..offsets[hand + 1]];
+    let from = part.iter().fold([0.0f32; 2], |s, p| {
+        [s[0] + p[0] / part.len() as f32, s[1] + p[1] / part.len() as f32]
+    });
+    editor.set_pins(&[from]).expect("the hand is on the character");
+    let options = PoseOptions::default();
+    let mut k = 0u32;
+    group.bench_function("drag/steps=5/pins=1", |b| {
+        b.iter(|| {
+            k += 1;
+            let d = (k % 20) as f32;
+            let out = editor.drag(&[[from[0] + 0.5 * d, from[1] - d]], &options).expect("drag");
+            black_box(render_crisp(&model.puppet, &out.vertices, w, h).expect("render"))
+        })
+    });
+
+    let mut other = model.puppet.rest_vertices();
+    other.iter_mut().for_each(|p| p[0] += 3.0);
+    let b_frame = render_crisp(&model.puppet, &other, w, h).expect("render");
+    let interp = Interpolator::new(&model, &frame, &b_frame, &device).expect("encode");
+    let mut t = 0.0f32;
+    group.bench_function("inbetween/frame", |b| {
+        b.iter(|| {
+            t = (t + 0.137) % 1.0;
+            let pose = interp.latent_poses(&model, &[t], &device).pop().expect("one pose");
+            black_box(render_crisp(&model.puppet, &pose, w, h).expect("render"))
+        })
+    });
+    group.finish();
+}
+
+criterion_group!(benches, bench);
+criterion_main!(benches);

@@ -1,0 +1,231 @@
+//! The comparison of neural-puppet.md §4.2 / Figure 6 (right): the same pins satisfied directly
+//! in vertex space with a hand-crafted energy — as-rigid-as-possible deformation of the template
+//! (eq. 2's energy, relative to the rest pose) — instead of on the learned latent manifold.
+//!
+//! The puppet is one mesh whose layers are connected components; hinge joints (eq. 3) are made
+//! exact by welding each joint's two vertices into one, so a dragged hand pulls its arm. Each pin
+//! drives the corner of its bound triangle with the largest barycentric weight, keeping the
+//! pin's offset from that corner. A drag with a single pin would only translate the whole,
+//! connected puppet (ARAP ignores rigid motion), so — as in interactive ARAP editing — parts the
+//! user did not pin stay anchored: the root layer (unless pinned) and every welded component
+//! without a pin keep one vertex, the one nearest their centroid, where the fit put it.
+
+use super::bind::Binding;
+use crate::error::{Error, Result};
+use crate::geom::ArapSolver;
+use crate::puppet::Puppet;
+
+/// Local/global iterations of the ARAP solve (libigl's default is 10).
+pub const ARAP_ITERATIONS: usize = 20;
+
+/// Deforms the fitted pose `fitted` (global numbering, pixels) so that each pin's bound point
+/// moves to its target, as-rigid-as-possible w.r.t. the rest template. `pins` pairs a binding
+/// (made on `fitted`) with its target in the same pixel space.
+///
+/// # Errors
+/// [`Error::Invalid`] if `fitted` is not one position per vertex, there is no pin, a target is
+/// not finite, or the ARAP system cannot be set up (a degenerate template layer).
+pub fn arap_drag(puppet: &Puppet, fitted: &[[f32; 2]], pins: &[(Binding, [f32; 2])]) -> Result<Vec<[f32; 2]>> {
+    let n = puppet.vertex_count();
+    if fitted.len() != n {
+        return Err(Error::Invalid(format!(
+            "arap drag: {} fitted vertices for a puppet of {n}",
+            fitted.len()
+        )));
+    }
+    if pins.is_empty() {
+        return Err(Error::Invalid("arap drag: no pin".into()));
+    }
+    if pins.iter().any(|(_, t)| !t[0].is_finite() || !t[1].is_finite()) {
+        return Err(Error::Invalid("arap drag: a pin target is not finite".into()));
+    }
+    // Weld joint vertices (union-find over the global numbering).
+    let mut parent: Vec<usize> = (0..n).collect();
+    fn find(parent: &mut [usize], mut i: usize) -> usize {
+        while parent[i] != i {
+            parent[i] = parent[parent[i]];
+            i = parent[i];
+        }
+        i
+    }
+    for j in &puppet.joints {
+        let (a, b) = (
+            find(&mut parent, puppet.global_index(j.a)),
+            find(&mut parent, puppet.global_index(j.b)),
+        );
+        if a != b {
+            parent[a.max(b)] = a.min(b);
+        }
+    }
+    let mut welded_id = vec![usize::MAX; n];
+    let mut count = 0;
+    for i in 0..n {
+        let r = find(&mut parent, i);
+        if welded_id[r] == usize::MAX {
+            welded_id[r] = count;
+            count += 1;
+        }
+        welded_id[i] = welded_id[r];
+    }
+    let average = |pos: &[[f32; 2]]| {
+        let mut sum = vec![[0.0f64; 3]; count];
+        for (i, p) in pos.iter().enumerate() {
+            let s = &mut sum[welded_id[i]];
+            s[0] += p[0] as f64;
+            s[1] += p[1] as f64;
+            s[2] += 1.0;
+        }
+        sum.into_iter().map(|[x, y, k]| [x / k, y / k]).collect::<Vec<[f64; 2]>>()
+    };
+    let rest = average(&puppet.rest_vertices());
+    let initial = average(fitted);
+    let offsets = puppet.vertex_offsets();
+    let triangles: Vec<[u32; 3]> = puppet
+        .layers
+        .iter()
+        .enumerate()
+        .flat_map(|(l, layer)| layer.mesh.triangles.iter().map(move |t| (l, t)))
+        .map(|(l, t)| t.map(|i| welded_id[offsets[l] + i as usize] as u32))
+        .filter(|t| t[0] != t[1] && t[1] != t[2] && t[0] != t[2])
+        .collect();
+
+    // Handles: the dominant corner of each pin (targets averaged if pins share one) …
+    let mut handles: Vec<u32> = Vec::new();
+    let mut targets: Vec<[f64; 3]> = Vec::new();
+    for (b, target) in pins {
+        let k = (0..3).max_by(|&x, &y| b.weights[x].total_cmp(&b.weights[y])).unwrap_or(0);
+        let v = b.vertices[k] as usize;
+        let p = b.position(fitted);
+        let goal = [(target[0] + fitted[v][0] - p[0]) as f64, (target[1] + fitted[v][1] - p[1]) as f64];
+        let h = welded_id[v] as u32;
+        match handles.iter().position(|&x| x == h) {
+            Some(i) => targets[i] = [targets[i][0] + goal[0], targets[i][1] + goal[1], targets[i][2] + 1.0],
+            None => {
+                handles.push(h);
+                targets.push([goal[0], goal[1], 1.0]);
+            }
+        }
+    }
+    // … then anchors: the root layer unless pinned, and every component without a handle.
+    let component = components(count, &triangles);
+    let pinned_layers: Vec<usize> = pins.iter().map(|(b, _)| b.layer).collect();
+    let anchor = |members: &mut dyn Iterator<Item = usize>, handles: &mut Vec<u32>, targets: &mut Vec<[f64; 3]>| {
+        let members: Vec<usize> = members.collect();
+        if members.is_empty() {
+            return;
+        }
+        let c = members
+            .iter()
+            .fold([0.0, 0.0], |s, &i| [s[0] + initial[i][0], s[1] + initial[i][1]]);
+        let c = [c[0] / members.len() as f64, c[1] / members.len() as f64];
+        let d = |i: usize| (initial[i][0] - c[0]).powi(2) + (initial[i][1] - c[1]).powi(2);
+        let best = members.iter().copied().min_by(|&a, &b| d(a).total_cmp(&d(b))).unwrap_or(members[0]);
+        if !handles.contains(&(best as u32)) {
+            handles.push(best as u32);
+            targets.push([initial[best][0], initial[best][1], 1.0]);
+        }
+    };
+    if !pinned_layers.contains(&puppet.root) {
+        let root: Vec<usize> = (offsets[puppet.root]..offsets[puppet.root + 1]).map(|i| welded_id[i]).collect();
+        anchor(&mut root.into_iter(), &mut handles, &mut targets);
+    }
+    let ncomp = component.iter().copied().max().map_or(0, |m| m + 1);
+    for c in 0..ncomp {
+        if !handles.iter().any(|&h| component[h as usize] == c) {
+            anchor(&mut (0..count).filter(|&i| component[i] == c), &mut handles, &mut targets);
+        }
+    }
+    let targets: Vec<[f64; 2]> = targets.iter().map(|t| [t[0] / t[2], t[1] / t[2]]).collect();
+    let mut solver = ArapSolver::new(&rest, &triangles, &handles)?;
+    let solved = solver.solve(&targets, ARAP_ITERATIONS, &initial);
+    Ok((0..n).map(|i| solved[welded_id[i]].map(|c| c as f32)).collect())
+}
+
+/// Connected component of every vertex (isolated vertices are their own component).
+fn components(n: usize, triangles: &[[u32; 3]]) -> Vec<usize> {
+    let mut parent: Vec<usize> = (0..n).collect();
+    fn find(parent: &mut [usize], mut i: usize) -> usize {
+        while parent[i] != i {
+            parent[i] = parent[parent[i]];
+            i = parent[i];
+        }
+        i
+    }
+    for t in triangles {
+        for k in 1..3 {
+            let (a, b) = (find(&mut parent, t[0] as usize), find(&mut parent, t[k] as usize));
+            if a != b {
+                parent[a.max(b)] = a.min(b);
+            }
+        }
+    }
+    let mut label = vec![usize::MAX; n];
+    let mut next = 0;
+    (0..n)
+        .map(|i| {
+            let r = find(&mut parent, i);
+            if label[r] == usize::MAX {
+                label[r] = next;
+                next += 1;
+            }
+            label[r]
+        })
+        .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::edit::bind::bind;
+    use crate::puppet::{Joint, VertexRef};
+    use crate::test_util::layered_puppet;
+
+    /// The layered test puppet with the front arm hinged to the torso at a shared rest point.
+    fn hinged() -> Puppet {
+        let mut puppet = layered_puppet();
+        let torso = puppet.layer_index("torso").unwrap();
+        let arm = puppet.layer_index("arm_front").unwrap();
+        // arm_front's vertex at (24, 20) and the torso's vertex nearest it.
+        let find = |l: usize, p: [f32; 2]| {
+            let v = &puppet.layers[l].mesh.vertices;
+            (0..v.len()).min_by(|&a, &b| {
+                let d = |i: usize| (v[i][0] - p[0]).powi(2) + (v[i][1] - p[1]).powi(2);
+                d(a).total_cmp(&d(b))
+            })
+        };
+        let a = find(arm, [24.0, 20.0]).unwrap() as u32;
+        let t = find(torso, [24.0, 20.0]).unwrap() as u32;
+        puppet.joints.push(Joint {
+            a: VertexRef { layer: torso, vertex: t },
+            b: VertexRef { layer: arm, vertex: a },
+        });
+        puppet
+    }
+
+    #[test]
+    fn the_pin_is_met_and_unpinned_parts_stay_put() {
+        let puppet = hinged();
+        let rest = puppet.rest_vertices();
+        // Grab the front arm's tip and lift it by 8 px.
+        let b = bind(&puppet, &rest, [42.0, 22.5]).unwrap();
+        let target = [42.0, 14.5];
+        let out = arap_drag(&puppet, &rest, &[(b, target)]).unwrap();
+        let got = b.position(&out);
+        // The handle is the dominant corner; the pin point itself lands within a pixel.
+        assert!((got[0] - target[0]).abs() < 1.0 && (got[1] - target[1]).abs() < 1.0, "{got:?}");
+        // The torso (root, anchored, not pinned) barely moves; the other arm and head stay.
+        let offsets = puppet.vertex_offsets();
+        for name in ["torso", "head", "arm_back"] {
+            let l = puppet.layer_index(name).unwrap();
+            let moved = (offsets[l]..offsets[l + 1])
+                .map(|i| ((out[i][0] - rest[i][0]).powi(2) + (out[i][1] - rest[i][1]).powi(2)).sqrt())
+                .fold(0.0f32, f32::max);
+            assert!(moved < 1.5, "{name} moved {moved} px");
+        }
+        // The hinge holds: the welded pair still coincides.
+        let j = puppet.joints[0];
+        assert_eq!(out[puppet.global_index(j.a)], out[puppet.global_index(j.b)]);
+        assert!(arap_drag(&puppet, &rest, &[]).is_err());
+        assert!(arap_drag(&puppet, &rest, &[(b, [f32::NAN, 0.0])]).is_err());
+    }
+}

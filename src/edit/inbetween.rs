@@ -1,0 +1,188 @@
+//! In-betweening (neural-puppet.md §4.1): encode two frames, `z_i = E(x_i)`, interpolate the
+//! latents linearly with uniform steps and decode each, `v(t) = D((1 − t)·z_1 + t·z_2)`. Beside
+//! it, the comparison the paper's argument rests on: linear interpolation of the two fitted
+//! meshes in vertex space, which leaves the learned manifold.
+//!
+//! Step convention: `steps = N` in-betweens at `t_k = k / (N + 1)`, `k = 1..=N`, framed by the
+//! fitted end frames (`k = 0` and `k = N + 1`), so `N + 2` poses in all.
+
+use burn::tensor::{Device, Tensor, TensorData};
+
+use crate::error::{Error, Result};
+use crate::model::Model;
+use crate::picture::Picture;
+
+/// Latent and vertex-space interpolation between two frames.
+#[derive(Clone, Debug)]
+pub struct Inbetweens {
+    /// Interpolation parameters `t_k`, `N + 2` of them from 0 to 1.
+    pub t: Vec<f32>,
+    /// The decoded latent interpolation per `t_k`, frame pixels, global vertex numbering.
+    pub latent: Vec<Vec<[f32; 2]>>,
+    /// The vertex-space interpolation `(1 − t)·v_1 + t·v_2` of the fitted end poses.
+    pub vertex: Vec<Vec<[f32; 2]>>,
+}
+
+/// The two encoded end frames, ready to produce any in-between quickly (one decode each) —
+/// what an interactive timeline would hold.
+#[derive(Clone, Debug)]
+pub struct Interpolator {
+    z_a: Tensor<2>,
+    z_b: Tensor<2>,
+    fitted: [Vec<[f32; 2]>; 2],
+}
+
+impl Interpolator {
+    /// Encodes frames `a` and `b` with `model`.
+    ///
+    /// # Errors
+    /// [`Error::Invalid`] if a frame is not the puppet's size (see [`Model::check_frame`]).
+    pub fn new(model: &Model, a: &Picture, b: &Picture, device: &Device) -> Result<Self> {
+        let z = model.encode(&[a, b], device)?;
+        let fitted = model.to_frame_vertices(model.decode(z.clone(), device));
+        let mut it = fitted.into_iter();
+        let (va, vb) = (it.next().unwrap_or_default(), it.next().unwrap_or_default());
+        Ok(Interpolator {
+            z_a: z.clone().narrow(0, 0, 1),
+            z_b: z.narrow(0, 1, 1),
+            fitted: [va, vb],
+        })
+    }
+
+    /// The fitted poses of a and b (frame pixels).
+    pub fn fitted(&self) -> [&[[f32; 2]]; 2] {
+        [&self.fitted[0], &self.fitted[1]]
+    }
+
+    /// Decodes the latent interpolations at each `t` in one batch (frame pixels).
+    pub fn latent_poses(&self, model: &Model, t: &[f32], device: &Device) -> Vec<Vec<[f32; 2]>> {
+        if t.is_empty() {
+            return Vec::new();
+        }
+        let n = t.len();
+        let w = Tensor::<2>::from_data(TensorData::new(t.to_vec(), [n, 1]), device);
+        let z = self.z_a.clone().repeat_dim(0, n) * (w.clone().neg() + 1.0) + self.z_b.clone().repeat_dim(0, n) * w;
+        model.to_frame_vertices(model.decode(z, device))
+    }
+
+    /// The vertex-space interpolation of the fitted end poses at `t`.
+    pub fn vertex_pose(&self, t: f32) -> Vec<[f32; 2]> {
+        self.fitted[0]
+            .iter()
+            .zip(&self.fitted[1])
+            .map(|(a, b)| [a[0] + t * (b[0] - a[0]), a[1] + t * (b[1] - a[1])])
+            .collect()
+    }
+}
+
+/// The `N + 2` interpolation parameters of `steps = N` in-betweens (module doc).
+///
+/// # Errors
+/// [`Error::Invalid`] if `steps` is 0 (nothing to generate) or above 10 000.
+pub fn steps_t(steps: usize) -> Result<Vec<f32>> {
+    if steps == 0 || steps > 10_000 {
+        return Err(Error::Invalid(format!(
+            "--steps {steps}: the number of in-between frames must be from 1 to 10000"
+        )));
+    }
+    Ok((0..=steps + 1).map(|k| k as f32 / (steps + 1) as f32).collect())
+}
+
+/// In-betweens of frames `a` and `b`: latent and vertex-space interpolations at
+/// [`steps_t`]`(steps)`.
+///
+/// # Errors
+/// As [`steps_t`] and [`Interpolator::new`].
+pub fn inbetween(model: &Model, a: &Picture, b: &Picture, steps: usize, device: &Device) -> Result<Inbetweens> {
+    let t = steps_t(steps)?;
+    let interp = Interpolator::new(model, a, b, device)?;
+    let latent = interp.latent_poses(model, &t, device);
+    let vertex = t.iter().map(|&t| interp.vertex_pose(t)).collect();
+    Ok(Inbetweens { t, latent, vertex })
+}
+
+/// The index of the picture in `candidates` nearest to `picture` in Euclidean image distance
+/// (the DESIGN.md L2, composited on white) and that distance (§4.1, Figure 5's last row);
+/// `None` if there is no candidate of the same size.
+pub fn nearest_frame(picture: &Picture, candidates: &[Picture]) -> Option<(usize, f64)> {
+    candidates
+        .iter()
+        .enumerate()
+        .filter(|(_, c)| (c.width, c.height) == (picture.width, picture.height))
+        .map(|(k, c)| (k, crate::eval::l2(picture, c)))
+        .min_by(|a, b| a.1.total_cmp(&b.1))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::model::deformation::DeformationNetConfig;
+    use crate::test_util::layered_puppet;
+
+    fn small_model() -> (Model, Device) {
+        let device = crate::backend::device();
+        let puppet = layered_puppet();
+        let config = DeformationNetConfig::new(puppet.vertex_count())
+            .with_input_size(16)
+            .with_encoder_hidden([32, 16])
+            .with_latent(8)
+            .with_decoder_hidden([16, 16]);
+        let mut model = Model::new(config, puppet, &device).unwrap();
+        // Give the last decoder layer weights so that poses depend on z (an untrained model
+        // predicts the rest pose whatever z is).
+        model.net = crate::edit::test_support::randomise_last_layer(model.net, 0.3);
+        (model, device)
+    }
+
+    #[test]
+    fn latent_end_points_are_the_fits_and_vertex_interpolation_is_linear() {
+        let (model, device) = small_model();
+        let a = crate::render::render_crisp(&model.puppet, &model.puppet.rest_vertices(), 48, 40).unwrap();
+        let mut b = a.clone();
+        b.pixels.rotate_left(37); // a different image, so a different latent
+        let out = inbetween(&model, &a, &b, 3, &device).unwrap();
+        assert_eq!(out.t, vec![0.0, 0.25, 0.5, 0.75, 1.0]);
+        let fits = model.fit(&[&a, &b], &device).unwrap();
+        let close = |x: &[[f32; 2]], y: &[[f32; 2]]| {
+            x.iter()
+                .zip(y)
+                .all(|(p, q)| (p[0] - q[0]).abs() < 1e-3 && (p[1] - q[1]).abs() < 1e-3)
+        };
+        assert!(close(&out.latent[0], &fits[0]) && close(&out.latent[4], &fits[1]));
+        assert!(close(&out.vertex[0], &fits[0]) && close(&out.vertex[4], &fits[1]));
+        assert!(!close(&fits[0], &fits[1]), "the two frames should fit differently");
+        for (k, &t) in out.t.iter().enumerate() {
+            let want: Vec<[f32; 2]> = fits[0]
+                .iter()
+                .zip(&fits[1])
+                .map(|(p, q)| [p[0] + t * (q[0] - p[0]), p[1] + t * (q[1] - p[1])])
+                .collect();
+            assert!(close(&out.vertex[k], &want));
+        }
+        // The middle pose is the decoded mean latent.
+        let z = model.encode(&[&a, &b], &device).unwrap();
+        let mid = model.to_frame_vertices(model.decode(z.mean_dim(0), &device)).pop().unwrap();
+        assert!(close(&out.latent[2], &mid));
+    }
+
+    #[test]
+    fn zero_steps_and_wrong_sizes_are_refused() {
+        let (model, device) = small_model();
+        let a = Picture::filled(48, 40, [1.0, 0.0, 0.0, 1.0]);
+        assert!(inbetween(&model, &a, &a, 0, &device).unwrap_err().to_string().contains("--steps 0"));
+        let small = Picture::filled(20, 20, [1.0; 4]);
+        let err = inbetween(&model, &a, &small, 2, &device).unwrap_err().to_string();
+        assert!(err.contains("20×20") && err.contains("48×40"), "{err}");
+    }
+
+    #[test]
+    fn nearest_frame_picks_the_closest_picture() {
+        let red = Picture::filled(4, 4, [1.0, 0.0, 0.0, 1.0]);
+        let pink = Picture::filled(4, 4, [1.0, 0.3, 0.3, 1.0]);
+        let blue = Picture::filled(4, 4, [0.0, 0.0, 1.0, 1.0]);
+        let (k, d) = nearest_frame(&red, &[blue.clone(), pink, blue]).unwrap();
+        assert_eq!(k, 1);
+        assert!((d - (2.0 * 16.0 * (0.3f64 * 255.0).powi(2)).sqrt()).abs() < 0.5, "{d}");
+        assert!(nearest_frame(&red, &[Picture::filled(2, 2, [1.0; 4])]).is_none());
+    }
+}

@@ -1,0 +1,195 @@
+//! Correspondence accuracy on synthetic pairs with ground truth (neural-puppet.md §4.3, Table 2
+//! protocol): for ordered pairs (a, b) of held-out frames, keypoints visible in a are carried
+//! into b through the fitted template ([`correspond`]) and compared with where the truth puts
+//! them; PCK@α per pair (DESIGN.md: within α·max(W, H)), averaged over pairs.
+//!
+//! Keypoints are the template's vertices, placed in frame a by the truth (each layer by the part
+//! of the same name), kept where frame a's label map shows that part at the point's pixel —
+//! i.e. visible, as an annotator would click them. Their truth in b is the same rest point mapped
+//! by b's truth. A keypoint our fit of a does not cover counts as a miss.
+
+use std::path::{Path, PathBuf};
+
+use super::correspond::correspond;
+use crate::error::{Error, Result};
+use crate::eval::pck;
+use crate::picture::Picture;
+use crate::puppet::Puppet;
+use crate::synth::Truth;
+
+/// The α thresholds of Table 2.
+pub const ALPHAS: [f64; 3] = [0.1, 0.05, 0.025];
+
+/// One ordered pair's keypoints and matches.
+#[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct PairKeypoints {
+    /// Frame a's image file.
+    pub a: PathBuf,
+    /// Frame b's image file.
+    pub b: PathBuf,
+    /// Visible keypoints in a, frame pixels.
+    pub points_a: Vec<[f32; 2]>,
+    /// Their true positions in b.
+    pub truth_b: Vec<[f32; 2]>,
+    /// Our matches in b (`None`: not on our fit of a).
+    pub ours_b: Vec<Option<[f32; 2]>>,
+}
+
+/// Everything the optical-flow peer (bench/flow_dis.py) needs, and our scores.
+#[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct PckPairs {
+    /// Frame width (pixels).
+    pub width: u32,
+    /// Frame height (pixels).
+    pub height: u32,
+    /// The α of each PCK entry.
+    pub alphas: Vec<f64>,
+    /// The pairs.
+    pub pairs: Vec<PairKeypoints>,
+    /// Our PCK@α (share in [0, 1]) per α, averaged over pairs.
+    pub ours: Vec<f64>,
+}
+
+/// A keypoint: a template vertex as placed in one frame by the truth.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Keypoint {
+    /// Index of its part in [`Truth::parts`].
+    pub part: usize,
+    /// Its rest (template) position, pixels.
+    pub rest: [f32; 2],
+    /// Its position in the frame, pixels.
+    pub position: [f32; 2],
+}
+
+/// The visible keypoints of frame `f` (module doc).
+///
+/// # Errors
+/// [`Error::Invalid`] if a layer of `puppet` names no part of `truth`; label-map read errors
+/// name the file.
+pub fn visible_keypoints(truth: &Truth, sequence_dir: &Path, f: usize, puppet: &Puppet) -> Result<Vec<Keypoint>> {
+    let frame = truth
+        .frames
+        .get(f)
+        .ok_or_else(|| Error::Invalid(format!("truth: no frame {f} (the sequence has {})", truth.frames.len())))?;
+    let labels = Picture::load(&sequence_dir.join(&frame.labels))?;
+    let mut out = Vec::new();
+    for layer in &puppet.layers {
+        let part = truth
+            .part_index(&layer.name)
+            .ok_or_else(|| Error::Invalid(format!("truth: layer {:?} has no part of that name", layer.name)))?;
+        let colour = crate::puppet::character::parse_color(&truth.parts[part].label)
+            .map_err(|e| Error::Invalid(format!("truth: part {:?}: {e}", layer.name)))?;
+        for &r in &layer.mesh.vertices {
+            let p = truth.map_point(f, part, r);
+            let (x, y) = (p[0].floor(), p[1].floor());
+            if x < 0.0 || y < 0.0 || x >= labels.width as f32 || y >= labels.height as f32 {
+                continue;
+            }
+            let l = labels.get(x as u32, y as u32);
+            let rgb = [l[0], l[1], l[2]].map(|c| (c * 255.0).round() as u8);
+            if l[3] > 0.5 && rgb == colour {
+                out.push(Keypoint {
+                    part,
+                    rest: r,
+                    position: p,
+                });
+            }
+        }
+    }
+    Ok(out)
+}
+
+/// Scores correspondences on `pairs` (indices into `files`/`fits`, which are the sequence's
+/// frame files and our fitted poses of them, frame pixels).
+///
+/// # Errors
+/// As [`visible_keypoints`]; [`Error::Invalid`] for an index out of range or a fit of the wrong
+/// size.
+pub fn pck_pairs(
+    truth: &Truth,
+    sequence_dir: &Path,
+    files: &[PathBuf],
+    fits: &[Vec<[f32; 2]>],
+    puppet: &Puppet,
+    pairs: &[(usize, usize)],
+) -> Result<PckPairs> {
+    let mut out = Vec::with_capacity(pairs.len());
+    let mut sums = [0.0f64; 3];
+    for &(a, b) in pairs {
+        if a >= files.len() || b >= files.len() || a >= fits.len() || b >= fits.len() {
+            return Err(Error::Invalid(format!("pck: pair ({a}, {b}) is past the {} frames", files.len())));
+        }
+        let keypoints = visible_keypoints(truth, sequence_dir, a, puppet)?;
+        let points_a: Vec<[f32; 2]> = keypoints.iter().map(|k| k.position).collect();
+        let truth_b: Vec<[f32; 2]> = keypoints.iter().map(|k| truth.map_point(b, k.part, k.rest)).collect();
+        let ours_b: Vec<Option<[f32; 2]>> = correspond(puppet, &fits[a], &fits[b], &points_a)?
+            .into_iter()
+            .map(|c| c.map(|c| c.to))
+            .collect();
+        // A miss is placed at infinity so it never counts as correct.
+        let predicted: Vec<[f32; 2]> = ours_b.iter().map(|p| p.unwrap_or([f32::INFINITY; 2])).collect();
+        for (s, &alpha) in sums.iter_mut().zip(&ALPHAS) {
+            *s += pck(&predicted, &truth_b, alpha, puppet.width, puppet.height);
+        }
+        out.push(PairKeypoints {
+            a: files[a].clone(),
+            b: files[b].clone(),
+            points_a,
+            truth_b,
+            ours_b,
+        });
+    }
+    let n = pairs.len().max(1) as f64;
+    Ok(PckPairs {
+        width: puppet.width,
+        height: puppet.height,
+        alphas: ALPHAS.to_vec(),
+        pairs: out,
+        ours: sums.iter().map(|s| s / n).collect(),
+    })
+}
+
+/// All ordered pairs (a, b), a ≠ b, of `frames`.
+pub fn ordered_pairs(frames: &[usize]) -> Vec<(usize, usize)> {
+    frames
+        .iter()
+        .flat_map(|&a| frames.iter().filter(move |&&b| b != a).map(move |&b| (a, b)))
+        .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::progress::Silent;
+    use crate::synth::{self, SynthOptions};
+
+    #[test]
+    fn true_fits_score_full_pck_and_rest_fits_score_less() {
+        let dir = tempfile::tempdir().unwrap();
+        let opts = SynthOptions {
+            seed: 5,
+            frames: 4,
+            width: 96,
+            height: 96,
+            ..SynthOptions::default()
+        };
+        let seq = synth::generate(&opts, &Silent).unwrap();
+        synth::write_sequence(&seq, dir.path(), &Silent).unwrap();
+        let art = crate::puppet::artwork::load(&dir.path().join("template"), &Default::default()).unwrap();
+        let puppet = crate::puppet::build::build(&art, &Default::default(), &Silent).unwrap().0;
+        let truth = Truth::load(&dir.path().join("truth.json")).unwrap();
+        let files: Vec<PathBuf> = truth.frames.iter().map(|f| dir.path().join(&f.file)).collect();
+        let exact: Vec<Vec<[f32; 2]>> = (0..4).map(|f| synth::true_positions(&truth, f, &puppet).unwrap()).collect();
+        let pairs = ordered_pairs(&[0, 1, 2, 3]);
+        assert_eq!(pairs.len(), 12);
+        let scored = pck_pairs(&truth, dir.path(), &files, &exact, &puppet, &pairs).unwrap();
+        assert!(scored.pairs.iter().all(|p| p.points_a.len() > 10), "few visible keypoints");
+        // With the true meshes, a visible keypoint binds to its own layer (it is in front), so
+        // it maps exactly — up to points on a layer edge that bind to a neighbour in front.
+        assert!(scored.ours[2] > 0.97, "{:?}", scored.ours);
+        let rest = vec![puppet.rest_vertices(); 4];
+        let worse = pck_pairs(&truth, dir.path(), &files, &rest, &puppet, &pairs).unwrap();
+        assert!(worse.ours[2] < scored.ours[2], "{:?} vs {:?}", worse.ours, scored.ours);
+        assert!(pck_pairs(&truth, dir.path(), &files, &exact, &puppet, &[(0, 9)]).is_err());
+    }
+}

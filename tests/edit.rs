@@ -1,0 +1,254 @@
+//! `puppet inbetween`, `pose` and `correspond` end to end on the tiny test character with a small
+//! untrained model (it predicts the rest pose, which is all these plumbing tests need), and every
+//! bad input issue 6 names: pins off the character, a model for a different puppet, frames of
+//! the wrong size or without alpha, `--steps 0`.
+
+mod util;
+
+use std::path::{Path, PathBuf};
+
+use puppet::model::deformation::DeformationNetConfig;
+use puppet::model::Model;
+use puppet::puppet::format;
+use util::{puppet, write_layer_character};
+
+/// Builds the tiny character, saves a small untrained model for it, and writes two frames (the
+/// rest render and a copy shifted 2 px right). Returns (model dir, frame a, frame b).
+fn setup(tmp: &Path) -> (PathBuf, PathBuf, PathBuf) {
+    let art = write_layer_character(&tmp.join("art"), "");
+    let built = tmp.join("built");
+    puppet(tmp, &["build", art.to_str().unwrap(), "-o", built.to_str().unwrap()]).assert_ok();
+    let device = puppet::backend::device();
+    let p = format::load(&built).unwrap();
+    let config = DeformationNetConfig::new(p.vertex_count())
+        .with_input_size(64)
+        .with_encoder_hidden([32, 16])
+        .with_latent(16)
+        .with_decoder_hidden([16, 32]);
+    let model = Model::new(config, p, &device).unwrap();
+    let dir = tmp.join("model");
+    model.save(&dir).unwrap();
+    let rest = puppet::render::render_crisp(&model.puppet, &model.puppet.rest_vertices(), 64, 64).unwrap();
+    let a = tmp.join("a.png");
+    rest.save_png(&a).unwrap();
+    let shifted: Vec<[f32; 2]> = model.puppet.rest_vertices().iter().map(|v| [v[0] + 2.0, v[1]]).collect();
+    let b = tmp.join("b.png");
+    puppet::render::render_crisp(&model.puppet, &shifted, 64, 64)
+        .unwrap()
+        .save_png(&b)
+        .unwrap();
+    (dir, a, b)
+}
+
+fn s(p: &Path) -> &str {
+    p.to_str().unwrap()
+}
+
+#[test]
+fn inbetween_writes_steps_sheets_and_a_gif() {
+    let tmp = tempfile::tempdir().unwrap();
+    let (model, a, b) = setup(tmp.path());
+    let out = tmp.path().join("ib");
+    let gif = tmp.path().join("ib.gif");
+    let training = tmp.path().join("training");
+    std::fs::create_dir_all(&training).unwrap();
+    std::fs::copy(&a, training.join("t0.png")).unwrap();
+    std::fs::copy(&b, training.join("t1.png")).unwrap();
+    let run = puppet(
+        tmp.path(),
+        &[
+            "inbetween",
+            "--model",
+            s(&model),
+            s(&a),
+            s(&b),
+            "--steps",
+            "3",
+            "-o",
+            s(&out),
+            "--gif",
+            s(&gif),
+            "--training",
+            s(&training),
+        ],
+    );
+    run.assert_ok();
+    assert!(run.stdout.contains("5 steps"), "{}", run.stdout);
+    for k in 0..5 {
+        for sub in ["latent", "vertex", "nearest"] {
+            assert!(out.join(sub).join(format!("step_00{k}.png")).is_file(), "{sub} step {k}");
+        }
+        let pose = format!("latent/step_00{k}.json");
+        let json: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(out.join(&pose)).unwrap()).unwrap();
+        assert!(json["vertices"].as_array().is_some_and(|v| !v.is_empty()), "{pose}");
+    }
+    assert!(!out.join("latent/step_005.png").exists());
+    let sheet = image::open(out.join("sheet.png")).unwrap();
+    assert!(sheet.width() > 5 * 64 && sheet.height() > 3 * 64, "three rows of five");
+    let sprites = image::open(out.join("sprites.png")).unwrap();
+    assert_eq!((sprites.width(), sprites.height()), (5 * 64, 64));
+    // The GIF goes there and back: 5 + 3 frames.
+    use image::AnimationDecoder;
+    let decoder = image::codecs::gif::GifDecoder::new(std::io::BufReader::new(std::fs::File::open(&gif).unwrap())).unwrap();
+    assert_eq!(decoder.into_frames().collect_frames().unwrap().len(), 8);
+}
+
+#[test]
+fn pose_writes_the_posed_frame_the_arap_comparison_and_the_drag_gif() {
+    let tmp = tempfile::tempdir().unwrap();
+    let (model, a, _) = setup(tmp.path());
+    let out = tmp.path().join("posed.png");
+    let gif = tmp.path().join("drag.gif");
+    // The arm box spans x 40..52, y 26..34: grab its tip, lift it.
+    let run = puppet(
+        tmp.path(),
+        &[
+            "pose",
+            "--model",
+            s(&model),
+            s(&a),
+            "--pin",
+            "50,30:50,20",
+            "-o",
+            s(&out),
+            "--gif",
+            s(&gif),
+            "--gif-frames",
+            "3",
+        ],
+    );
+    run.assert_ok();
+    assert!(run.stdout.contains("pin error"), "{}", run.stdout);
+    for f in ["posed.png", "posed_arap.png", "posed_sheet.png", "posed.json", "drag.gif"] {
+        assert!(tmp.path().join(f).is_file(), "{f} missing");
+    }
+    // The ARAP comparison moved the arm: its render differs from the input frame.
+    let arap = puppet::picture::Picture::load(&tmp.path().join("posed_arap.png")).unwrap();
+    let input = puppet::picture::Picture::load(&a).unwrap();
+    assert!(puppet::eval::l2(&arap, &input) > 500.0, "the ARAP drag should lift the arm");
+}
+
+#[test]
+fn correspond_maps_points_and_reports_those_off_the_character() {
+    let tmp = tempfile::tempdir().unwrap();
+    let (model, a, b) = setup(tmp.path());
+    let points = tmp.path().join("pts.json");
+    std::fs::write(&points, "[[32, 40], [1, 1], [46, 30]]").unwrap();
+    let out = tmp.path().join("c.json");
+    let run = puppet(
+        tmp.path(),
+        &[
+            "correspond",
+            "--model",
+            s(&model),
+            s(&a),
+            s(&b),
+            "--points",
+            s(&points),
+            "-o",
+            s(&out),
+        ],
+    );
+    run.assert_ok();
+    assert!(run.stdout.contains("2 of 3 points mapped"), "{}", run.stdout);
+    let json: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(&out).unwrap()).unwrap();
+    assert!(json[1]["to"].is_null());
+    assert_eq!(json[2]["layer"], "arm");
+    // The untrained model fits both frames with the rest pose, so points map to themselves.
+    let to = json[0]["to"].as_array().unwrap();
+    assert!((to[0].as_f64().unwrap() - 32.0).abs() < 1e-3 && (to[1].as_f64().unwrap() - 40.0).abs() < 1e-3);
+    assert!(tmp.path().join("c.png").is_file());
+    // Default points: a grid over the character.
+    let run = puppet(tmp.path(), &["correspond", "--model", s(&model), s(&a), s(&b), "-o", s(&out)]);
+    run.assert_ok();
+}
+
+#[test]
+fn pins_off_the_character_are_refused_naming_the_pin_and_the_frame() {
+    let tmp = tempfile::tempdir().unwrap();
+    let (model, a, _) = setup(tmp.path());
+    let out = tmp.path().join("p.png");
+    let run = puppet(
+        tmp.path(),
+        &[
+            "pose",
+            "--model",
+            s(&model),
+            s(&a),
+            "--pin",
+            "50,30:50,20",
+            "--pin",
+            "2,2:5,5",
+            "-o",
+            s(&out),
+        ],
+    );
+    run.assert_error(&["a.png", "pin 2", "not on the character", "px away"]);
+    assert!(!out.exists());
+}
+
+#[test]
+fn a_model_for_a_different_puppet_is_refused() {
+    let tmp = tempfile::tempdir().unwrap();
+    let (model, a, _) = setup(tmp.path());
+    // Replace the model's puppet by another character's (one layer fewer).
+    let other = tmp.path().join("other");
+    std::fs::create_dir_all(&other).unwrap();
+    let mut toml = String::from("name = \"other\"\nroot = \"torso\"\n");
+    for (name, img) in util::tiny_layers().into_iter().take(2) {
+        img.save(other.join(format!("{name}.png"))).unwrap();
+        toml.push_str(&format!("[[layer]]\nname = \"{name}\"\nfile = \"{name}.png\"\n"));
+    }
+    std::fs::write(other.join("character.toml"), toml).unwrap();
+    puppet(tmp.path(), &["build", s(&other), "-o", s(&model.join("puppet"))]).assert_ok();
+    let run = puppet(
+        tmp.path(),
+        &["inbetween", "--model", s(&model), s(&a), s(&a), "-o", s(&tmp.path().join("o"))],
+    );
+    run.assert_error(&["net.json", "different puppet"]);
+}
+
+#[test]
+fn frames_of_the_wrong_size_or_without_alpha_and_zero_steps_are_refused() {
+    let tmp = tempfile::tempdir().unwrap();
+    let (model, a, _) = setup(tmp.path());
+    let small = tmp.path().join("small.png");
+    image::RgbaImage::from_pixel(32, 48, image::Rgba([0, 0, 0, 0]))
+        .save(&small)
+        .unwrap();
+    let rgb = tmp.path().join("rgb.png");
+    image::RgbImage::from_pixel(64, 64, image::Rgb([200, 10, 10])).save(&rgb).unwrap();
+    let o = tmp.path().join("o");
+    puppet(tmp.path(), &["inbetween", "--model", s(&model), s(&a), s(&small), "-o", s(&o)]).assert_error(&["small.png", "32×48", "64×64"]);
+    puppet(
+        tmp.path(),
+        &["pose", "--model", s(&model), s(&rgb), "--pin", "1,1:2,2", "-o", s(&o)],
+    )
+    .assert_error(&["rgb.png", "no alpha"]);
+    puppet(tmp.path(), &["correspond", "--model", s(&model), s(&a), s(&small)]).assert_error(&["small.png", "32×48"]);
+    puppet(
+        tmp.path(),
+        &["inbetween", "--model", s(&model), s(&a), s(&a), "--steps", "0", "-o", s(&o)],
+    )
+    .assert_error(&["--steps 0"]);
+    puppet(
+        tmp.path(),
+        &[
+            "pose",
+            "--model",
+            s(&model),
+            s(&a),
+            "--pin",
+            "50,30:50,20",
+            "--steps",
+            "0",
+            "-o",
+            s(&o),
+        ],
+    )
+    .assert_error(&["--steps 0"]);
+    let run = puppet(tmp.path(), &["pose", "--model", s(&model), s(&a), "--pin", "50,30", "-o", s(&o)]);
+    assert_eq!(run.code, 2, "a malformed pin is a usage error: {}", run.stderr);
+    assert!(run.stderr.contains("is not a pin"), "{}", run.stderr);
+    assert!(!o.exists(), "nothing written on error");
+}
