@@ -126,11 +126,7 @@ pub fn plot(rows: &[LogRow], weights: [f64; 3]) -> Picture {
         ("area", [0.7, 0.1, 0.6]),
     ];
     let values = |r: &LogRow| [r.total, r.rec, r.arap * weights[0], r.joints * weights[1], r.area * weights[2]];
-    let positive: Vec<f64> = rows
-        .iter()
-        .flat_map(values)
-        .filter(|v| *v > 0.0 && v.is_finite())
-        .collect();
+    let positive: Vec<f64> = rows.iter().flat_map(values).filter(|v| *v > 0.0 && v.is_finite()).collect();
     let (lo, hi) = positive.iter().fold((f64::MAX, f64::MIN), |(a, b), v| (a.min(*v), b.max(*v)));
     let (lo, hi) = if positive.is_empty() {
         (-3.0, 0.0)
