@@ -89,7 +89,7 @@ trait Pipe: Sized {
 impl<T> Pipe for T {}
 
 /// A backend tensor's values on the host as f32.
-fn host<B: Backend>(t: B::FloatTensorPrimitive) -> Vec<f32> {
+pub(crate) fn host<B: Backend>(t: B::FloatTensorPrimitive) -> Vec<f32> {
     read_sync(B::float_into_data(t))
         .map(|d| d.convert::<f32>().try_into_vec::<f32>().expect("converted to f32"))
         .expect("reading a CPU tensor cannot fail")

@@ -13,11 +13,12 @@ use burn::backend::autodiff::grads::Gradients;
 use burn::backend::autodiff::ops::{Backward, Ops, OpsKind};
 use burn::backend::ops::FloatTensorOps;
 use burn::backend::{Autodiff, Backend, TensorMetadata};
-use burn::tensor::{read_sync, Tensor, TensorData};
+use burn::tensor::{Tensor, TensorData};
 
 use crate::backend::Inner;
 use crate::error::{Error, Result};
 use crate::geom::arap::ArapEnergy;
+use crate::render::burn_op::host;
 
 /// Per-item ARAP energies `[B]` of vertex positions `[B, V, 2]` (in the rest mesh's units
 /// squared). Differentiable w.r.t. `vertices` on an autodiff device.
@@ -59,12 +60,6 @@ pub fn arap_loss(vertices: Tensor<3>, energy: &Arc<ArapEnergy<f32>>) -> Result<T
             "arap: the vertex tensor is not on the compiled-in backend (crate::backend::device)".into(),
         ))
     }
-}
-
-fn host<B: Backend>(t: B::FloatTensorPrimitive) -> Vec<f32> {
-    read_sync(B::float_into_data(t))
-        .map(|d| d.convert::<f32>().try_into_vec::<f32>().expect("converted to f32"))
-        .expect("reading a CPU tensor cannot fail")
 }
 
 /// The forward pass's gradients ∂E_b/∂v, `[B, V, 2]` flattened.
