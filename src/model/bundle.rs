@@ -94,10 +94,14 @@ impl Model {
         write_atomic(&weights_path, &weights_bytes(&self.net, &weights_path)?)
     }
 
-    /// The rest vertices in working pixels, `[V, 2]`.
+    /// The rest vertices in working pixels.
+    pub fn rest_work_points(&self) -> Vec<[f32; 2]> {
+        self.puppet.rest_vertices().into_iter().map(|p| self.letterbox.to_work(p)).collect()
+    }
+
+    /// The rest vertices in working pixels as a `[V, 2]` tensor.
     pub fn rest_work(&self, device: &Device) -> Tensor<2> {
-        let rest: Vec<[f32; 2]> = self.puppet.rest_vertices().into_iter().map(|p| self.letterbox.to_work(p)).collect();
-        rest_tensor(&rest, device)
+        rest_tensor(&self.rest_work_points(), device)
     }
 
     /// The network input for `frames`, `[B, 4, S, S]`.

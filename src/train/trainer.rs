@@ -19,7 +19,7 @@ use super::sequence::{shuffled, split, Frames};
 use crate::atomic_file::write_atomic;
 use crate::error::{Error, Result};
 use crate::model::bundle::{load_weights, weights_bytes};
-use crate::model::deformation::DeformationNetConfig;
+use crate::model::deformation::{rest_tensor, DeformationNetConfig};
 use crate::model::Model;
 use crate::picture::Picture;
 use crate::progress::Progress;
@@ -297,6 +297,8 @@ pub struct Trainer {
     pub model: Model,
     optimizer: ModuleOptimizer,
     raster: Arc<SoftRasterizer>,
+    /// Rest vertices in working pixels `[V, 2]`, built once (the decoder adds offsets to them).
+    rest: Tensor<2>,
     objective: Objective,
     inputs: Vec<Vec<f32>>,
     batches: BatchOrder,
@@ -316,12 +318,7 @@ impl Trainer {
         }
         // The rasterizer renders the working square: vertices in working pixels, textures by UV.
         let raster = Arc::new(SoftRasterizer::new(&model.puppet)?);
-        let rest: Vec<[f32; 2]> = model
-            .puppet
-            .rest_vertices()
-            .into_iter()
-            .map(|p| model.letterbox.to_work(p))
-            .collect();
+        let rest = model.rest_work_points();
         let rest_area = rest_coverage(&raster, &rest, size)?;
         let objective = Objective::new(&model.puppet, &rest, size, rest_area, config.loss.clone())?;
         let inputs = frames.iter().map(|f| model.letterbox.premultiplied_planes(f)).collect();
@@ -329,6 +326,7 @@ impl Trainer {
             model,
             optimizer: adam(&AdamSettings::new()),
             raster,
+            rest: rest_tensor(&rest, device),
             objective,
             inputs,
             batches: BatchOrder::new(frames.len(), config.train.batch, config.seed),
@@ -378,7 +376,7 @@ impl Trainer {
         let images: Tensor<4> = Tensor::from_data(TensorData::new(data, [batch.len(), 4, size, size]), &self.device);
         let sigma = self.config.sigma_at(step);
         let net = &self.model.net;
-        let vertices = net.vertices(net.encode(images.clone()), &self.model.rest_work(&self.device));
+        let vertices = net.vertices(net.encode(images.clone()), &self.rest);
         let params = Params {
             sigma,
             background: Background::Transparent,
@@ -408,7 +406,9 @@ impl Trainer {
 
     /// Backpropagates `terms.total` and takes one Adam step.
     pub fn update(&mut self, terms: LossTerms) {
-        let grads = GradientsParams::from_grads(terms.total.backward(), &self.model.net);
+        // Only the total is needed; the other terms' graph references go first.
+        let LossTerms { total, .. } = terms;
+        let grads = GradientsParams::from_grads(total.backward(), &self.model.net);
         self.model.net = self.optimizer.step(self.config.train.learning_rate, self.model.net.clone(), grads);
     }
 
