@@ -8,6 +8,7 @@ use puppet::model::Model;
 use puppet::train::trainer::SplitRecord;
 use puppet::train::Frames;
 
+use super::fit::RefineArgs;
 use super::Ui;
 
 /// Score a trained model: fit each held-out frame, render it, and report L2, masked RMSE and
@@ -25,6 +26,8 @@ pub struct EvalArgs {
     /// Where to write the report as JSON (default: <model>/eval.json).
     #[arg(short, long)]
     pub output: Option<PathBuf>,
+    #[command(flatten)]
+    pub refine: RefineArgs,
 }
 
 /// Runs `puppet eval`.
@@ -42,7 +45,7 @@ pub fn run(args: EvalArgs, ui: &Ui) -> anyhow::Result<()> {
         None if args.all => (Vec::new(), "all frames"),
         None => (Vec::new(), "all frames (the model's held-out frames are not in this sequence)"),
     };
-    let report = evaluate(&model, &frames, &indices, &device)?;
+    let report = evaluate(&model, &frames, &indices, &args.refine.options(), &device)?;
     let out = args.output.unwrap_or_else(|| args.model.join("eval.json"));
     let json = serde_json::to_vec_pretty(&report).context("while encoding the report")?;
     puppet::atomic_file::write_atomic(&out, &json)?;

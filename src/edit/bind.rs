@@ -9,6 +9,7 @@
 //! not on the character.
 
 use crate::error::{Error, Result};
+use crate::geom::triangle::barycentric;
 use crate::puppet::Puppet;
 
 /// How far (pixels) outside the mesh a point may be and still bind to its nearest triangle.
@@ -93,18 +94,6 @@ pub fn bind(puppet: &Puppet, vertices: &[[f32; 2]], p: [f32; 2]) -> Result<Bindi
         ))),
         None => Err(Error::Invalid("bind: the puppet has no triangle".into())),
     }
-}
-
-/// Barycentric coordinates of `p` in triangle `t`; `None` for a degenerate triangle.
-fn barycentric(t: [[f32; 2]; 3], p: [f32; 2]) -> Option<[f32; 3]> {
-    let [a, b, c] = t;
-    let det = (b[0] - a[0]) * (c[1] - a[1]) - (c[0] - a[0]) * (b[1] - a[1]);
-    if det.abs() < 1e-12 {
-        return None;
-    }
-    let wb = ((p[0] - a[0]) * (c[1] - a[1]) - (c[0] - a[0]) * (p[1] - a[1])) / det;
-    let wc = ((b[0] - a[0]) * (p[1] - a[1]) - (p[0] - a[0]) * (b[1] - a[1])) / det;
-    Some([1.0 - wb - wc, wb, wc])
 }
 
 /// The point of triangle `t` (edges included) closest to `p`.

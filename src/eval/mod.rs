@@ -3,6 +3,7 @@
 //! Pictures are straight-alpha [`Picture`]s of the same size; see each function for its units.
 
 pub mod report;
+pub mod visibility;
 
 use crate::picture::Picture;
 

@@ -5,11 +5,14 @@
 use burn::tensor::Device;
 use serde::Serialize;
 
+use super::visibility::visible_vertices;
 use super::{l2, masked_rmse, pck, silhouette_iou, vertex_error};
 use crate::error::{Error, Result};
 use crate::model::Model;
+use crate::picture::Picture;
 use crate::render::render_crisp;
 use crate::synth::{true_positions, Truth};
+use crate::train::refine::{refined_fit, RefineOptions};
 use crate::train::Frames;
 
 /// The PCK thresholds of neural-puppet.md Table 2.
@@ -30,6 +33,18 @@ pub struct FrameScores {
     pub vertex_error: Option<f64>,
     /// PCK at [`PCK_ALPHAS`] of the fitted vertices (ground truth only).
     pub pck: Option<[f64; 3]>,
+    /// Vertex error over the vertices the frame shows ([`visible_vertices`] at the true pose).
+    pub visible_vertex_error: Option<f64>,
+    /// PCK at [`PCK_ALPHAS`] over the vertices the frame shows.
+    pub visible_pck: Option<[f64; 3]>,
+    /// The share of vertices the frame shows.
+    pub visible_share: Option<f64>,
+    /// L2 of the puppet rendered at the TRUE vertices (ground truth only): what a perfect vertex
+    /// fit scores, so the part of `l2` no vertex fit can remove (texture resampling, drawing
+    /// the generator does that a mesh cannot).
+    pub true_pose_l2: Option<f64>,
+    /// Silhouette IoU of the puppet rendered at the true vertices (ground truth only).
+    pub true_pose_iou: Option<f64>,
 }
 
 /// Scores of a set of frames and their means.
@@ -41,11 +56,12 @@ pub struct Report {
     pub mean: FrameScores,
 }
 
-/// Fits and scores `frames.frames[i]` for each `i` in `indices` (all frames if empty).
+/// Fits (refined as `refine` says) and scores `frames.frames[i]` for each `i` in `indices` (all
+/// frames if empty).
 ///
 /// # Errors
 /// Frame-size mismatches (naming the file) and ground truth that does not fit the puppet.
-pub fn evaluate(model: &Model, frames: &Frames, indices: &[usize], device: &Device) -> Result<Report> {
+pub fn evaluate(model: &Model, frames: &Frames, indices: &[usize], refine: &RefineOptions, device: &Device) -> Result<Report> {
     let indices: Vec<usize> = if indices.is_empty() {
         (0..frames.frames.len()).collect()
     } else {
@@ -60,21 +76,22 @@ pub fn evaluate(model: &Model, frames: &Frames, indices: &[usize], device: &Devi
                 .check_frame(picture)
                 .map_err(|e| Error::format(&frames.files[i], e.to_string()))?;
         }
-        let fits = model.fit(&pictures, device)?;
+        let fits = refined_fit(model, &pictures, refine, device)?;
         for ((&i, picture), fit) in chunk.iter().zip(&pictures).zip(&fits) {
             let render = render_crisp(&model.puppet, fit, picture.width, picture.height)?;
-            let truth = frames
-                .truth
-                .as_ref()
-                .map(|t| truth_scores(t, i, model, fit, picture.width, picture.height))
-                .transpose()?;
+            let truth = frames.truth.as_ref().map(|t| truth_scores(t, i, model, fit, picture)).transpose()?;
             scores.push(FrameScores {
                 frame: names[i].clone(),
                 l2: l2(&render, picture),
                 masked_rmse: masked_rmse(&render, picture),
                 iou: silhouette_iou(&render, picture),
-                vertex_error: truth.map(|t| t.0),
-                pck: truth.map(|t| t.1),
+                vertex_error: truth.map(|t| t.vertex_error),
+                pck: truth.map(|t| t.pck),
+                visible_vertex_error: truth.map(|t| t.visible_vertex_error),
+                visible_pck: truth.map(|t| t.visible_pck),
+                visible_share: truth.map(|t| t.visible_share),
+                true_pose_l2: truth.map(|t| t.true_pose_l2),
+                true_pose_iou: truth.map(|t| t.true_pose_iou),
             });
         }
     }
@@ -82,9 +99,34 @@ pub fn evaluate(model: &Model, frames: &Frames, indices: &[usize], device: &Devi
     Ok(Report { frames: scores, mean })
 }
 
-fn truth_scores(truth: &Truth, frame: usize, model: &Model, fit: &[[f32; 2]], w: u32, h: u32) -> Result<(f64, [f64; 3])> {
+/// The scores that need ground truth.
+#[derive(Clone, Copy)]
+struct TruthScores {
+    vertex_error: f64,
+    pck: [f64; 3],
+    visible_vertex_error: f64,
+    visible_pck: [f64; 3],
+    visible_share: f64,
+    true_pose_l2: f64,
+    true_pose_iou: f64,
+}
+
+fn truth_scores(truth: &Truth, frame: usize, model: &Model, fit: &[[f32; 2]], picture: &Picture) -> Result<TruthScores> {
+    let (w, h) = (picture.width, picture.height);
     let true_v = true_positions(truth, frame, &model.puppet)?;
-    Ok((vertex_error(fit, &true_v), PCK_ALPHAS.map(|a| pck(fit, &true_v, a, w, h))))
+    let true_render = render_crisp(&model.puppet, &true_v, w, h)?;
+    let shown = visible_vertices(&model.puppet, &true_v);
+    let keep = |points: &[[f32; 2]]| -> Vec<[f32; 2]> { points.iter().zip(&shown).filter(|(_, &s)| s).map(|(p, _)| *p).collect() };
+    let (fit_shown, true_shown) = (keep(fit), keep(&true_v));
+    Ok(TruthScores {
+        vertex_error: vertex_error(fit, &true_v),
+        pck: PCK_ALPHAS.map(|a| pck(fit, &true_v, a, w, h)),
+        visible_vertex_error: vertex_error(&fit_shown, &true_shown),
+        visible_pck: PCK_ALPHAS.map(|a| pck(&fit_shown, &true_shown, a, w, h)),
+        visible_share: true_shown.len() as f64 / true_v.len().max(1) as f64,
+        true_pose_l2: l2(&true_render, picture),
+        true_pose_iou: silhouette_iou(&true_render, picture),
+    })
 }
 
 fn mean_scores(scores: &[FrameScores]) -> FrameScores {
@@ -92,13 +134,19 @@ fn mean_scores(scores: &[FrameScores]) -> FrameScores {
     let avg = |f: &dyn Fn(&FrameScores) -> f64| scores.iter().map(f).sum::<f64>() / n;
     let with_truth: Vec<&FrameScores> = scores.iter().filter(|s| s.vertex_error.is_some()).collect();
     let m = with_truth.len() as f64;
+    let truth_avg = |f: &dyn Fn(&FrameScores) -> Option<f64>| (m > 0.0).then(|| with_truth.iter().filter_map(|s| f(s)).sum::<f64>() / m);
     FrameScores {
         frame: "mean".into(),
         l2: avg(&|s| s.l2),
         masked_rmse: avg(&|s| s.masked_rmse),
         iou: avg(&|s| s.iou),
-        vertex_error: (m > 0.0).then(|| with_truth.iter().filter_map(|s| s.vertex_error).sum::<f64>() / m),
+        vertex_error: truth_avg(&|s| s.vertex_error),
         pck: (m > 0.0).then(|| [0, 1, 2].map(|k| with_truth.iter().filter_map(|s| s.pck.map(|p| p[k])).sum::<f64>() / m)),
+        visible_vertex_error: truth_avg(&|s| s.visible_vertex_error),
+        visible_pck: (m > 0.0).then(|| [0, 1, 2].map(|k| with_truth.iter().filter_map(|s| s.visible_pck.map(|p| p[k])).sum::<f64>() / m)),
+        visible_share: truth_avg(&|s| s.visible_share),
+        true_pose_l2: truth_avg(&|s| s.true_pose_l2),
+        true_pose_iou: truth_avg(&|s| s.true_pose_iou),
     }
 }
 
@@ -106,22 +154,36 @@ impl Report {
     /// A fixed-width table of every frame and the mean.
     pub fn table(&self) -> String {
         let mut out = format!(
-            "{:<24} {:>9} {:>8} {:>7} {:>9} {:>7} {:>7} {:>7}\n",
-            "frame", "L2", "mRMSE", "IoU", "vert px", "PCK.1", "PCK.05", "PCK.025"
+            "{:<18} {:>7} {:>7} {:>6} | {:>6} {:>6} {:>6} {:>6} | {:>5} {:>6} {:>6} {:>6} {:>6} | {:>7} {:>6}\n",
+            "frame", "L2", "mRMSE", "IoU", "px", "PCK.1", "PCK.05", ".025", "vis%", "px", "PCK.1", "PCK.05", ".025", "L2", "IoU"
+        );
+        out.insert_str(
+            0,
+            &format!(
+                "{:<40}| {:<27} | {:<36} | {}\n",
+                "fitted", "all vertices", "visible vertices", "true pose"
+            ),
         );
         for s in self.frames.iter().chain(std::iter::once(&self.mean)) {
             let opt = |v: Option<f64>, scale: f64| v.map_or("-".to_string(), |v| format!("{:.2}", v * scale));
-            let pck = |k: usize| opt(s.pck.map(|p| p[k]), 100.0);
+            let pck = |p: Option<[f64; 3]>, k: usize| opt(p.map(|p| p[k]), 100.0);
             out.push_str(&format!(
-                "{:<24} {:>9.1} {:>8.4} {:>7.4} {:>9} {:>7} {:>7} {:>7}\n",
+                "{:<18} {:>7.1} {:>7.4} {:>6.4} | {:>6} {:>6} {:>6} {:>6} | {:>5} {:>6} {:>6} {:>6} {:>6} | {:>7} {:>6}\n",
                 s.frame,
                 s.l2,
                 s.masked_rmse,
                 s.iou,
                 opt(s.vertex_error, 1.0),
-                pck(0),
-                pck(1),
-                pck(2)
+                pck(s.pck, 0),
+                pck(s.pck, 1),
+                pck(s.pck, 2),
+                s.visible_share.map_or("-".to_string(), |v| format!("{:.1}", v * 100.0)),
+                opt(s.visible_vertex_error, 1.0),
+                pck(s.visible_pck, 0),
+                pck(s.visible_pck, 1),
+                pck(s.visible_pck, 2),
+                s.true_pose_l2.map_or("-".to_string(), |v| format!("{v:.1}")),
+                s.true_pose_iou.map_or("-".to_string(), |v| format!("{v:.4}")),
             ));
         }
         out

@@ -20,6 +20,7 @@
 pub mod arap;
 pub mod cotan_laplacian;
 pub mod min_quad_with_fixed;
+pub mod triangle;
 
 pub use arap::{arap_energy, best_fit_rotations, ArapEnergy, ArapSolver};
 pub use cotan_laplacian::{cotan_laplacian, cotan_weights, CotanEdge};

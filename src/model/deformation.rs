@@ -126,6 +126,20 @@ impl DeformationNet {
         self.decode(z) + rest.clone().unsqueeze::<3>()
     }
 
+    /// Moves the network out, leaving one without layers in its place, so an optimiser can take
+    /// the only reference to each weight and update it in place (a clone would share every
+    /// buffer and make the optimiser copy all 36 M weights first).
+    pub fn take(&mut self) -> DeformationNet {
+        let empty = DeformationNet {
+            convs: Vec::new(),
+            encoder_fcs: Vec::new(),
+            decoder_fcs: Vec::new(),
+            offset_scale: self.offset_scale,
+            vertices: self.vertices,
+        };
+        std::mem::replace(self, empty)
+    }
+
     /// Number of template vertices the decoder predicts.
     pub fn vertex_count(&self) -> usize {
         self.vertices

@@ -15,6 +15,7 @@
 //! steps = 2000
 //! batch = 16
 //! learning_rate = 1e-4
+//! learning_rate_end = 1e-5          # optional: half-cosine decay to this by the last step
 //! sigma = [4.0, 0.5]                # σ (px² of the working square) at the first and last step
 //! checkpoint_every = 100
 //!
@@ -89,8 +90,12 @@ pub struct TrainSettings {
     pub steps: u64,
     /// Frames per step (sampled without replacement, reshuffled every pass).
     pub batch: usize,
-    /// Adam's step size.
+    /// Adam's step size (at the first step, when `learning_rate_end` is set).
     pub learning_rate: f64,
+    /// If set, the step size falls from `learning_rate` to this along a half cosine over the run
+    /// (a constant rate leaves the late fits jittering by Adam's step; decaying it settles them).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub learning_rate_end: Option<f64>,
     /// Soft-rasterizer σ (px² of the working square) at the first and the last step; geometric
     /// in between. Wide early (gradients reach far), crisp late (sharp fits).
     pub sigma: [f32; 2],
@@ -104,6 +109,7 @@ impl Default for TrainSettings {
             steps: 2000,
             batch: 16,
             learning_rate: 1e-4,
+            learning_rate_end: None,
             sigma: [4.0, 0.5],
             checkpoint_every: 100,
         }
@@ -194,6 +200,13 @@ impl TrainConfig {
                 format!("train.learning_rate = {} must be positive", t.learning_rate),
             ),
             (
+                t.learning_rate_end.is_some_and(|e| !(e.is_finite() && e > 0.0)),
+                format!(
+                    "train.learning_rate_end = {:?} must be positive",
+                    t.learning_rate_end.unwrap_or(f64::NAN)
+                ),
+            ),
+            (
                 !t.sigma.iter().all(|s| s.is_finite() && *s > 0.0),
                 format!("train.sigma = {:?} must be two positive numbers", t.sigma),
             ),
@@ -210,15 +223,28 @@ impl TrainConfig {
         }
     }
 
+    /// How far `step` is through the run, 0 at the first step and 1 at the last.
+    fn progress(&self, step: u64) -> f64 {
+        if self.train.steps > 1 {
+            (step as f64 / (self.train.steps - 1) as f64).clamp(0.0, 1.0)
+        } else {
+            1.0
+        }
+    }
+
     /// σ at `step` of `steps` (geometric from `sigma[0]` to `sigma[1]`).
     pub fn sigma_at(&self, step: u64) -> f32 {
         let [a, b] = self.train.sigma;
-        let t = if self.train.steps > 1 {
-            step as f32 / (self.train.steps - 1) as f32
-        } else {
-            1.0
-        };
-        a * (b / a).powf(t.clamp(0.0, 1.0))
+        a * (b / a).powf(self.progress(step) as f32)
+    }
+
+    /// Adam's step size at `step`: constant, or a half cosine down to `learning_rate_end`.
+    pub fn learning_rate_at(&self, step: u64) -> f64 {
+        let start = self.train.learning_rate;
+        match self.train.learning_rate_end {
+            None => start,
+            Some(end) => end + (start - end) * 0.5 * (1.0 + (std::f64::consts::PI * self.progress(step)).cos()),
+        }
     }
 }
 
@@ -243,6 +269,13 @@ mod tests {
         assert_eq!(c.loss.arap, 2500.0);
         assert!((c.sigma_at(0) - 4.0).abs() < 1e-6 && (c.sigma_at(9) - 0.5).abs() < 1e-6);
         assert!((c.sigma_at(3) - 4.0 * (0.125f32).powf(3.0 / 9.0)).abs() < 1e-5);
+        assert_eq!(c.learning_rate_at(5), c.train.learning_rate, "constant unless an end is set");
+        let mut d = c.clone();
+        d.train.learning_rate_end = Some(1e-5);
+        let lr = |s| d.learning_rate_at(s);
+        assert!((lr(0) - 1e-4).abs() < 1e-12 && (lr(9) - 1e-5).abs() < 1e-12);
+        assert!((lr(3) - (1e-5 + 9e-5 * 0.5 * (1.0 + (std::f64::consts::PI / 3.0).cos()))).abs() < 1e-12);
+        assert!((1..10).all(|s| lr(s) < lr(s - 1)), "falls monotonically");
     }
 
     #[test]

@@ -8,6 +8,7 @@ pub mod config;
 pub mod log;
 pub mod loss;
 pub mod optim;
+pub mod refine;
 pub mod sequence;
 pub mod trainer;
 

@@ -240,7 +240,7 @@ pub fn train(config: &TrainConfig, options: &TrainOptions, progress: &dyn Progre
         if (step > first_step || step == 0) && step % config.train.checkpoint_every == 0 {
             save_checkpoint(out, &trainer, step, elapsed, &config_json, &log, weights)?;
         }
-        trainer.update(terms);
+        trainer.update(terms, step);
         step += 1;
         elapsed += t0.elapsed().as_secs_f64();
         let row = LogRow {
@@ -404,12 +404,13 @@ impl Trainer {
         Ok((row, terms))
     }
 
-    /// Backpropagates `terms.total` and takes one Adam step.
-    pub fn update(&mut self, terms: LossTerms) {
+    /// Backpropagates `terms.total` and takes Adam step number `step` (its learning rate).
+    pub fn update(&mut self, terms: LossTerms, step: u64) {
         // Only the total is needed; the other terms' graph references go first.
         let LossTerms { total, .. } = terms;
         let grads = GradientsParams::from_grads(total.backward(), &self.model.net);
-        self.model.net = self.optimizer.step(self.config.train.learning_rate, self.model.net.clone(), grads);
+        let net = self.model.net.take();
+        self.model.net = self.optimizer.step(self.config.learning_rate_at(step), net, grads);
     }
 
     /// One whole optimiser step (forward, backward, update); returns its losses.
@@ -418,7 +419,7 @@ impl Trainer {
     /// As [`Trainer::losses`].
     pub fn step(&mut self, step: u64) -> Result<LogRow> {
         let (row, terms) = self.losses(step)?;
-        self.update(terms);
+        self.update(terms, step);
         Ok(row)
     }
 }
@@ -436,7 +437,7 @@ fn same_run(a: &serde_json::Value, b: &serde_json::Value) -> bool {
 }
 
 /// The rest pose's silhouette area as a fraction of the S×S square (eq. 11's Σ R(V_init)).
-fn rest_coverage(raster: &SoftRasterizer, rest: &[[f32; 2]], size: usize) -> Result<f32> {
+pub(crate) fn rest_coverage(raster: &SoftRasterizer, rest: &[[f32; 2]], size: usize) -> Result<f32> {
     let flat: Vec<f32> = rest.iter().flatten().copied().collect();
     let f = raster.forward(&flat, 1, size, size, &Params::crisp(Background::Transparent))?;
     Ok(f.mask.iter().sum::<f32>() / (size * size) as f32)
