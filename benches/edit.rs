@@ -16,6 +16,7 @@ use puppet::model::deformation::DeformationNetConfig;
 use puppet::model::Model;
 use puppet::progress::Silent;
 use puppet::render::render_crisp;
+use puppet::train::refine::RefineOptions;
 
 /// Gives all-zero weight tensors (the decoder's zero-initialised last layer) small random values.
 struct Noise;
@@ -48,7 +49,7 @@ fn bench(c: &mut Criterion) {
     let frame = render_crisp(&model.puppet, &model.puppet.rest_vertices(), w, h).expect("rest render");
     let mut group = c.benchmark_group("edit");
 
-    let mut editor = PoseEditor::new(&model, &frame, &device).expect("fit");
+    let mut editor = PoseEditor::new(&model, &frame, &RefineOptions::encoder_only(), &device).expect("fit");
     // The front hand's centre, dragged up and out by a few pixels per update.
     let hand = model.puppet.layer_index("hand_r").unwrap_or(model.puppet.layers.len() - 1);
     let offsets = model.puppet.vertex_offsets();
@@ -71,7 +72,7 @@ fn bench(c: &mut Criterion) {
     let mut other = model.puppet.rest_vertices();
     other.iter_mut().for_each(|p| p[0] += 3.0);
     let b_frame = render_crisp(&model.puppet, &other, w, h).expect("render");
-    let interp = Interpolator::new(&model, &frame, &b_frame, &device).expect("encode");
+    let interp = Interpolator::new(&model, &frame, &b_frame, &RefineOptions::encoder_only(), &device).expect("encode");
     let mut t = 0.0f32;
     group.bench_function("inbetween/frame", |b| {
         b.iter(|| {

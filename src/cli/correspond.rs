@@ -14,9 +14,11 @@ use puppet::edit::pose::Pin;
 use puppet::model::Model;
 use puppet::picture::Picture;
 use puppet::progress::Progress;
+use puppet::train::refine::refined_fit;
 use puppet::train::sequence::Frames;
 use puppet::train::trainer::SplitRecord;
 
+use super::fit::RefineArgs;
 use super::Ui;
 
 /// Map points of frame A to frame B through the fitted puppet (or score correspondences).
@@ -53,6 +55,8 @@ pub struct CorrespondArgs {
     /// Output JSON.
     #[arg(short, long, default_value = "correspondences.json")]
     pub output: PathBuf,
+    #[command(flatten)]
+    pub refine: RefineArgs,
 }
 
 /// One point's match, as written.
@@ -92,7 +96,7 @@ pub fn run(args: CorrespondArgs, ui: &Ui) -> anyhow::Result<()> {
         }
         None => grid_points(&a, args.spacing),
     };
-    let fits = model.fit(&[&a, &b], &device)?;
+    let fits = refined_fit(&model, &[&a, &b], &args.refine.options(), &device)?;
     let matches = correspond(&model.puppet, &fits[0], &fits[1], &points)?;
     let rows: Vec<Match> = points
         .iter()
@@ -170,7 +174,9 @@ fn run_sequence(args: &CorrespondArgs, seq: &std::path::Path, ui: &Ui) -> anyhow
     ui.stage("fit", test.len() as u64);
     let mut fits = vec![Vec::new(); frames.frames.len()];
     for &t in &test {
-        fits[t] = model.fit(&[&frames.frames[t]], &device)?.pop().unwrap_or_default();
+        fits[t] = refined_fit(&model, &[&frames.frames[t]], &args.refine.options(), &device)?
+            .pop()
+            .unwrap_or_default();
         ui.advance(1);
     }
     let pairs = ordered_pairs(&test);

@@ -13,7 +13,9 @@ use puppet::progress::Progress;
 use puppet::puppet::pose_file::PoseFile;
 use puppet::render::animation::{sprite_sheet, write_gif, write_png_sequence};
 use puppet::render::render_crisp;
+use puppet::train::refine::RefineOptions;
 
+use super::fit::RefineArgs;
 use super::Ui;
 
 /// Make in-between frames of two frames by interpolating their latent codes.
@@ -59,6 +61,8 @@ pub struct InbetweenArgs {
     /// Cells per row of sprites.png.
     #[arg(long, default_value_t = 8, value_name = "N")]
     pub columns: usize,
+    #[command(flatten)]
+    pub refine: RefineArgs,
 }
 
 /// Runs `puppet inbetween`.
@@ -67,7 +71,7 @@ pub fn run(args: InbetweenArgs, ui: &Ui) -> anyhow::Result<()> {
     let device = puppet::backend::device();
     let model = Model::load(&args.model, &device)?;
     if let Some(seq) = &args.score {
-        return score(&model, seq, ui);
+        return score(&model, seq, &args.refine.options(), ui);
     }
     let (Some(a_path), Some(b_path)) = (&args.a, &args.b) else {
         anyhow::bail!("give two frames A and B (or --score SEQUENCE)");
@@ -79,7 +83,7 @@ pub fn run(args: InbetweenArgs, ui: &Ui) -> anyhow::Result<()> {
         None => Vec::new(),
     };
     ui.stage("inbetween", 0);
-    let out = inbetween(&model, &a, &b, args.steps, &device)?;
+    let out = inbetween(&model, &a, &b, args.steps, &args.refine.options(), &device)?;
     let (w, h) = (model.puppet.width, model.puppet.height);
     ui.stage("render", out.t.len() as u64);
     let mut latent = Vec::with_capacity(out.t.len());
@@ -128,7 +132,7 @@ pub fn run(args: InbetweenArgs, ui: &Ui) -> anyhow::Result<()> {
 }
 
 /// `--score`: the in-between table of `edit::inbetween_eval` on the odd frames of `seq`.
-fn score(model: &Model, seq: &std::path::Path, ui: &Ui) -> anyhow::Result<()> {
+fn score(model: &Model, seq: &std::path::Path, refine: &RefineOptions, ui: &Ui) -> anyhow::Result<()> {
     let device = puppet::backend::device();
     let frames = puppet::train::Frames::load(seq)?;
     for (file, f) in frames.files.iter().zip(&frames.frames) {
@@ -138,7 +142,7 @@ fn score(model: &Model, seq: &std::path::Path, ui: &Ui) -> anyhow::Result<()> {
     let even: Vec<usize> = (0..n).step_by(2).collect();
     let odd: Vec<usize> = (1..n).step_by(2).collect();
     ui.stage("score", 0);
-    let scores = puppet::edit::inbetween_eval::inbetween_scores(model, &frames.frames, &even, &odd, &device)?;
+    let scores = puppet::edit::inbetween_eval::inbetween_scores(model, &frames.frames, &even, &odd, refine, &device)?;
     ui.finish();
     let mean = |f: fn(&puppet::edit::inbetween_eval::InbetweenScore) -> f64| scores.iter().map(f).sum::<f64>() / scores.len() as f64;
     ui.say(format!(

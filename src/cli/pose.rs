@@ -15,6 +15,7 @@ use puppet::puppet::pose_file::PoseFile;
 use puppet::render::animation::write_gif;
 use puppet::render::render_crisp;
 
+use super::fit::RefineArgs;
 use super::Ui;
 
 /// Pose a frame by dragging points: each --pin moves the character's point x,y to tx,ty.
@@ -55,6 +56,8 @@ pub struct PoseArgs {
     /// Number of drag updates in the GIF.
     #[arg(long, default_value_t = 12, value_name = "N")]
     pub gif_frames: usize,
+    #[command(flatten)]
+    pub refine: RefineArgs,
 }
 
 /// Parses "x,y:tx,ty".
@@ -106,7 +109,7 @@ pub fn run(args: PoseArgs, ui: &Ui) -> anyhow::Result<()> {
     let model = Model::load(&args.model, &device)?;
     let frame = load_frame(&args.image, &model)?;
     let (w, h) = (model.puppet.width, model.puppet.height);
-    let mut editor = PoseEditor::new(&model, &frame, &device)?;
+    let mut editor = PoseEditor::new(&model, &frame, &args.refine.options(), &device)?;
     let sources: Vec<[f32; 2]> = args.pins.iter().map(|p| p.from).collect();
     let targets: Vec<[f32; 2]> = args.pins.iter().map(|p| p.to).collect();
     editor

@@ -11,6 +11,7 @@ use burn::tensor::{Device, Tensor, TensorData};
 use crate::error::{Error, Result};
 use crate::model::Model;
 use crate::picture::Picture;
+use crate::train::refine::{fit_latents, RefineOptions};
 
 /// Latent and vertex-space interpolation between two frames.
 #[derive(Clone, Debug)]
@@ -33,12 +34,12 @@ pub struct Interpolator {
 }
 
 impl Interpolator {
-    /// Encodes frames `a` and `b` with `model`.
+    /// Encodes frames `a` and `b` with `model` (latents refined as `refine` says).
     ///
     /// # Errors
     /// [`Error::Invalid`] if a frame is not the puppet's size (see [`Model::check_frame`]).
-    pub fn new(model: &Model, a: &Picture, b: &Picture, device: &Device) -> Result<Self> {
-        let z = model.encode(&[a, b], device)?;
+    pub fn new(model: &Model, a: &Picture, b: &Picture, refine: &RefineOptions, device: &Device) -> Result<Self> {
+        let z = fit_latents(model, &[a, b], refine, device)?;
         let fitted = model.to_frame_vertices(model.decode(z.clone(), device));
         let mut it = fitted.into_iter();
         let (va, vb) = (it.next().unwrap_or_default(), it.next().unwrap_or_default());
@@ -93,9 +94,9 @@ pub fn steps_t(steps: usize) -> Result<Vec<f32>> {
 ///
 /// # Errors
 /// As [`steps_t`] and [`Interpolator::new`].
-pub fn inbetween(model: &Model, a: &Picture, b: &Picture, steps: usize, device: &Device) -> Result<Inbetweens> {
+pub fn inbetween(model: &Model, a: &Picture, b: &Picture, steps: usize, refine: &RefineOptions, device: &Device) -> Result<Inbetweens> {
     let t = steps_t(steps)?;
-    let interp = Interpolator::new(model, a, b, device)?;
+    let interp = Interpolator::new(model, a, b, refine, device)?;
     let latent = interp.latent_poses(model, &t, device);
     let vertex = t.iter().map(|&t| interp.vertex_pose(t)).collect();
     Ok(Inbetweens { t, latent, vertex })
@@ -140,7 +141,7 @@ mod tests {
         let a = crate::render::render_crisp(&model.puppet, &model.puppet.rest_vertices(), 48, 40).unwrap();
         let mut b = a.clone();
         b.pixels.rotate_left(37); // a different image, so a different latent
-        let out = inbetween(&model, &a, &b, 3, &device).unwrap();
+        let out = inbetween(&model, &a, &b, 3, &RefineOptions::encoder_only(), &device).unwrap();
         assert_eq!(out.t, vec![0.0, 0.25, 0.5, 0.75, 1.0]);
         let fits = model.fit(&[&a, &b], &device).unwrap();
         let close = |x: &[[f32; 2]], y: &[[f32; 2]]| {
@@ -169,9 +170,14 @@ mod tests {
     fn zero_steps_and_wrong_sizes_are_refused() {
         let (model, device) = small_model();
         let a = Picture::filled(48, 40, [1.0, 0.0, 0.0, 1.0]);
-        assert!(inbetween(&model, &a, &a, 0, &device).unwrap_err().to_string().contains("--steps 0"));
+        assert!(inbetween(&model, &a, &a, 0, &RefineOptions::encoder_only(), &device)
+            .unwrap_err()
+            .to_string()
+            .contains("--steps 0"));
         let small = Picture::filled(20, 20, [1.0; 4]);
-        let err = inbetween(&model, &a, &small, 2, &device).unwrap_err().to_string();
+        let err = inbetween(&model, &a, &small, 2, &RefineOptions::encoder_only(), &device)
+            .unwrap_err()
+            .to_string();
         assert!(err.contains("20×20") && err.contains("48×40"), "{err}");
     }
 

@@ -18,6 +18,7 @@ use crate::eval::l2;
 use crate::model::Model;
 use crate::picture::Picture;
 use crate::render::render_crisp;
+use crate::train::refine::{refined_fit, RefineOptions};
 
 /// Per held-out frame L2 of each method (module doc), frame index first.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -47,6 +48,7 @@ pub fn inbetween_scores(
     frames: &[Picture],
     training: &[usize],
     held_out: &[usize],
+    refine: &RefineOptions,
     device: &Device,
 ) -> Result<Vec<InbetweenScore>> {
     let train_pics: Vec<Picture> = training.iter().filter_map(|&i| frames.get(i).cloned()).collect();
@@ -56,11 +58,11 @@ pub fn inbetween_scores(
         if k == 0 || k + 1 >= frames.len() || !training.contains(&(k - 1)) || !training.contains(&(k + 1)) {
             continue;
         }
-        let interp = Interpolator::new(model, &frames[k - 1], &frames[k + 1], device)?;
+        let interp = Interpolator::new(model, &frames[k - 1], &frames[k + 1], refine, device)?;
         let latent_pose = interp.latent_poses(model, &[0.5], device).pop().unwrap_or_default();
         let latent = render_crisp(&model.puppet, &latent_pose, w, h)?;
         let vertex = render_crisp(&model.puppet, &interp.vertex_pose(0.5), w, h)?;
-        let fit_pose = model.fit(&[&frames[k]], device)?.pop().unwrap_or_default();
+        let fit_pose = refined_fit(model, &[&frames[k]], refine, device)?.pop().unwrap_or_default();
         let fit = render_crisp(&model.puppet, &fit_pose, w, h)?;
         let nearest = nearest_frame(&latent, &train_pics).map_or(f64::NAN, |(i, _)| l2(&train_pics[i], &frames[k]));
         out.push(InbetweenScore {
@@ -101,7 +103,7 @@ mod tests {
         shifted.iter_mut().for_each(|p| p[0] += 3.0);
         let moved = render_crisp(&model.puppet, &shifted, 48, 40).unwrap();
         let frames = vec![rest.clone(), moved.clone(), rest.clone(), moved, rest.clone()];
-        let scores = inbetween_scores(&model, &frames, &[0, 2, 4], &[1, 3], &device).unwrap();
+        let scores = inbetween_scores(&model, &frames, &[0, 2, 4], &[1, 3], &RefineOptions::default(), &device).unwrap();
         assert_eq!(scores.iter().map(|s| s.frame).collect::<Vec<_>>(), vec![1, 3]);
         for s in &scores {
             // An untrained model predicts the rest pose: every method renders the rest frame.
@@ -110,6 +112,6 @@ mod tests {
             assert!(same(s.latent) && same(s.vertex) && same(s.fit) && same(s.nearest), "{s:?}");
             assert!(s.hold > 1000.0, "the shifted frame differs from the rest frame: {s:?}");
         }
-        assert!(inbetween_scores(&model, &frames, &[0, 1], &[3], &device).is_err());
+        assert!(inbetween_scores(&model, &frames, &[0, 1], &[3], &RefineOptions::default(), &device).is_err());
     }
 }

@@ -37,6 +37,7 @@ use crate::model::Model;
 use crate::picture::Picture;
 use crate::train::arap_op::arap_loss;
 use crate::train::loss::{global_triangles, joint_loss};
+use crate::train::refine::{fit_latents, RefineOptions};
 
 /// One pin: the point the user grabbed (`from`, on the character in the input frame) and where
 /// it should go (`to`), both in frame pixels.
@@ -150,8 +151,8 @@ impl<'m> PoseEditor<'m> {
     /// # Errors
     /// [`Error::Invalid`] if the frame is not the puppet's size or a template layer is
     /// degenerate (no ARAP energy).
-    pub fn new(model: &'m Model, frame: &Picture, device: &Device) -> Result<Self> {
-        let z0 = model.encode(&[frame], device)?;
+    pub fn new(model: &'m Model, frame: &Picture, refine: &RefineOptions, device: &Device) -> Result<Self> {
+        let z0 = fit_latents(model, &[frame], refine, device)?;
         let fitted = model.to_frame_vertices(model.decode(z0.clone(), device)).pop().unwrap_or_default();
         let half = model.letterbox.size as f32 / 2.0;
         let puppet = &model.puppet;
@@ -343,7 +344,7 @@ mod tests {
     fn gradient_steps_decrease_the_loss_and_move_the_pin_towards_its_target() {
         let (model, device) = small_model(0.3);
         let frame = crate::render::render_crisp(&model.puppet, &model.puppet.rest_vertices(), 48, 40).unwrap();
-        let mut editor = PoseEditor::new(&model, &frame, &device).unwrap();
+        let mut editor = PoseEditor::new(&model, &frame, &RefineOptions::encoder_only(), &device).unwrap();
         let from = [40.0, 22.5];
         editor.set_pins(&[from]).unwrap();
         let start = editor.bindings()[0].position(editor.fitted());
@@ -377,7 +378,7 @@ mod tests {
     fn the_arap_term_pulls_a_distorted_pose_towards_rigidity() {
         let (model, device) = small_model(0.05);
         let frame = crate::render::render_crisp(&model.puppet, &model.puppet.rest_vertices(), 48, 40).unwrap();
-        let mut editor = PoseEditor::new(&model, &frame, &device).unwrap();
+        let mut editor = PoseEditor::new(&model, &frame, &RefineOptions::encoder_only(), &device).unwrap();
         let from = [40.0, 22.5];
         editor.set_pins(&[from]).unwrap();
         let here = editor.bindings()[0].position(editor.fitted());
@@ -398,7 +399,7 @@ mod tests {
     fn bad_pins_and_options_are_refused() {
         let (model, device) = small_model(0.05);
         let frame = crate::render::render_crisp(&model.puppet, &model.puppet.rest_vertices(), 48, 40).unwrap();
-        let mut editor = PoseEditor::new(&model, &frame, &device).unwrap();
+        let mut editor = PoseEditor::new(&model, &frame, &RefineOptions::encoder_only(), &device).unwrap();
         let err = editor.set_pins(&[[24.0, 20.0], [-50.0, 3.0]]).unwrap_err().to_string();
         assert!(err.contains("pin 2") && err.contains("not on the character"), "{err}");
         assert!(editor

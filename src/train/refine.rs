@@ -40,12 +40,31 @@ impl Default for RefineOptions {
     }
 }
 
+impl RefineOptions {
+    /// No refinement: the encoder's one-pass fit, as the paper evaluates it.
+    pub fn encoder_only() -> Self {
+        RefineOptions {
+            steps: 0,
+            ..RefineOptions::default()
+        }
+    }
+}
+
 /// Fits `frames` (the puppet's size): encoder, then `options.steps` Adam steps per latent.
 /// Returns the template vertices of each frame in frame pixels.
 ///
 /// # Errors
-/// As [`Model::input`]; [`Error::Invalid`] for a non-positive σ or step size.
+/// As [`fit_latents`].
 pub fn refined_fit(model: &Model, frames: &[&Picture], options: &RefineOptions, device: &Device) -> Result<Vec<Vec<[f32; 2]>>> {
+    let z = fit_latents(model, frames, options, device)?;
+    Ok(model.to_frame_vertices(model.decode(z, device)))
+}
+
+/// The latents `[B, Z]` of `frames`: the encoder's, then `options.steps` Adam steps each.
+///
+/// # Errors
+/// As [`Model::input`]; [`Error::Invalid`] for a non-positive σ or step size.
+pub fn fit_latents(model: &Model, frames: &[&Picture], options: &RefineOptions, device: &Device) -> Result<Tensor<2>> {
     if !(options.sigma > 0.0 && options.learning_rate > 0.0) {
         return Err(Error::Invalid(format!(
             "refine: σ {} and step size {} must be positive",
@@ -55,7 +74,7 @@ pub fn refined_fit(model: &Model, frames: &[&Picture], options: &RefineOptions, 
     let images = model.input(frames, device)?;
     let z0 = model.net.encode(images.clone());
     if options.steps == 0 || frames.is_empty() {
-        return Ok(model.to_frame_vertices(model.decode(z0, device)));
+        return Ok(z0);
     }
     let size = model.letterbox.size as usize;
     let raster = std::sync::Arc::new(SoftRasterizer::new(&model.puppet)?);
@@ -86,8 +105,7 @@ pub fn refined_fit(model: &Model, frames: &[&Picture], options: &RefineOptions, 
             .ok_or_else(|| Error::Invalid("refine: no gradient reached the latent".into()))?;
         adam.step(&mut z, &to_vec(g), options.learning_rate);
     }
-    let z = Tensor::<2>::from_data(TensorData::new(z, shape), device);
-    Ok(model.to_frame_vertices(model.decode(z, device)))
+    Ok(Tensor::<2>::from_data(TensorData::new(z, shape), device))
 }
 
 fn to_vec<const D: usize>(t: Tensor<D>) -> Vec<f32> {
