@@ -8,11 +8,14 @@
 //! ```
 //!
 //! with L_reg the ARAP energy of eq. 2 relative to the rest template and L_joints the hinge term
-//! of eq. 3 — the training losses [`arap_loss`] and [`joint_loss`]. Units as in training
-//! (`crate::train::config::LossWeights`): vertices in normalised device coordinates of the
-//! letterboxed S×S working square (working pixels ÷ S/2), so the paper's α1 = 25, α2 = 50 and
-//! η = 3·10⁻⁴ are used in the units the paper's NMR-based code had. Pins are given and results
-//! returned in frame pixels.
+//! of eq. 3 — the training losses [`arap_loss`] and [`joint_loss`], in the training's units
+//! (`crate::train::config::LossWeights`: normalised device coordinates of the letterboxed S×S
+//! working square), so the paper's α1 = 25, α2 = 50 weigh them as in training. L_user is in
+//! working pixels — the user clicks pixels. In NDC as well, a 20 px drag cost (20/64)² ≈ 0.1
+//! against α1·L_reg ≈ 0.3 of the fitted pose's own ARAP energy (measured on
+//! configs/edit-walk-23.toml's model, 2026-11-22): the regularisers pulled towards the rest
+//! pose and 5 steps left the pin 17.0 of 17.9 px away; in pixels, 5 steps bring it to 0.8 px
+//! and the body follows. Pins are given and results returned in frame pixels.
 //!
 //! **Step size.** The paper's fixed η = 3·10⁻⁴ depends on how strongly its decoder reacts to
 //! z; on ours a fixed η either barely moves the pin or diverges (measured on a checkpoint of
@@ -311,7 +314,8 @@ impl<'m> PoseEditor<'m> {
         let v: Tensor<3> = self.model.net.vertices(z, &self.rest).mul_scalar(self.ndc_scale);
         let [_, n, _] = v.dims();
         let points = weights.clone().matmul(v.clone().reshape([n, 2]));
-        let user = (points - target.clone()).powi_scalar(2).sum();
+        // Eq. 7 in working pixels (module doc): NDC² × (S/2)².
+        let user = (points - target.clone()).powi_scalar(2).sum().mul_scalar(self.ndc_scale.powi(-2));
         let reg = arap_loss(v.clone(), &self.regularisers.arap)?.sum();
         let mut loss = user + reg.mul_scalar(options.alpha_reg);
         if let Some((a, b)) = &self.regularisers.joints {
