@@ -21,23 +21,10 @@ use criterion::{criterion_group, criterion_main, Criterion, Throughput};
 use puppet::model::deformation::{rest_tensor, DeformationNet, DeformationNetConfig};
 use puppet::train::optim::{adam, AdamSettings};
 
-// The binary's allocator and its setting (src/main.rs); `--no-default-features --features flex`
-// measures without both, `BACKEND_PURGE=1` with mimalloc's default purging.
-#[cfg(feature = "mimalloc")]
-#[global_allocator]
-static GLOBAL: mimalloc::MiMalloc = mimalloc::MiMalloc;
-
-/// As `keep_freed_memory` in src/main.rs: mimalloc keeps freed memory instead of returning it to
-/// the OS, unless `BACKEND_PURGE` is set.
-#[cfg(feature = "mimalloc")]
-fn keep_freed_memory() {
-    if std::env::var_os("BACKEND_PURGE").is_none() {
-        // mimalloc v3's `mi_option_purge_delay` (mimalloc.h); -1: never purge.
-        const MI_OPTION_PURGE_DELAY: libmimalloc_sys::mi_option_t = 15;
-        // SAFETY: stores an integer in mimalloc's thread-safe option table; no pointers.
-        unsafe { libmimalloc_sys::mi_option_set(MI_OPTION_PURGE_DELAY, -1) };
-    }
-}
+// The binary's allocator and its setting (src/allocator.rs); `--no-default-features --features
+// flex` measures without both, `BACKEND_PURGE=1` with mimalloc's default purging.
+#[path = "../src/allocator.rs"]
+mod allocator;
 
 const BATCH: usize = 16;
 const VERTICES: usize = 600;
@@ -124,8 +111,9 @@ fn report_cpu(name: &str, n: usize, step: &mut Step) {
 }
 
 fn training_step(c: &mut Criterion) {
-    #[cfg(feature = "mimalloc")]
-    keep_freed_memory();
+    if std::env::var_os("BACKEND_PURGE").is_none() {
+        allocator::keep_freed_memory();
+    }
     let size = input_size();
     let mut group = c.benchmark_group("backend");
     group.sample_size(10);

@@ -7,6 +7,10 @@
 
 use std::path::Path;
 
+// The binary's allocator and setting, so a step costs what it costs in `puppet train`.
+#[path = "../src/allocator.rs"]
+mod allocator;
+
 use criterion::{criterion_group, criterion_main, Criterion, Throughput};
 use puppet::model::deformation::DeformationNetConfig;
 use puppet::model::Model;
@@ -15,6 +19,7 @@ use puppet::train::trainer::{load_or_build_puppet, Trainer};
 use puppet::train::{Frames, TrainConfig};
 
 fn step(c: &mut Criterion) {
+    allocator::keep_freed_memory();
     let data = Path::new(env!("CARGO_MANIFEST_DIR")).join("data/synth/walk-7");
     let puppet = load_or_build_puppet(&data.join("template"), &Silent).expect("the bundled template builds");
     let frames = Frames::load(&data).expect("the bundled frames load");
