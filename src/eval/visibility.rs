@@ -6,6 +6,9 @@
 use crate::geom::triangle::contains;
 use crate::puppet::Puppet;
 
+/// A triangle's corners and its bounding box `[x0, y0, x1, y1]`.
+type BoxedTriangle = ([[f32; 2]; 3], [f32; 4]);
+
 /// One flag per vertex of `puppet` (global numbering): whether it is visible at `positions`
 /// (the pose, global numbering; normally the TRUE pose of a synthetic frame).
 ///
@@ -15,7 +18,7 @@ pub fn visible_vertices(puppet: &Puppet, positions: &[[f32; 2]]) -> Vec<bool> {
     assert_eq!(positions.len(), puppet.vertex_count(), "one position per vertex");
     let offsets = puppet.vertex_offsets();
     // Each layer's triangles in this pose with their bounding boxes, for a cheap rejection test.
-    let layers: Vec<Vec<([[f32; 2]; 3], [f32; 4])>> = puppet
+    let layers: Vec<Vec<BoxedTriangle>> = puppet
         .layers
         .iter()
         .enumerate()
