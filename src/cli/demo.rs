@@ -64,7 +64,7 @@ pub fn run(args: DemoArgs, ui: &Ui) -> anyhow::Result<()> {
     let config_text = format!(
         "# Written by `puppet demo`: a short run on the Kenney robot at 64×64 working pixels.\n\
          puppet = {:?}\nframes = {:?}\noutput = {:?}\nseed = 1\ntest_fraction = 0.3\n\n\
-         [model]\ninput_size = 64\n\n[train]\nsteps = {}\nbatch = 8\nlearning_rate = 1e-4\nsigma = [2.0, 0.25]\ncheckpoint_every = {}\n\n\
+         [model]\ninput_size = 64\n\n[train]\nsteps = {}\nbatch = 8\nlearning_rate = 1e-4\nlearning_rate_end = 1e-5\nsigma = [2.0, 0.25]\ncheckpoint_every = {}\n\n\
          [loss]\narap = 2500.0\njoints = 1e4\n",
         abs(&robot).display().to_string(),
         abs(&robot.join("frames")).display().to_string(),
@@ -172,14 +172,21 @@ pub fn run(args: DemoArgs, ui: &Ui) -> anyhow::Result<()> {
         .unwrap_or(model.puppet.layers.len() - 1);
     let offsets = model.puppet.vertex_offsets();
     let fitted = editor.fitted().to_vec();
-    let part = &fitted[offsets[hand]..offsets[hand + 1]];
-    let centre = part.iter().fold([0.0, 0.0], |s, p| {
-        [s[0] + p[0] / part.len() as f32, s[1] + p[1] / part.len() as f32]
-    });
-    let pin = Pin {
-        from: centre,
-        to: [centre[0] + 0.12 * w as f32, centre[1] - 0.25 * h as f32],
+    let centre = |pose: &[[f32; 2]]| {
+        let part = &pose[offsets[hand]..offsets[hand + 1]];
+        part.iter().fold([0.0, 0.0], |s, p| {
+            [s[0] + p[0] / part.len() as f32, s[1] + p[1] / part.len() as f32]
+        })
     };
+    // The hand goes where the jump frame has it: a pose the nine training frames show, so the
+    // decoder knows how the rest of the body goes with it (far drags to poses it never saw
+    // distort the whole robot). Without a jump frame: a lift by a tenth of the frame.
+    let from = centre(&fitted);
+    let to = names
+        .iter()
+        .position(|n| n.contains("jump"))
+        .map_or([from[0] + 0.06 * w as f32, from[1] - 0.1 * h as f32], |j| centre(&fits[j]));
+    let pin = Pin { from, to };
     editor.set_pins(&[pin.from])?;
     let options = PoseOptions::default();
     let drag_started = Instant::now();
@@ -276,7 +283,7 @@ fn page(d: &PageData) -> String {
     );
     let _ = write!(
         s,
-        "<h2>2. Fits</h2><p>Each frame beside the puppet rendered at the network's prediction (pairs: frame, render). \
+        "<h2>2. Fits</h2><p>Each frame beside the puppet rendered at its fit — the network's prediction refined by 50 latent steps (pairs: frame, render). \
          L2 as in DESIGN.md (RGB on white, 0–255).</p><img src=\"fits.png\" width=\"1000\"><table><tr><th>frame</th><th>L2</th><th></th></tr>"
     );
     for (name, l2, test) in &d.l2_rows {
