@@ -96,7 +96,7 @@ pub fn run(args: CorrespondArgs, ui: &Ui) -> anyhow::Result<()> {
         }
         None => grid_points(&a, args.spacing),
     };
-    let fits = refined_fit(&model, &[&a, &b], &args.refine.options(), &device)?;
+    let fits = refined_fit(&model, &[&a, &b], &args.refine.options(&args.model)?, &device)?;
     let matches = correspond(&model.puppet, &fits[0], &fits[1], &points)?;
     let rows: Vec<Match> = points
         .iter()
@@ -174,7 +174,7 @@ fn run_sequence(args: &CorrespondArgs, seq: &std::path::Path, ui: &Ui) -> anyhow
     ui.stage("fit", test.len() as u64);
     let mut fits = vec![Vec::new(); frames.frames.len()];
     for &t in &test {
-        fits[t] = refined_fit(&model, &[&frames.frames[t]], &args.refine.options(), &device)?
+        fits[t] = refined_fit(&model, &[&frames.frames[t]], &args.refine.options(&args.model)?, &device)?
             .pop()
             .unwrap_or_default();
         ui.advance(1);

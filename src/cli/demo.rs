@@ -96,7 +96,8 @@ pub fn run(args: DemoArgs, ui: &Ui) -> anyhow::Result<()> {
     ui.stage("fit", frames.frames.len() as u64);
     let (w, h) = (model.puppet.width, model.puppet.height);
     let refs: Vec<&Picture> = frames.frames.iter().collect();
-    let fits = refined_fit(&model, &refs, &RefineOptions::default(), &device)?;
+    let refine = RefineOptions::for_model(&model_dir, RefineOptions::default().steps)?;
+    let fits = refined_fit(&model, &refs, &refine, &device)?;
     let mut fit_cells = Vec::new();
     let mut l2_rows = Vec::new();
     for ((name, frame), fit) in names.iter().zip(&frames.frames).zip(&fits) {
@@ -128,14 +129,7 @@ pub fn run(args: DemoArgs, ui: &Ui) -> anyhow::Result<()> {
     ] {
         ui.stage(stem, 0);
         let steps = 8;
-        let ib = inbetween(
-            &model,
-            &frames.frames[a],
-            &frames.frames[b],
-            steps,
-            &RefineOptions::default(),
-            &device,
-        )?;
+        let ib = inbetween(&model, &frames.frames[a], &frames.frames[b], steps, &refine, &device)?;
         let latent: Vec<Picture> = ib
             .latent
             .iter()
@@ -165,7 +159,7 @@ pub fn run(args: DemoArgs, ui: &Ui) -> anyhow::Result<()> {
 
     // 5. A dragged pose: lift the robot's front hand on the idle frame.
     ui.stage("pose", 0);
-    let mut editor = PoseEditor::new(&model, idle, &RefineOptions::default(), &device)?;
+    let mut editor = PoseEditor::new(&model, idle, &refine, &device)?;
     let hand = ["hand_r", "hand_l", "arm_r", "arm_l"]
         .iter()
         .find_map(|n| model.puppet.layer_index(n))

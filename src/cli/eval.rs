@@ -45,7 +45,7 @@ pub fn run(args: EvalArgs, ui: &Ui) -> anyhow::Result<()> {
         None if args.all => (Vec::new(), "all frames"),
         None => (Vec::new(), "all frames (the model's held-out frames are not in this sequence)"),
     };
-    let report = evaluate(&model, &frames, &indices, &args.refine.options(), &device)?;
+    let report = evaluate(&model, &frames, &indices, &args.refine.options(&args.model)?, &device)?;
     let out = args.output.unwrap_or_else(|| args.model.join("eval.json"));
     let json = serde_json::to_vec_pretty(&report).context("while encoding the report")?;
     puppet::atomic_file::write_atomic(&out, &json)?;

@@ -43,12 +43,10 @@ pub struct RefineArgs {
 }
 
 impl RefineArgs {
-    /// The refinement these arguments ask for.
-    pub fn options(&self) -> RefineOptions {
-        RefineOptions {
-            steps: self.refine,
-            ..RefineOptions::default()
-        }
+    /// The refinement these arguments ask for, with the objective the model in `model_dir` was
+    /// trained with.
+    pub fn options(&self, model_dir: &std::path::Path) -> puppet::Result<RefineOptions> {
+        RefineOptions::for_model(model_dir, self.refine)
     }
 }
 
@@ -77,7 +75,7 @@ pub fn run(args: FitArgs, ui: &Ui) -> anyhow::Result<()> {
     let mut rows = Vec::new();
     for (chunk_files, chunk) in files.chunks(16).zip(pictures.chunks(16)) {
         let refs: Vec<&Picture> = chunk.iter().collect();
-        let fits = refined_fit(&model, &refs, &args.refine.options(), &device)?;
+        let fits = refined_fit(&model, &refs, &args.refine.options(&args.model)?, &device)?;
         for ((file, picture), fit) in chunk_files.iter().zip(chunk).zip(fits) {
             let stem = file.file_stem().map_or("frame".into(), |s| s.to_string_lossy().into_owned());
             let render = render_crisp(&model.puppet, &fit, w, h)?;

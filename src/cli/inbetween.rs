@@ -71,7 +71,7 @@ pub fn run(args: InbetweenArgs, ui: &Ui) -> anyhow::Result<()> {
     let device = puppet::backend::device();
     let model = Model::load(&args.model, &device)?;
     if let Some(seq) = &args.score {
-        return score(&model, seq, &args.refine.options(), ui);
+        return score(&model, seq, &args.refine.options(&args.model)?, ui);
     }
     let (Some(a_path), Some(b_path)) = (&args.a, &args.b) else {
         anyhow::bail!("give two frames A and B (or --score SEQUENCE)");
@@ -83,7 +83,7 @@ pub fn run(args: InbetweenArgs, ui: &Ui) -> anyhow::Result<()> {
         None => Vec::new(),
     };
     ui.stage("inbetween", 0);
-    let out = inbetween(&model, &a, &b, args.steps, &args.refine.options(), &device)?;
+    let out = inbetween(&model, &a, &b, args.steps, &args.refine.options(&args.model)?, &device)?;
     let (w, h) = (model.puppet.width, model.puppet.height);
     ui.stage("render", out.t.len() as u64);
     let mut latent = Vec::with_capacity(out.t.len());

@@ -109,7 +109,7 @@ pub fn run(args: PoseArgs, ui: &Ui) -> anyhow::Result<()> {
     let model = Model::load(&args.model, &device)?;
     let frame = load_frame(&args.image, &model)?;
     let (w, h) = (model.puppet.width, model.puppet.height);
-    let mut editor = PoseEditor::new(&model, &frame, &args.refine.options(), &device)?;
+    let mut editor = PoseEditor::new(&model, &frame, &args.refine.options(&args.model)?, &device)?;
     let sources: Vec<[f32; 2]> = args.pins.iter().map(|p| p.from).collect();
     let targets: Vec<[f32; 2]> = args.pins.iter().map(|p| p.to).collect();
     editor

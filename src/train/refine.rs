@@ -4,11 +4,13 @@
 //! uses for dragged poses. The network's weights do not change; the result stays on the decoder's
 //! manifold. `puppet fit --refine N` and `puppet eval --refine N` use it.
 
+use std::path::Path;
+
 use burn::tensor::{Device, Tensor, TensorData};
 
 use super::config::LossWeights;
 use super::loss::Objective;
-use super::trainer::rest_coverage;
+use super::trainer::{rest_coverage, CONFIG_FILE};
 use crate::error::{Error, Result};
 use crate::model::deformation::rest_tensor;
 use crate::model::Model;
@@ -41,6 +43,37 @@ impl Default for RefineOptions {
 }
 
 impl RefineOptions {
+    /// `steps` refinement steps with the loss weights and the final σ the model in `dir` was
+    /// trained with (its `train.toml`; a model trained on frames over a background must refine
+    /// with the masked loss too), or the defaults if the folder has no `train.toml`.
+    ///
+    /// # Errors
+    /// [`Error::Format`] naming `train.toml` if it cannot be read or its `[loss]` or
+    /// `train.sigma` do not parse.
+    pub fn for_model(dir: &Path, steps: usize) -> Result<Self> {
+        let path = dir.join(CONFIG_FILE);
+        let mut options = RefineOptions {
+            steps,
+            ..RefineOptions::default()
+        };
+        if !path.is_file() {
+            return Ok(options);
+        }
+        let text = std::fs::read_to_string(&path).map_err(|e| Error::format(&path, e.to_string()))?;
+        let config: toml::Value = toml::from_str(&text).map_err(|e| Error::format(&path, e.to_string()))?;
+        if let Some(loss) = config.get("loss") {
+            options.weights = loss.clone().try_into().map_err(|e| Error::format(&path, format!("[loss]: {e}")))?;
+        }
+        if let Some(sigma) = config.get("train").and_then(|t| t.get("sigma")) {
+            let [_, end]: [f32; 2] = sigma
+                .clone()
+                .try_into()
+                .map_err(|e| Error::format(&path, format!("train.sigma: {e}")))?;
+            options.sigma = end;
+        }
+        Ok(options)
+    }
+
     /// No refinement: the encoder's one-pass fit, as the paper evaluates it.
     pub fn encoder_only() -> Self {
         RefineOptions {
@@ -138,5 +171,31 @@ impl LatentAdam {
             *v = B2 * *v + (1.0 - B2) * g * g;
             *x -= lr * (*m / c1) / ((*v / c2).sqrt() + 1e-8);
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn options_follow_the_models_training_objective_and_name_a_bad_config() {
+        let dir = tempfile::tempdir().unwrap();
+        let defaults = RefineOptions::for_model(dir.path(), 7).unwrap();
+        assert_eq!(
+            defaults,
+            RefineOptions {
+                steps: 7,
+                ..RefineOptions::default()
+            }
+        );
+        let config = "puppet = \"p\"\n[train]\nsigma = [2.0, 0.25]\n[loss]\narap = 10.0\nmasked = true\n";
+        std::fs::write(dir.path().join(CONFIG_FILE), config).unwrap();
+        let o = RefineOptions::for_model(dir.path(), 7).unwrap();
+        assert_eq!((o.steps, o.sigma, o.weights.arap, o.weights.masked), (7, 0.25, 10.0, true));
+        assert_eq!(o.weights.joints, LossWeights::default().joints, "unset weights keep their defaults");
+        std::fs::write(dir.path().join(CONFIG_FILE), "[loss]\narap = \"strong\"\n").unwrap();
+        let err = RefineOptions::for_model(dir.path(), 7).unwrap_err().to_string();
+        assert!(err.contains(CONFIG_FILE) && err.contains("[loss]"), "{err}");
     }
 }
