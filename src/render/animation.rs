@@ -72,7 +72,9 @@ pub fn gif_bytes(frames: &[Picture], delay_ms: u32, background: [f32; 3], what: 
     common_size(frames, what)?;
     let mut bytes = Vec::new();
     {
-        let mut encoder = GifEncoder::new_with_speed(&mut bytes, 10);
+        // Speed 1: NeuQuant learns the palette from every pixel. At 10 it samples a tenth and,
+        // on a rendered robot, lost the small yellow eye (drawn pink); frames here are small.
+        let mut encoder = GifEncoder::new_with_speed(&mut bytes, 1);
         let image_error = |e: image::ImageError| Error::Image {
             path: what.to_path_buf(),
             problem: format!("cannot encode GIF: {e}"),
@@ -179,6 +181,34 @@ mod tests {
                 );
             }
         }
+    }
+
+    #[test]
+    fn a_small_patch_of_a_rare_colour_keeps_its_colour_in_the_gif() {
+        // The Kenney robot's yellow eye (68 pixels among ~5,000 blues): a sampling quantiser
+        // (NeuQuant at speed 10) had no palette entry near it and drew it pink.
+        use image::AnimationDecoder;
+        let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("data/kenney/robot/frames/robot_idle.png");
+        let drawn = Picture::load(&path).unwrap();
+        // Resampled as a render is (a 3×3 box filter): thousands of in-between shades to sample.
+        let mut frame = drawn.clone();
+        for y in 1..drawn.height - 1 {
+            for x in 1..drawn.width - 1 {
+                let mut sum = [0.0f32; 4];
+                for (dx, dy) in (0..9).map(|k| (k % 3, k / 3)) {
+                    let p = drawn.get(x + dx - 1, y + dy - 1);
+                    (0..4).for_each(|c| sum[c] += p[c] / 9.0);
+                }
+                frame.pixels[(y * drawn.width + x) as usize] = sum;
+            }
+        }
+        let want = frame.get(48, 62);
+        assert!(want[0] > 0.8 && want[2] < 0.3, "the test expects the eye at (48, 62): {want:?}");
+        let bytes = gif_bytes(&[frame], 80, [1.0; 3], Path::new("t.gif")).unwrap();
+        let decoder = image::codecs::gif::GifDecoder::new(std::io::Cursor::new(bytes)).unwrap();
+        let decoded = decoder.into_frames().collect_frames().unwrap();
+        let eye = decoded[0].buffer().get_pixel(48, 62).0;
+        assert!(eye[0] > 180 && eye[1] > 150 && eye[2] < 90, "the yellow eye came back as {eye:?}");
     }
 
     #[test]
