@@ -9,7 +9,7 @@ use puppet::progress::Progress;
 use puppet::puppet::pose_file::PoseFile;
 use puppet::render::preview::wireframe_preview;
 use puppet::render::render_crisp;
-use puppet::train::refine::{refined_fit, RefineOptions};
+use puppet::train::refine::{self, refined_fit, RefineOptions};
 use puppet::train::Frames;
 
 use super::Ui;
@@ -38,7 +38,7 @@ pub struct RefineArgs {
     /// After the encoder, this many Adam steps on each frame's latent lowering the training
     /// objective for that frame (analysis by synthesis; the weights do not change). 0 = the
     /// encoder's one-pass fit, as the paper evaluates; ~0.1 s per step for 16 frames at 128².
-    #[arg(long, default_value_t = 50)]
+    #[arg(long, default_value_t = refine::DEFAULT_STEPS)]
     pub refine: usize,
 }
 

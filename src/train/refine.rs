@@ -2,7 +2,8 @@
 //! that lower the training objective (eq. 4: L_rec + λ1·ARAP + λ2·joints) for that frame alone —
 //! analysis by synthesis through the decoder and the soft rasterizer, the same machinery §4.2
 //! uses for dragged poses. The network's weights do not change; the result stays on the decoder's
-//! manifold. `puppet fit --refine N` and `puppet eval --refine N` use it.
+//! manifold. `--refine N` on `puppet fit`, `eval`, `inbetween`, `pose` and `correspond`, and the
+//! demo, use it.
 
 use std::path::Path;
 
@@ -17,6 +18,10 @@ use crate::model::Model;
 use crate::picture::Picture;
 use crate::render::burn_op::soft_raster;
 use crate::render::soft_raster::{Background, Params, SoftRasterizer};
+
+/// Refinement steps unless asked otherwise: on the synthetic walker (README) 50 steps take the
+/// held-out L2 from 4947 to 3340 and 100 to 3253, against a floor of 3213.
+pub const DEFAULT_STEPS: usize = 50;
 
 /// How to refine fits.
 #[derive(Clone, Debug, PartialEq)]
@@ -34,7 +39,7 @@ pub struct RefineOptions {
 impl Default for RefineOptions {
     fn default() -> Self {
         RefineOptions {
-            steps: 30,
+            steps: DEFAULT_STEPS,
             learning_rate: 0.02,
             sigma: 0.5,
             weights: LossWeights::default(),
