@@ -9,7 +9,7 @@
 //! not on the character.
 
 use crate::error::{Error, Result};
-use crate::geom::triangle::barycentric;
+use crate::geom::triangle::{barycentric, closest_on_segment};
 use crate::puppet::Puppet;
 
 /// How far (pixels) outside the mesh a point may be and still bind to its nearest triangle.
@@ -107,17 +107,6 @@ fn closest_point(t: [[f32; 2]; 3], p: [f32; 2]) -> [f32; 2] {
 /// Distance from `p` to triangle `t` when `p` is outside it.
 fn distance_to_triangle(t: [[f32; 2]; 3], p: [f32; 2]) -> f32 {
     dist2(closest_point(t, p), p).sqrt()
-}
-
-fn closest_on_segment(a: [f32; 2], b: [f32; 2], p: [f32; 2]) -> [f32; 2] {
-    let d = [b[0] - a[0], b[1] - a[1]];
-    let len2 = d[0] * d[0] + d[1] * d[1];
-    let s = if len2 > 0.0 {
-        (((p[0] - a[0]) * d[0] + (p[1] - a[1]) * d[1]) / len2).clamp(0.0, 1.0)
-    } else {
-        0.0
-    };
-    [a[0] + s * d[0], a[1] + s * d[1]]
 }
 
 fn dist2(a: [f32; 2], b: [f32; 2]) -> f32 {

@@ -2,6 +2,7 @@
 //! point (white ring) to its target (red dot).
 
 use super::pose::Pin;
+use crate::geom::triangle::closest_on_segment;
 use crate::picture::Picture;
 
 /// `picture` composited on white with each pin drawn as a grey line from `from` to `to`, a ring
@@ -49,14 +50,7 @@ fn dist(a: [f32; 2], b: [f32; 2]) -> f32 {
 }
 
 fn segment_distance(p: [f32; 2], a: [f32; 2], b: [f32; 2]) -> f32 {
-    let d = [b[0] - a[0], b[1] - a[1]];
-    let len2 = d[0] * d[0] + d[1] * d[1];
-    let t = if len2 > 0.0 {
-        (((p[0] - a[0]) * d[0] + (p[1] - a[1]) * d[1]) / len2).clamp(0.0, 1.0)
-    } else {
-        0.0
-    };
-    dist(p, [a[0] + t * d[0], a[1] + t * d[1]])
+    dist(p, closest_on_segment(a, b, p))
 }
 
 #[cfg(test)]
