@@ -172,12 +172,15 @@ fn run_sequence(args: &CorrespondArgs, seq: &std::path::Path, ui: &Ui) -> anyhow
         model.check_frame(f).map_err(|e| anyhow::anyhow!("{}: {e}", file.display()))?;
     }
     ui.stage("fit", test.len() as u64);
+    let refine = args.refine.options(&args.model)?;
     let mut fits = vec![Vec::new(); frames.frames.len()];
-    for &t in &test {
-        fits[t] = refined_fit(&model, &[&frames.frames[t]], &args.refine.options(&args.model)?, &device)?
-            .pop()
-            .unwrap_or_default();
-        ui.advance(1);
+    // Batches of 16, as training and `eval` run: one rasterizer and objective per batch.
+    for chunk in test.chunks(16) {
+        let pictures: Vec<_> = chunk.iter().map(|&t| &frames.frames[t]).collect();
+        for (&t, fit) in chunk.iter().zip(refined_fit(&model, &pictures, &refine, &device)?) {
+            fits[t] = fit;
+        }
+        ui.advance(chunk.len() as u64);
     }
     let pairs = ordered_pairs(&test);
     let sequence_dir = frames.dir.parent().unwrap_or(seq).to_path_buf();
