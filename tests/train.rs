@@ -101,9 +101,9 @@ fn training_lowers_the_reconstruction_loss_and_fit_and_eval_run() {
     ] {
         assert!(fit_dir.join(f).is_file(), "{f}");
     }
-    // Scored on all four frames, with and without refining the fits.
-    let scores = |refine: &str| -> serde_json::Value {
-        let out = tmp.path().join(format!("eval-{refine}.json"));
+    // Scored on all four frames: the encoder's fit, refined latents, then refined vertices.
+    let scores = |refine: &str, vertices: &str| -> serde_json::Value {
+        let out = tmp.path().join(format!("eval-{refine}-{vertices}.json"));
         let eval = puppet(
             tmp.path(),
             &[
@@ -114,6 +114,8 @@ fn training_lowers_the_reconstruction_loss_and_fit_and_eval_run() {
                 "--all",
                 "--refine",
                 refine,
+                "--refine-vertices",
+                vertices,
                 "-o",
                 out.to_str().unwrap(),
             ],
@@ -122,8 +124,8 @@ fn training_lowers_the_reconstruction_loss_and_fit_and_eval_run() {
         assert!(eval.stdout.contains("mean") && eval.stdout.contains("PCK.05"), "{}", eval.stdout);
         serde_json::from_slice::<serde_json::Value>(&std::fs::read(out).unwrap()).unwrap()["mean"].clone()
     };
-    let (plain, refined) = (scores("0"), scores("30"));
-    println!("encoder: {plain}\nrefined: {refined}");
+    let (plain, refined, on_vertices) = (scores("0", "0"), scores("30", "0"), scores("30", "60"));
+    println!("encoder: {plain}\nrefined: {refined}\nthen vertices: {on_vertices}");
     assert!(
         plain["iou"].as_f64().unwrap() > 0.5 && plain["vertex_error"].as_f64().is_some(),
         "{plain}"
@@ -143,6 +145,14 @@ fn training_lowers_the_reconstruction_loss_and_fit_and_eval_run() {
         "and the visible vertices' error: {} → {}",
         err(&plain),
         err(&refined)
+    );
+    assert!(
+        l2(&on_vertices) < 0.9 * l2(&refined) && err(&on_vertices) < err(&refined),
+        "refining the vertices should lower L2 and vertex error further: {} → {}, {} → {} px",
+        l2(&refined),
+        l2(&on_vertices),
+        err(&refined),
+        err(&on_vertices)
     );
 }
 

@@ -18,7 +18,7 @@ use puppet::train::refine::refined_fit;
 use puppet::train::sequence::Frames;
 use puppet::train::trainer::SplitRecord;
 
-use super::fit::RefineArgs;
+use super::fit::FitRefineArgs;
 use super::Ui;
 
 /// Map points of frame A to frame B through the fitted puppet (or score correspondences).
@@ -56,7 +56,7 @@ pub struct CorrespondArgs {
     #[arg(short, long, default_value = "correspondences.json")]
     pub output: PathBuf,
     #[command(flatten)]
-    pub refine: RefineArgs,
+    pub refine: FitRefineArgs,
 }
 
 /// One point's match, as written.

@@ -18,7 +18,7 @@ use puppet::render::animation::{sprite_sheet, write_gif};
 use puppet::render::preview::wireframe_preview;
 use puppet::render::render_crisp;
 use puppet::synth::output::contact_sheet;
-use puppet::train::refine::{refined_fit, RefineOptions, DEFAULT_STEPS};
+use puppet::train::refine::{refined_fit, RefineOptions, DEFAULT_STEPS, DEFAULT_VERTEX_STEPS};
 use puppet::train::{self, Frames, TrainConfig, TrainOptions};
 
 use super::Ui;
@@ -96,7 +96,7 @@ pub fn run(args: DemoArgs, ui: &Ui) -> anyhow::Result<()> {
     ui.stage("fit", frames.frames.len() as u64);
     let (w, h) = (model.puppet.width, model.puppet.height);
     let refs: Vec<&Picture> = frames.frames.iter().collect();
-    let refine = RefineOptions::for_model(&model_dir, DEFAULT_STEPS)?;
+    let refine = RefineOptions::for_model(&model_dir, DEFAULT_STEPS, DEFAULT_VERTEX_STEPS)?;
     let fits = refined_fit(&model, &refs, &refine, &device)?;
     let mut fit_cells = Vec::new();
     let mut l2_rows = Vec::new();
@@ -277,7 +277,7 @@ fn page(d: &PageData) -> String {
     );
     let _ = write!(
         s,
-        "<h2>2. Fits</h2><p>Each frame beside the puppet rendered at its fit — the network's prediction refined by {DEFAULT_STEPS} latent steps (pairs: frame, render). \
+        "<h2>2. Fits</h2><p>Each frame beside the puppet rendered at its fit — the network's prediction refined by {DEFAULT_STEPS} latent steps, then {DEFAULT_VERTEX_STEPS} steps on the vertices (pairs: frame, render). \
          L2 as in DESIGN.md (RGB on white, 0–255).</p><img src=\"fits.png\" width=\"1000\"><table><tr><th>frame</th><th>L2</th><th></th></tr>"
     );
     for (name, l2, test) in &d.l2_rows {

@@ -8,7 +8,7 @@ use puppet::model::Model;
 use puppet::train::trainer::SplitRecord;
 use puppet::train::Frames;
 
-use super::fit::RefineArgs;
+use super::fit::FitRefineArgs;
 use super::Ui;
 
 /// Score a trained model: fit each held-out frame, render it, and report L2, masked RMSE and
@@ -27,7 +27,7 @@ pub struct EvalArgs {
     #[arg(short, long)]
     pub output: Option<PathBuf>,
     #[command(flatten)]
-    pub refine: RefineArgs,
+    pub refine: FitRefineArgs,
 }
 
 /// Runs `puppet eval`.
