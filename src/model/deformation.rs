@@ -13,6 +13,11 @@ use burn::nn::{Initializer, Linear, LinearConfig, PaddingConfig2d};
 use burn::tensor::activation::relu;
 use burn::tensor::{Device, Tensor, TensorData};
 
+/// The encoder's convolutions (paper, Figure 3): kernel side, stride and zero padding.
+const KERNEL: usize = 5;
+const STRIDE: usize = 2;
+const PADDING: usize = 2;
+
 /// Hyper-parameters of [`DeformationNet`]; saved with every model (STYLE.md: config is the
 /// constructor and the record of a run).
 #[derive(Config, Debug)]
@@ -63,9 +68,9 @@ impl DeformationNetConfig {
             self.input_size
         );
         let conv = |i: usize, o: usize| {
-            Conv2dConfig::new([i, o], [5, 5])
-                .with_stride([2, 2])
-                .with_padding(PaddingConfig2d::Explicit(2, 2, 2, 2))
+            Conv2dConfig::new([i, o], [KERNEL, KERNEL])
+                .with_stride([STRIDE, STRIDE])
+                .with_padding(PaddingConfig2d::Explicit(PADDING, PADDING, PADDING, PADDING))
                 .init(device)
         };
         let [c1, c2, c3] = self.channels;
@@ -92,7 +97,7 @@ impl DeformationNet {
     pub fn encode(&self, images: Tensor<4>) -> Tensor<2> {
         let mut x = images;
         for conv in &self.convs {
-            x = relu(conv.forward(x));
+            x = relu(super::conv_op::conv2d(conv, x, STRIDE, PADDING));
         }
         let mut h: Tensor<2> = x.flatten(1, 3);
         for (i, fc) in self.encoder_fcs.iter().enumerate() {

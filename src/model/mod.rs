@@ -3,6 +3,8 @@
 //! Losses and training live in `train`; this module holds only modules and their configs.
 
 pub mod bundle;
+pub mod conv_kernel;
+pub mod conv_op;
 pub mod deformation;
 pub mod letterbox;
 
