@@ -81,6 +81,17 @@ impl ConvGeometry {
         (out * self.stride + offset).checked_sub(self.padding).filter(|&i| i < size)
     }
 
+    /// The output pixels `lo..hi` (of `outputs`) that read inside an axis of `size` input pixels
+    /// at kernel offset `offset`; the others read the padding.
+    fn inside(&self, offset: usize, size: usize, outputs: usize) -> (usize, usize) {
+        let lo = self.padding.saturating_sub(offset).div_ceil(self.stride).min(outputs);
+        let hi = (size + self.padding)
+            .checked_sub(offset)
+            .map_or(0, |end| end.div_ceil(self.stride))
+            .clamp(lo, outputs);
+        (lo, hi)
+    }
+
     /// Unfolds one image `x` `[C, H, W]` into `col` `[C·K·K, Ho·Wo]` (row (c, i, j) holds the
     /// input under kernel tap (i, j) of channel c at every output pixel).
     fn im2col(&self, x: &[f32], col: &mut [f32]) {
@@ -94,8 +105,12 @@ impl ConvGeometry {
                     continue;
                 };
                 let src = &plane[y * self.width..][..self.width];
-                for (ox, v) in line.iter_mut().enumerate() {
-                    *v = self.source(j, self.width, ox).map_or(0.0, |x| src[x]);
+                let (lo, hi) = self.inside(j, self.width, wo);
+                line[..lo].fill(0.0);
+                line[hi..].fill(0.0);
+                let first = lo * self.stride + j - self.padding;
+                for (v, &x) in line[lo..hi].iter_mut().zip(src[first..].iter().step_by(self.stride)) {
+                    *v = x;
                 }
             }
         }
@@ -110,10 +125,10 @@ impl ConvGeometry {
             for (oy, line) in src.chunks_exact(wo).enumerate() {
                 let Some(y) = self.source(i, self.height, oy) else { continue };
                 let dst = &mut plane[y * self.width..][..self.width];
-                for (ox, &v) in line.iter().enumerate() {
-                    if let Some(x) = self.source(j, self.width, ox) {
-                        dst[x] += v;
-                    }
+                let (lo, hi) = self.inside(j, self.width, wo);
+                let first = lo * self.stride + j - self.padding;
+                for (d, &v) in dst[first..].iter_mut().step_by(self.stride).zip(&line[lo..hi]) {
+                    *d += v;
                 }
             }
         }
@@ -243,13 +258,26 @@ mod tests {
 
     #[test]
     fn forward_matches_the_definition_including_the_padded_border() {
-        let g = geometry();
-        let (x, w, b) = (values(2 * g.input_len(), 1), values(g.weight_len(), 2), values(4, 3));
-        assert_eq!((g.out_height(), g.out_width()), (5, 4));
-        let got = g.forward(&x, &w, &b);
-        let want = direct(&g, &x, &w, &b);
-        let worst = got.iter().zip(&want).map(|(a, b)| (*a as f64 - b).abs()).fold(0.0, f64::max);
-        assert!(worst < 1e-5, "max error {worst}");
+        assert_eq!((geometry().out_height(), geometry().out_width()), (5, 4));
+        let other = ConvGeometry {
+            kernel: 3,
+            stride: 1,
+            padding: 1,
+            ..geometry()
+        };
+        let wide = ConvGeometry {
+            kernel: 3,
+            stride: 3,
+            padding: 0,
+            ..geometry()
+        };
+        for g in [geometry(), other, wide] {
+            let (x, w, b) = (values(2 * g.input_len(), 1), values(g.weight_len(), 2), values(4, 3));
+            let got = g.forward(&x, &w, &b);
+            let want = direct(&g, &x, &w, &b);
+            let worst = got.iter().zip(&want).map(|(a, b)| (*a as f64 - b).abs()).fold(0.0, f64::max);
+            assert!(worst < 1e-5, "{g:?}: max error {worst}");
+        }
     }
 
     #[test]
