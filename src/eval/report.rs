@@ -39,9 +39,10 @@ pub struct FrameScores {
     pub visible_pck: Option<[f64; 3]>,
     /// The share of vertices the frame shows.
     pub visible_share: Option<f64>,
-    /// L2 of the puppet rendered at the TRUE vertices (ground truth only): what a perfect vertex
-    /// fit scores, so the part of `l2` no vertex fit can remove (texture resampling, drawing
-    /// the generator does that a mesh cannot).
+    /// L2 of the puppet rendered at the TRUE vertices (ground truth only): what placing every
+    /// vertex exactly scores (texture resampling, drawing the generator does that a mesh cannot).
+    /// Not a floor: a fit that moves vertices off the truth can absorb part of the generator's
+    /// non-affine deformation and score lower.
     pub true_pose_l2: Option<f64>,
     /// Silhouette IoU of the puppet rendered at the true vertices (ground truth only).
     pub true_pose_iou: Option<f64>,

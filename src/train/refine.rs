@@ -20,7 +20,7 @@ use crate::render::burn_op::soft_raster;
 use crate::render::soft_raster::{Background, Params, SoftRasterizer};
 
 /// Refinement steps unless asked otherwise: on the synthetic walker (README) 50 steps take the
-/// held-out L2 from 4947 to 3340 and 100 to 3253, against a floor of 3213.
+/// held-out L2 from 4947 to 3340 and 100 to 3253 (the true pose renders at 3213).
 pub const DEFAULT_STEPS: usize = 50;
 
 /// Vertex refinement steps after the latent ones unless asked otherwise (README): on the
