@@ -3,7 +3,7 @@
 //! inside (so interior texture gradients are non-zero) and which overlap.
 
 use crate::picture::Picture;
-use crate::puppet::{Layer, LayerKind, Mesh, Puppet};
+use crate::puppet::{Joint, Layer, LayerKind, Mesh, Puppet, VertexRef};
 
 /// A small deterministic generator (SplitMix64) so tests need no extra dependency.
 pub struct Rng(u64);
@@ -128,6 +128,28 @@ pub fn layered_puppet() -> Puppet {
         root: 1,
         joints: Vec::new(),
     }
+}
+
+/// [`layered_puppet`] with the front arm hinged to the torso at a shared rest point (24, 20).
+pub fn hinged_puppet() -> Puppet {
+    let mut puppet = layered_puppet();
+    let torso = puppet.layer_index("torso").unwrap();
+    let arm = puppet.layer_index("arm_front").unwrap();
+    // arm_front's vertex at (24, 20) and the torso's vertex nearest it.
+    let find = |l: usize, p: [f32; 2]| {
+        let v = &puppet.layers[l].mesh.vertices;
+        (0..v.len()).min_by(|&a, &b| {
+            let d = |i: usize| (v[i][0] - p[0]).powi(2) + (v[i][1] - p[1]).powi(2);
+            d(a).total_cmp(&d(b))
+        })
+    };
+    let a = find(arm, [24.0, 20.0]).unwrap() as u32;
+    let t = find(torso, [24.0, 20.0]).unwrap() as u32;
+    puppet.joints.push(Joint {
+        a: VertexRef { layer: torso, vertex: t },
+        b: VertexRef { layer: arm, vertex: a },
+    });
+    puppet
 }
 
 /// `vertices` flattened to `[x0, y0, x1, y1, …]` with each coordinate moved by a uniform amount

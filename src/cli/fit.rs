@@ -55,18 +55,30 @@ impl RefineArgs {
 pub struct FitRefineArgs {
     #[command(flatten)]
     pub latent: RefineArgs,
-    /// Then this many Adam steps on the vertices themselves, σ falling from the training's first
-    /// to its last: off the decoder's manifold, held by the ARAP and joint terms — a closer fit
-    /// of poses the training frames never showed. 0 = stay on the manifold; ~0.03 s per step
-    /// for 16 frames at 128².
+    /// Then this many Adam steps on the vertices themselves per round, σ falling from the
+    /// training's first to its last: off the decoder's manifold, held by the ARAP and joint
+    /// terms — a closer fit of poses the training frames never showed. 0 = stay on the manifold
+    /// (no limb search either); ~0.03 s per step for 16 frames at 128².
     #[arg(long, default_value_t = refine::DEFAULT_VERTEX_STEPS)]
     pub refine_vertices: usize,
+    /// Rounds of vertex refinement, each a search over limb turns about their joints (for limbs
+    /// drawn far from where the network put them) and then `--refine-vertices` steps.
+    #[arg(long, default_value_t = RefineOptions::default().vertex_rounds)]
+    pub vertex_rounds: usize,
+    /// Skip the limb search: vertex steps only.
+    #[arg(long)]
+    pub no_limb_search: bool,
 }
 
 impl FitRefineArgs {
     /// Latent then vertex refinement with the objective the model in `model_dir` was trained with.
     pub fn options(&self, model_dir: &std::path::Path) -> puppet::Result<RefineOptions> {
-        RefineOptions::for_model(model_dir, self.latent.refine, self.refine_vertices)
+        let options = RefineOptions::for_model(model_dir, self.latent.refine, self.refine_vertices)?;
+        Ok(RefineOptions {
+            vertex_rounds: self.vertex_rounds,
+            limb_search: options.limb_search.filter(|_| !self.no_limb_search),
+            ..options
+        })
     }
 }
 

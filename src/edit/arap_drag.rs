@@ -177,34 +177,11 @@ fn components(n: usize, triangles: &[[u32; 3]]) -> Vec<usize> {
 mod tests {
     use super::*;
     use crate::edit::bind::bind;
-    use crate::puppet::{Joint, VertexRef};
-    use crate::test_util::layered_puppet;
-
-    /// The layered test puppet with the front arm hinged to the torso at a shared rest point.
-    fn hinged() -> Puppet {
-        let mut puppet = layered_puppet();
-        let torso = puppet.layer_index("torso").unwrap();
-        let arm = puppet.layer_index("arm_front").unwrap();
-        // arm_front's vertex at (24, 20) and the torso's vertex nearest it.
-        let find = |l: usize, p: [f32; 2]| {
-            let v = &puppet.layers[l].mesh.vertices;
-            (0..v.len()).min_by(|&a, &b| {
-                let d = |i: usize| (v[i][0] - p[0]).powi(2) + (v[i][1] - p[1]).powi(2);
-                d(a).total_cmp(&d(b))
-            })
-        };
-        let a = find(arm, [24.0, 20.0]).unwrap() as u32;
-        let t = find(torso, [24.0, 20.0]).unwrap() as u32;
-        puppet.joints.push(Joint {
-            a: VertexRef { layer: torso, vertex: t },
-            b: VertexRef { layer: arm, vertex: a },
-        });
-        puppet
-    }
+    use crate::test_util::hinged_puppet;
 
     #[test]
     fn the_pin_is_met_and_unpinned_parts_stay_put() {
-        let puppet = hinged();
+        let puppet = hinged_puppet();
         let rest = puppet.rest_vertices();
         // Grab the front arm's tip and lift it by 8 px.
         let b = bind(&puppet, &rest, [42.0, 22.5]).unwrap();

@@ -159,6 +159,13 @@ impl Model {
             .collect()
     }
 
+    /// Per-item vertex lists in frame pixels → the working-pixel tensor `[B, V, 2]` (the inverse
+    /// of [`Model::to_frame_vertices`]).
+    pub fn to_work_vertices(&self, poses: &[Vec<[f32; 2]>], device: &Device) -> Tensor<3> {
+        let work: Vec<f32> = poses.iter().flatten().flat_map(|&p| self.letterbox.to_work(p)).collect();
+        Tensor::from_data(TensorData::new(work, [poses.len(), self.puppet.vertex_count(), 2]), device)
+    }
+
     /// Fits frames: the predicted template vertices of each, in frame pixels.
     ///
     /// # Errors

@@ -5,6 +5,7 @@
 pub mod arap_op;
 pub mod checkpoint;
 pub mod config;
+pub mod limb_search;
 pub mod log;
 pub mod loss;
 pub mod optim;

@@ -10,6 +10,7 @@ use std::path::Path;
 use burn::tensor::{Device, Tensor, TensorData};
 
 use super::config::LossWeights;
+use super::limb_search::LimbSearch;
 use super::loss::Objective;
 use super::trainer::{rest_coverage, CONFIG_FILE};
 use crate::error::{Error, Result};
@@ -40,6 +41,11 @@ pub struct RefineOptions {
     pub vertex_steps: usize,
     /// Adam's step size in working-square pixels.
     pub vertex_learning_rate: f32,
+    /// Rounds of (limb search, `vertex_steps` vertex steps); a second round lets the search see
+    /// limbs the first round's steps have settled.
+    pub vertex_rounds: usize,
+    /// The global search over limb turns before each round's vertex steps (`None`: steps only).
+    pub limb_search: Option<LimbSearch>,
     /// σ at the first vertex step, falling geometrically to `sigma` at the last (a wide σ lets a
     /// limb far from its drawn place feel it).
     pub vertex_sigma_start: f32,
@@ -57,6 +63,8 @@ impl Default for RefineOptions {
             vertex_steps: DEFAULT_VERTEX_STEPS,
             vertex_learning_rate: 0.3,
             vertex_sigma_start: 4.0,
+            vertex_rounds: 3,
+            limb_search: Some(LimbSearch::default()),
             sigma: 0.5,
             weights: LossWeights::default(),
         }
@@ -107,19 +115,29 @@ impl RefineOptions {
 }
 
 /// Fits `frames` (the puppet's size): encoder, then `options.steps` Adam steps per latent, then
-/// `options.vertex_steps` Adam steps on the vertices themselves. Returns the template vertices
-/// of each frame in frame pixels.
+/// `options.vertex_rounds` rounds of a limb search ([`LimbSearch`]) and `options.vertex_steps`
+/// Adam steps on the vertices themselves. Returns the template vertices of each frame in frame
+/// pixels.
 ///
 /// # Errors
 /// As [`fit_latents`].
 pub fn refined_fit(model: &Model, frames: &[&Picture], options: &RefineOptions, device: &Device) -> Result<Vec<Vec<[f32; 2]>>> {
     let z = fit_latents(model, frames, options, device)?;
-    let vertices = model.decode(z, device);
+    let mut poses = model.to_frame_vertices(model.decode(z, device));
     if options.vertex_steps == 0 || frames.is_empty() {
-        return Ok(model.to_frame_vertices(vertices));
+        return Ok(poses);
     }
     let analysis = Analysis::new(model, frames, options, device)?;
-    Ok(model.to_frame_vertices(analysis.vertices(vertices)?))
+    for _ in 0..options.vertex_rounds.max(1) {
+        if let Some(search) = &options.limb_search {
+            for (pose, frame) in poses.iter_mut().zip(frames) {
+                search.improve(&analysis.raster, &model.puppet, frame, pose)?;
+            }
+        }
+        let vertices = analysis.vertices(model.to_work_vertices(&poses, device))?;
+        poses = model.to_frame_vertices(vertices);
+    }
+    Ok(poses)
 }
 
 /// The latents `[B, Z]` of `frames`: the encoder's, then `options.steps` Adam steps each.
