@@ -220,6 +220,7 @@ pub fn run(args: DemoArgs, ui: &Ui) -> anyhow::Result<()> {
         images_per_second: summary.images_per_second,
         split: summary.split,
         l2_rows,
+        fit_rounds: refine.vertex_rounds,
         gifs,
         pin,
         pin_error: dragged.pin_error[0],
@@ -243,6 +244,7 @@ struct PageData {
     images_per_second: f64,
     split: (usize, usize),
     l2_rows: Vec<(String, f64, bool)>,
+    fit_rounds: usize,
     gifs: Vec<(&'static str, String, String)>,
     pin: Pin,
     pin_error: f32,
@@ -277,8 +279,9 @@ fn page(d: &PageData) -> String {
     );
     let _ = write!(
         s,
-        "<h2>2. Fits</h2><p>Each frame beside the puppet rendered at its fit — the network's prediction refined by {DEFAULT_STEPS} latent steps, then {DEFAULT_VERTEX_STEPS} steps on the vertices (pairs: frame, render). \
-         L2 as in DESIGN.md (RGB on white, 0–255).</p><img src=\"fits.png\" width=\"1000\"><table><tr><th>frame</th><th>L2</th><th></th></tr>"
+        "<h2>2. Fits</h2><p>Each frame beside the puppet rendered at its fit — the network's prediction refined by {DEFAULT_STEPS} latent steps, then {} rounds of a limb search and {DEFAULT_VERTEX_STEPS} steps on the vertices (pairs: frame, render). \
+         L2 as in DESIGN.md (RGB on white, 0–255).</p><img src=\"fits.png\" width=\"1000\"><table><tr><th>frame</th><th>L2</th><th></th></tr>",
+        d.fit_rounds
     );
     for (name, l2, test) in &d.l2_rows {
         let _ = write!(
