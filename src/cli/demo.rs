@@ -18,7 +18,7 @@ use puppet::render::animation::{sprite_sheet, write_gif};
 use puppet::render::preview::wireframe_preview;
 use puppet::render::render_crisp;
 use puppet::synth::output::contact_sheet;
-use puppet::train::refine::{refined_fit, RefineOptions, DEFAULT_STEPS, DEFAULT_VERTEX_STEPS};
+use puppet::train::refine::{fit_latents, refined_fit, RefineOptions, DEFAULT_STEPS, DEFAULT_VERTEX_STEPS};
 use puppet::train::{self, Frames, TrainConfig, TrainOptions};
 
 use super::Ui;
@@ -172,14 +172,18 @@ pub fn run(args: DemoArgs, ui: &Ui) -> anyhow::Result<()> {
             [s[0] + p[0] / part.len() as f32, s[1] + p[1] / part.len() as f32]
         })
     };
-    // The hand goes where the jump frame has it: a pose the nine training frames show, so the
-    // decoder knows how the rest of the body goes with it (far drags to poses it never saw
-    // distort the whole robot). Without a jump frame: a lift by a tenth of the frame.
+    // The hand goes where the decoder puts it for the jump frame (its latent fit: the fits above
+    // leave the manifold, a drag does not): a pose the nine training frames show, so the decoder
+    // knows how the rest of the body goes with it (far drags to poses it never saw distort the
+    // whole robot). Without a jump frame: a lift by a tenth of the frame.
     let from = centre(&fitted);
-    let to = names
-        .iter()
-        .position(|n| n.contains("jump"))
-        .map_or([from[0] + 0.06 * w as f32, from[1] - 0.1 * h as f32], |j| centre(&fits[j]));
+    let to = match names.iter().position(|n| n.contains("jump")) {
+        Some(j) => {
+            let z = fit_latents(&model, &[&frames.frames[j]], &refine, &device)?;
+            centre(&model.to_frame_vertices(model.decode(z, &device))[0])
+        }
+        None => [from[0] + 0.06 * w as f32, from[1] - 0.1 * h as f32],
+    };
     let pin = Pin { from, to };
     editor.set_pins(&[pin.from])?;
     let options = PoseOptions::default();
