@@ -41,8 +41,8 @@ pub struct RefineOptions {
     pub vertex_steps: usize,
     /// Adam's step size in working-square pixels.
     pub vertex_learning_rate: f32,
-    /// Rounds of (limb search, `vertex_steps` vertex steps); a second round lets the search see
-    /// limbs the first round's steps have settled.
+    /// Rounds of (limb search, `vertex_steps` vertex steps); a later round lets the search see
+    /// limbs the earlier steps have settled. 0 = no vertex stage.
     pub vertex_rounds: usize,
     /// The global search over limb turns before each round's vertex steps (`None`: steps only).
     pub limb_search: Option<LimbSearch>,
@@ -124,11 +124,11 @@ impl RefineOptions {
 pub fn refined_fit(model: &Model, frames: &[&Picture], options: &RefineOptions, device: &Device) -> Result<Vec<Vec<[f32; 2]>>> {
     let z = fit_latents(model, frames, options, device)?;
     let mut poses = model.to_frame_vertices(model.decode(z, device));
-    if options.vertex_steps == 0 || frames.is_empty() {
+    if options.vertex_steps == 0 || options.vertex_rounds == 0 || frames.is_empty() {
         return Ok(poses);
     }
     let analysis = Analysis::new(model, frames, options, device)?;
-    for _ in 0..options.vertex_rounds.max(1) {
+    for _ in 0..options.vertex_rounds {
         if let Some(search) = &options.limb_search {
             for (pose, frame) in poses.iter_mut().zip(frames) {
                 search.improve(&analysis.raster, &model.puppet, frame, pose)?;
