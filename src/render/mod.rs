@@ -10,5 +10,5 @@ mod pose;
 pub mod preview;
 pub mod soft_raster;
 
-pub use pose::{render_crisp, render_pose};
+pub use pose::{render_crisp, render_pose, straight_picture};
 pub use soft_raster::{Background, Params, SoftRasterizer};

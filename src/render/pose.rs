@@ -21,15 +21,20 @@ pub fn render_pose(puppet: &Puppet, vertices: &[[f32; 2]], width: u32, height: u
         ..Params::default()
     };
     let frames = raster.forward(&flat, 1, width as usize, height as usize, &params)?;
-    let pixels = frames
-        .image
+    Ok(straight_picture(&frames.image, width, height))
+}
+
+/// One rendered image (premultiplied RGBA, `[H, W, 4]`, as the rasterizer writes it) as a
+/// straight-alpha picture.
+pub fn straight_picture(premultiplied: &[f32], width: u32, height: u32) -> Picture {
+    let pixels = premultiplied
         .chunks_exact(4)
         .map(|p| match p[3] {
             a if a > 0.0 => [(p[0] / a).min(1.0), (p[1] / a).min(1.0), (p[2] / a).min(1.0), a.min(1.0)],
             _ => [0.0; 4],
         })
         .collect();
-    Ok(Picture { width, height, pixels })
+    Picture { width, height, pixels }
 }
 
 /// The crisp render (σ = 0, transparent background) every preview and export uses.

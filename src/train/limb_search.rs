@@ -6,9 +6,11 @@
 //! Rigid turns about a joint cost nothing in ARAP and keep the joint welded.
 
 use crate::error::Result;
+use crate::eval::l2;
 use crate::picture::Picture;
 use crate::puppet::Puppet;
 use crate::render::soft_raster::{Background, Params, SoftRasterizer};
+use crate::render::straight_picture;
 
 /// Turns tried for each limb, in degrees either way, and how finely.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -53,7 +55,6 @@ impl LimbSearch {
             .filter(|&k| k != 0)
             .map(|k| (k as f32 * self.step_degrees).to_radians())
             .collect();
-        let target = on_white(frame.pixels.iter().flat_map(|p| [p[0] * p[3], p[1] * p[3], p[2] * p[3], p[3]]));
         let (w, h, vertices) = (frame.width as usize, frame.height as usize, pose.len());
         let params = Params {
             sigma: 0.0,
@@ -63,19 +64,11 @@ impl LimbSearch {
         // L2 of each pose in `poses` (concatenated), rendered in one batch.
         let scores = |poses: &[[f32; 2]]| -> Result<Vec<f64>> {
             let flat: Vec<f32> = poses.iter().flatten().copied().collect();
-            let batch = poses.len() / vertices;
-            let frames = raster.forward(&flat, batch, w, h, &params)?;
+            let frames = raster.forward(&flat, poses.len() / vertices, w, h, &params)?;
             Ok(frames
                 .image
                 .chunks_exact(4 * w * h)
-                .map(|image| {
-                    let sum: f64 = on_white(image.iter().copied())
-                        .iter()
-                        .zip(&target)
-                        .map(|(a, b)| (255.0 * f64::from(a - b)).powi(2))
-                        .sum();
-                    sum.sqrt()
-                })
+                .map(|image| l2(&straight_picture(image, frame.width, frame.height), frame))
                 .collect())
         };
         let start = scores(pose)?[0];
@@ -91,14 +84,6 @@ impl LimbSearch {
         }
         Ok((start, best))
     }
-}
-
-/// RGB composited on white from premultiplied RGBA values.
-fn on_white(premultiplied: impl Iterator<Item = f32>) -> Vec<f32> {
-    let rgba: Vec<f32> = premultiplied.collect();
-    rgba.chunks_exact(4)
-        .flat_map(|p| [p[0] + 1.0 - p[3], p[1] + 1.0 - p[3], p[2] + 1.0 - p[3]])
-        .collect()
 }
 
 /// `pose` with `limb` turned by `angle` radians about its pivot.
@@ -188,7 +173,7 @@ mod tests {
         let (before, after) = LimbSearch::default().improve(&raster, &puppet, &frame, &mut pose).unwrap();
         assert!(
             (before
-                - crate::eval::l2(
+                - l2(
                     &render_crisp(&puppet, &turned(&rest, limb, 50f32.to_radians()), 48, 40).unwrap(),
                     &frame
                 ))
