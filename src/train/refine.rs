@@ -122,12 +122,14 @@ impl RefineOptions {
 /// # Errors
 /// As [`fit_latents`].
 pub fn refined_fit(model: &Model, frames: &[&Picture], options: &RefineOptions, device: &Device) -> Result<Vec<Vec<[f32; 2]>>> {
-    let z = fit_latents(model, frames, options, device)?;
-    let mut poses = model.to_frame_vertices(model.decode(z, device));
     if options.vertex_steps == 0 || options.vertex_rounds == 0 || frames.is_empty() {
-        return Ok(poses);
+        let z = fit_latents(model, frames, options, device)?;
+        return Ok(model.to_frame_vertices(model.decode(z, device)));
     }
+    // One analysis (rasterizer, objective, network input) for both stages.
     let analysis = Analysis::new(model, frames, options, device)?;
+    let z = analysis.latents(model.net.encode(analysis.images.clone()))?;
+    let mut poses = model.to_frame_vertices(model.decode(z, device));
     for _ in 0..options.vertex_rounds {
         if let Some(search) = &options.limb_search {
             for (pose, frame) in poses.iter_mut().zip(frames) {
@@ -145,11 +147,11 @@ pub fn refined_fit(model: &Model, frames: &[&Picture], options: &RefineOptions, 
 /// # Errors
 /// As [`Model::input`]; [`Error::Invalid`] for a non-positive σ or step size.
 pub fn fit_latents(model: &Model, frames: &[&Picture], options: &RefineOptions, device: &Device) -> Result<Tensor<2>> {
-    let z0 = model.net.encode(model.input(frames, device)?);
     if options.steps == 0 || frames.is_empty() {
-        return Ok(z0);
+        return model.encode(frames, device);
     }
-    Analysis::new(model, frames, options, device)?.latents(z0)
+    let analysis = Analysis::new(model, frames, options, device)?;
+    analysis.latents(model.net.encode(analysis.images.clone()))
 }
 
 /// Analysis by synthesis of a batch of frames: the training objective through the soft
