@@ -15,6 +15,10 @@
 //! BACKEND_PX=64 cargo bench --bench backend --no-default-features --features ndarray
 //! ```
 
+// Benchmarks print their figures, read their own committed data, and criterion's macros write
+// undocumented functions.
+#![allow(missing_docs, clippy::print_stdout, clippy::unwrap_used)]
+
 use burn::optim::{AdamConfig, GradientsParams};
 use burn::tensor::{Distribution, Tensor};
 use criterion::{criterion_group, criterion_main, Criterion, Throughput};

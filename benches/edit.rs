@@ -5,6 +5,10 @@
 //! layer too, so the latent moves the pose as in a trained model); time does not depend on them.
 //! Ids: `edit/drag/steps=5/pins=1`, `edit/inbetween/frame`.
 
+// Benchmarks print their figures, read their own committed data, and criterion's macros write
+// undocumented functions.
+#![allow(missing_docs, clippy::print_stdout, clippy::unwrap_used)]
+
 use std::hint::black_box;
 
 use burn::module::{Module, ModuleMapper, Param};
@@ -12,11 +16,11 @@ use burn::tensor::{Distribution, Tensor};
 use criterion::{criterion_group, criterion_main, Criterion};
 use puppet::edit::inbetween::Interpolator;
 use puppet::edit::pose::{PoseEditor, PoseOptions};
+use puppet::fit::FitOptions;
 use puppet::model::deformation::DeformationNetConfig;
 use puppet::model::Model;
 use puppet::progress::Silent;
 use puppet::render::render_crisp;
-use puppet::train::refine::RefineOptions;
 
 /// Gives all-zero weight tensors (the decoder's zero-initialised last layer) small random values.
 struct Noise;
@@ -49,7 +53,7 @@ fn bench(c: &mut Criterion) {
     let frame = render_crisp(&model.puppet, &model.puppet.rest_vertices(), w, h).expect("rest render");
     let mut group = c.benchmark_group("edit");
 
-    let mut editor = PoseEditor::new(&model, &frame, &RefineOptions::encoder_only(), &device).expect("fit");
+    let mut editor = PoseEditor::new(&model, &frame, &FitOptions::one_pass(), &device).expect("fit");
     // The front hand's centre, dragged up and out by a few pixels per update.
     let hand = model.puppet.layer_index("hand_r").unwrap_or(model.puppet.layers.len() - 1);
     let offsets = model.puppet.vertex_offsets();
@@ -72,7 +76,7 @@ fn bench(c: &mut Criterion) {
     let mut other = model.puppet.rest_vertices();
     other.iter_mut().for_each(|p| p[0] += 3.0);
     let b_frame = render_crisp(&model.puppet, &other, w, h).expect("render");
-    let interp = Interpolator::new(&model, &frame, &b_frame, &RefineOptions::encoder_only(), &device).expect("encode");
+    let interp = Interpolator::new(&model, &frame, &b_frame, &FitOptions::one_pass(), &device).expect("encode");
     let mut t = 0.0f32;
     group.bench_function("inbetween/frame", |b| {
         b.iter(|| {

@@ -3,6 +3,10 @@
 //! vertices, and the whole `mesh_alpha` pipeline on an anti-aliased 256×256 disc with a hole.
 //! Results and machine: benches/README.md (section `mesh`).
 
+// Benchmarks print their figures, read their own committed data, and criterion's macros write
+// undocumented functions.
+#![allow(missing_docs, clippy::print_stdout, clippy::unwrap_used)]
+
 use std::hint::black_box;
 
 use criterion::{criterion_group, criterion_main, Criterion};

@@ -4,6 +4,10 @@
 //! `backward_saved` from its records; `bwd` is the latter alone. Ids: `render/<what>/faces=F/px=128/batch=16/threads=T`.
 //! bench/softras_torch.py runs the dense PyTorch peer on the same sizes beside this.
 
+// Benchmarks print their figures, read their own committed data, and criterion's macros write
+// undocumented functions.
+#![allow(missing_docs, clippy::print_stdout, clippy::unwrap_used)]
+
 use std::hint::black_box;
 
 use criterion::{criterion_group, criterion_main, Criterion, Throughput};

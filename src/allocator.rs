@@ -14,6 +14,7 @@ static GLOBAL: mimalloc::MiMalloc = mimalloc::MiMalloc;
 /// comes back as fresh pages that the kernel zeroes on first touch (a quarter of a step in the
 /// profile, benches/README.md "backend"). The cost is that the process keeps its peak memory.
 /// Does nothing without the `mimalloc` feature.
+#[allow(unsafe_code)] // one foreign call, justified below
 pub fn keep_freed_memory() {
     #[cfg(feature = "mimalloc")]
     {

@@ -8,20 +8,35 @@
 #![deny(rustdoc::broken_intra_doc_links)]
 #![forbid(unsafe_code)]
 
+// Layer 0, base (DESIGN.md "Layers of the code"; src/layering.rs checks the imports).
 pub mod atomic_file;
 pub mod backend;
-pub mod edit;
 pub mod error;
-pub mod eval;
-pub mod geom;
-pub mod model;
 pub mod picture;
 pub mod progress;
+pub mod rng;
+// Layer 1, maths.
+pub mod geom;
+pub mod metrics;
+// Layer 2, data.
 pub mod puppet;
+// Layer 3, the geometry of a character.
 pub mod render;
+// Layer 4, learning.
+pub mod model;
+pub mod objective;
+pub mod train;
+// Layer 5, using a model.
+pub mod edit;
+pub mod fit;
+// Layer 6, products.
+pub mod demo;
+pub mod eval;
 pub mod synth;
+
+#[cfg(test)]
+mod layering;
 #[cfg(test)]
 pub(crate) mod test_util;
-pub mod train;
 
 pub use error::{Error, Result};

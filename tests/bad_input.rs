@@ -1,10 +1,8 @@
 //! Every bad input of issue 2 gets exit code 1 and a message naming the file and the problem.
 
-mod util;
+use crate::util::{puppet, write_label_character, write_layer_character};
 
-use util::{puppet, write_label_character, write_layer_character};
-
-fn build(dir: &std::path::Path, artwork: &str) -> util::Run {
+fn build(dir: &std::path::Path, artwork: &str) -> crate::util::Run {
     puppet(dir, &["build", artwork, "-o", "out"])
 }
 

@@ -1,9 +1,7 @@
 //! Every subcommand end to end on `data/` and on tiny characters written by the test.
 
-mod util;
-
+use crate::util::{puppet, repo, write_label_character, write_layer_character};
 use puppet::puppet::format;
-use util::{puppet, repo, write_label_character, write_layer_character};
 
 /// Builds `artwork` into `tmp/out` and checks the puppet and its preview.
 fn build_and_check(tmp: &std::path::Path, artwork: &std::path::Path, layers: usize) -> puppet::puppet::Puppet {
@@ -104,7 +102,7 @@ fn unconnected_body_layer_is_reported() {
     run.assert_ok();
     assert!(
         run.stderr
-            .contains("warning: no joint connects these body layers to the root \"torso\": tail"),
+            .contains("warning: c/character.toml: no joint connects these body layers to the root \"torso\": tail"),
         "{}",
         run.stderr
     );

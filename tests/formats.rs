@@ -1,13 +1,11 @@
 //! Artwork forms and the puppet file: each form imports to the same layers, .ora round-trips,
 //! joints land where parts overlap, puppet.json saves and loads losslessly.
 
-mod util;
-
+use crate::util::{write_label_character, write_layer_character};
 use puppet::picture::Picture;
 use puppet::puppet::artwork::{self, ImportOptions};
 use puppet::puppet::joints::{find_joints, unconnected_body_layers, JointOptions};
 use puppet::puppet::{format, ora, Joint, Layer, LayerKind, Mesh, Puppet, VertexRef};
-use util::{write_label_character, write_layer_character};
 
 #[test]
 fn layer_png_form_imports_layers_in_order() {
@@ -35,7 +33,7 @@ fn ora_round_trip_gives_the_same_artwork() {
 fn label_map_form_cuts_parts_and_extends_them_under_front_parts() {
     let tmp = tempfile::tempdir().unwrap();
     let dir = write_label_character(&tmp.path().join("c"));
-    let art = artwork::load(&dir, &ImportOptions { label_overlap: 2 }).unwrap();
+    let art = artwork::load(&dir, &ImportOptions::default()).unwrap();
     let reference = Picture::load(&dir.join("reference.png")).unwrap();
     // Compositing the parts gives the reference frame back: growth is hidden under front parts.
     assert_eq!(art.composite(), reference);

@@ -1,13 +1,11 @@
 //! The crisp render of every bundled puppet's rest pose reproduces its artwork (issue 3, "forward
 //! equivalence"): masked RMSE and silhouette IoU against the artwork composite.
 
-mod util;
-
-use puppet::eval::{masked_rmse, silhouette_iou};
+use crate::util::repo;
+use puppet::metrics::{masked_rmse, silhouette_iou};
 use puppet::progress::Silent;
 use puppet::puppet::{artwork, build};
 use puppet::render::render_crisp;
-use util::repo;
 
 /// Builds `dir`'s puppet, renders its rest pose crisp and compares with the artwork.
 fn rest_render_matches(dir: &str, max_rmse: f64, min_iou: f64) {

@@ -344,10 +344,11 @@ fn truth_json_round_trips_and_rejects_another_version() {
 fn true_positions_names_unknown_layers_and_frames() {
     let seq = generate(&opts(9, 2, 64, Motion::Walk), &Silent).unwrap();
     let mut puppet = point_puppet(&seq, &vec![vec![[1.0, 1.0]]; seq.truth.parts.len()]);
-    assert!(true_positions(&seq.truth, 2, &puppet).unwrap_err().to_string().contains("frame 2"));
+    let err = true_positions(&seq.truth, 2, &puppet).unwrap_err().to_string();
+    assert!(err.contains("frame count is 2") && err.contains("more than 2"), "{err}");
     puppet.layers[0].name = "wing".into();
     let err = true_positions(&seq.truth, 0, &puppet).unwrap_err().to_string();
-    assert!(err.contains("layer \"wing\" has no part"), "{err}");
+    assert!(err.contains("layer \"wing\" is not a part of the truth"), "{err}");
 }
 
 /// Regenerates the shipped sample (data/README.md, "Synthetic") and compares it with the files.
@@ -435,8 +436,8 @@ fn cli_writes_a_sequence_and_rejects_bad_input() {
     let s = Picture::load(&dir.path().join("sheet/sheet.png")).unwrap();
     assert_eq!((s.width, s.height), (192, 128));
     for (args, code, needle) in [
-        (vec!["--frames", "0"], 1, "frames: 0"),
-        (vec!["--size", "16x16"], 1, "width 16 px is out of range"),
+        (vec!["--frames", "0"], 1, "frames = 0"),
+        (vec!["--size", "16x16"], 1, "width = 16 px (64 to 4096)"),
         (vec!["--motion", "dance"], 2, "dance"),
     ] {
         let out = std::process::Command::new(exe)
@@ -463,5 +464,5 @@ fn docs_contact_sheet() {
     }
     let refs: Vec<&Picture> = frames.iter().collect();
     let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("docs/synth_contact_sheet.png");
-    puppet::synth::contact_sheet(&refs, 8).save_png(&path).unwrap();
+    puppet::picture::contact_sheet(&refs, 8).save_png(&path).unwrap();
 }

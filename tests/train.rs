@@ -2,12 +2,10 @@
 //! down, a killed run resumes to the same weights as an uninterrupted one, NaN stops the run
 //! keeping the last good checkpoint, and bad configs get clear errors.
 
-mod util;
-
 use std::path::{Path, PathBuf};
 use std::time::{Duration, Instant};
 
-use util::puppet;
+use crate::util::puppet;
 
 /// A synthetic 4-frame walker at 64² (its template is built by `train`).
 fn synth(dir: &Path, frames: usize, size: &str) -> PathBuf {
@@ -112,9 +110,9 @@ fn training_lowers_the_reconstruction_loss_and_fit_and_eval_run() {
                 model.to_str().unwrap(),
                 seq.to_str().unwrap(),
                 "--all",
-                "--refine",
+                "--latent-steps",
                 refine,
-                "--refine-vertices",
+                "--vertex-steps",
                 vertices,
                 "-o",
                 out.to_str().unwrap(),
@@ -186,7 +184,7 @@ fn a_killed_run_resumes_to_the_weights_of_an_uninterrupted_one() {
     // Burn's records carry random parameter ids, so compare what the weights compute: the fits
     // of every frame, bit for bit.
     let device = ::puppet::backend::device();
-    let frames = ::puppet::train::Frames::load(&seq).unwrap();
+    let frames = ::puppet::puppet::sequence::Frames::load(&seq, &Default::default()).unwrap();
     let pictures: Vec<_> = frames.frames.iter().collect();
     let fit = |run: &str| {
         ::puppet::model::Model::load(&tmp.path().join(run), &device)
@@ -255,7 +253,7 @@ fn bad_configs_get_errors_naming_the_problem() {
         "split",
         base.replace(&frames_line, &format!("frames = \"{}\"", one.display()))
             .replace("test_fraction = 0.0", "test_fraction = 0.3"),
-        &["no frame would be left for training"],
+        &["test_fraction = 0.3", "leave no frame for training"],
     );
     case("key", base.replace("batch = 4", "batch = 4\nbatches = 2"), &["key.toml", "batches"]);
 }

@@ -2,11 +2,12 @@
 
 use std::path::PathBuf;
 
-use anyhow::Context;
+use puppet::atomic_file::record;
 use puppet::puppet::{artwork, build, format};
 use puppet::render::preview::wireframe_preview;
 
-use super::Ui;
+use super::args::positive_f32;
+use super::Session;
 
 /// Build a layered puppet (meshes, UVs, textures, hinge joints) from character artwork.
 #[derive(Debug, clap::Args)]
@@ -34,13 +35,6 @@ pub struct BuildArgs {
     pub min_overlap: usize,
 }
 
-fn positive_f32(s: &str) -> Result<f32, String> {
-    match s.parse::<f32>() {
-        Ok(v) if v > 0.0 && v.is_finite() => Ok(v),
-        _ => Err(format!("{s:?} is not a positive number")),
-    }
-}
-
 fn min_angle(s: &str) -> Result<f32, String> {
     match s.parse::<f32>() {
         Ok(v) if (25.0..=33.0).contains(&v) => Ok(v),
@@ -51,9 +45,10 @@ fn min_angle(s: &str) -> Result<f32, String> {
 }
 
 /// Runs `puppet build`.
-pub fn run(args: BuildArgs, ui: &Ui) -> anyhow::Result<()> {
+pub fn run(args: BuildArgs, s: &Session) -> anyhow::Result<()> {
     let import = artwork::ImportOptions {
         label_overlap: args.label_overlap,
+        ..artwork::ImportOptions::default()
     };
     let mut opts = build::BuildOptions {
         max_area: args.max_area,
@@ -62,19 +57,22 @@ pub fn run(args: BuildArgs, ui: &Ui) -> anyhow::Result<()> {
         ..Default::default()
     };
     opts.joints.min_overlap = args.min_overlap;
+    s.outputs.claim_folder(&args.output)?;
+    let preview_path = args.output.join("preview.png");
+    s.outputs.claim(&preview_path)?;
 
     let art = artwork::load(&args.artwork, &import)?;
-    let (puppet, report) = build::build(&art, &opts, ui)?;
-    ui.finish();
+    let (puppet, _) = build::build(&art, &opts, &s.ui)?;
+    s.ui.finish();
     format::save(&puppet, &args.output)?;
+    record(&std::path::absolute(&args.output)?)?;
     let composite = art.composite();
     let scale = (768 / puppet.width.max(puppet.height)).clamp(1, 8);
     let preview = wireframe_preview(&puppet, &puppet.rest_vertices(), &composite, scale);
-    let preview_path = args.output.join("preview.png");
-    preview.save_png(&preview_path).with_context(|| "while writing the preview")?;
+    preview.save_png(&preview_path)?;
 
     let triangles: usize = puppet.layers.iter().map(|l| l.mesh.triangles.len()).sum();
-    ui.say(format!(
+    s.ui.say(format!(
         "{}: {} layers, {} vertices, {} triangles, {} joints → {}",
         art.name,
         puppet.layers.len(),
@@ -82,16 +80,8 @@ pub fn run(args: BuildArgs, ui: &Ui) -> anyhow::Result<()> {
         triangles,
         puppet.joints.len(),
         args.output.join(format::PUPPET_FILE).display()
-    ));
-    ui.say(format!("preview: {}", preview_path.display()));
-    if !report.unconnected.is_empty() {
-        eprintln!(
-            "puppet: warning: no joint connects these body layers to the root {:?}: {} (they will drift apart; make them overlap or list joints in character.toml)",
-            puppet.layers[puppet.root].name,
-            report.unconnected.join(", ")
-        );
-    }
-    Ok(())
+    ))?;
+    s.ui.say(format!("preview: {}", preview_path.display()))
 }
 
 #[cfg(test)]

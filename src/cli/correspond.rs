@@ -1,41 +1,41 @@
-//! `puppet correspond --model M <a.png> <b.png> [--points pts.json]`: map points of frame a into
-//! frame b through the fitted template (neural-puppet.md §4.3); with `--sequence`, score PCK on
-//! a synthetic sequence's held-out pairs (Table 2 protocol) and write the keypoints for the
+//! `puppet correspond --model M <a.png> <b.png> -o out.json`: map points of frame a into frame b
+//! through the fitted template (neural-puppet.md §4.3); with `--sequence`, score PCK on a
+//! synthetic sequence's held-out pairs (Table 2 protocol) and write the keypoints for the
 //! optical-flow peer (bench/flow_dis.py).
 
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 
 use anyhow::Context;
-use puppet::edit::correspond::correspond;
-use puppet::edit::load_frame::load_frame;
-use puppet::edit::pck_pairs::{ordered_pairs, pck_pairs};
+use puppet::edit::correspond::{correspond, grid_points, load_points};
 use puppet::edit::pin_overlay::pin_overlay;
 use puppet::edit::pose::Pin;
+use puppet::eval::pck_pairs::{ordered_pairs, pck_pairs};
+use puppet::fit::fit;
+use puppet::fit::frame::{frame_check, load_frame};
 use puppet::model::Model;
-use puppet::picture::Picture;
+use puppet::picture::{contact_sheet, Picture};
 use puppet::progress::Progress;
-use puppet::train::refine::refined_fit;
-use puppet::train::sequence::Frames;
+use puppet::puppet::sequence::Frames;
+use puppet::synth::Truth;
 use puppet::train::trainer::SplitRecord;
 
-use super::fit::FitRefineArgs;
-use super::Ui;
+use super::args::{positive_f32, FitArgs, ModelArgs};
+use super::Session;
 
 /// Map points of frame A to frame B through the fitted puppet (or score correspondences).
 ///
 /// Two-frame mode writes OUTPUT (JSON: each point, its match or null when it is not on the
-/// character, and the layer it lies on) and OUTPUT's stem + ".png" (A and B side by side with
-/// each match drawn as a line in B from where the point was in A). Default points: a grid over
-/// A's opaque pixels every --spacing pixels.
+/// character, and the layer it lies on) and OUTPUT's stem + "_pairs.png" (A and B side by side
+/// with each match drawn as a line in B from where the point was in A). Default points: a grid
+/// over A's opaque pixels every --spacing pixels.
 ///
 /// With --sequence DIR (a `puppet synth` folder): every ordered pair of the model's held-out
 /// frames (split.json) is scored with PCK@{0.1, 0.05, 0.025}; OUTPUT gets the keypoints, truths
 /// and our matches, the input of bench/flow_dis.py.
 #[derive(Debug, clap::Args)]
 pub struct CorrespondArgs {
-    /// The model folder (written by `puppet train`).
-    #[arg(long, value_name = "DIR")]
-    pub model: PathBuf,
+    #[command(flatten)]
+    pub model: ModelArgs,
     /// Frames A and B (two-frame mode).
     #[arg(num_args = 0..=2)]
     pub frames: Vec<PathBuf>,
@@ -43,7 +43,7 @@ pub struct CorrespondArgs {
     #[arg(long, value_name = "FILE")]
     pub points: Option<PathBuf>,
     /// Grid spacing of the default points, pixels.
-    #[arg(long, default_value_t = 8.0, value_name = "PX")]
+    #[arg(long, default_value_t = 8.0, value_name = "PX", value_parser = positive_f32)]
     pub spacing: f32,
     /// A synthetic sequence with truth.json: score PCK on the held-out pairs instead.
     #[arg(long, value_name = "DIR", conflicts_with_all = ["frames", "points"])]
@@ -53,13 +53,12 @@ pub struct CorrespondArgs {
     #[arg(long, requires = "sequence")]
     pub odd: bool,
     /// Output JSON.
-    #[arg(short, long, default_value = "correspondences.json")]
+    #[arg(short, long, value_name = "FILE")]
     pub output: PathBuf,
     #[command(flatten)]
-    pub refine: FitRefineArgs,
+    pub fit: FitArgs,
 }
 
-/// One point's match, as written.
 #[derive(serde::Serialize)]
 struct Match {
     from: [f32; 2],
@@ -67,36 +66,34 @@ struct Match {
     layer: Option<String>,
 }
 
+/// `output` with its extension replaced by `_pairs.png`: never the JSON's own name.
+fn picture_path(output: &Path) -> PathBuf {
+    let stem = output
+        .file_stem()
+        .map_or_else(|| "correspondences".into(), |s| s.to_string_lossy().into_owned());
+    output.with_file_name(format!("{stem}_pairs.png"))
+}
+
 /// Runs `puppet correspond`.
-pub fn run(args: CorrespondArgs, ui: &Ui) -> anyhow::Result<()> {
-    let device = puppet::backend::device();
+pub fn run(args: CorrespondArgs, s: &Session) -> anyhow::Result<()> {
+    s.outputs.claim(&args.output)?;
     if let Some(seq) = &args.sequence {
-        return run_sequence(&args, seq, ui);
+        return run_sequence(&args, seq, s);
     }
     anyhow::ensure!(args.frames.len() == 2, "give two frames A and B (or --sequence DIR)");
-    anyhow::ensure!(
-        args.spacing.is_finite() && args.spacing >= 1.0,
-        "--spacing {}: must be at least 1",
-        args.spacing
-    );
-    let model = Model::load(&args.model, &device)?;
+    let png = picture_path(&args.output);
+    s.outputs.claim(&png)?;
+    let device = puppet::backend::device();
+    let dir = &args.model.model;
+    let model = Model::load(dir, &device)?;
     let a = load_frame(&args.frames[0], &model)?;
     let b = load_frame(&args.frames[1], &model)?;
-    let points: Vec<[f32; 2]> = match &args.points {
-        Some(path) => {
-            let text = std::fs::read_to_string(path).with_context(|| format!("reading {}", path.display()))?;
-            let pts: Vec<[f32; 2]> =
-                serde_json::from_str(&text).map_err(|e| anyhow::anyhow!("{}: not a JSON list of [x, y] points: {e}", path.display()))?;
-            anyhow::ensure!(
-                pts.iter().flatten().all(|c| c.is_finite()),
-                "{}: a point is not finite",
-                path.display()
-            );
-            pts
-        }
+    let points = match &args.points {
+        Some(path) => load_points(path)?,
         None => grid_points(&a, args.spacing),
     };
-    let fits = refined_fit(&model, &[&a, &b], &args.refine.options(&args.model)?, &device)?;
+    s.ui.stage("fit", 2);
+    let fits = fit(&model, &[&a, &b], &args.fit.options(dir)?, &device, &s.ui)?;
     let matches = correspond(&model.puppet, &fits[0], &fits[1], &points)?;
     let rows: Vec<Match> = points
         .iter()
@@ -107,97 +104,82 @@ pub fn run(args: CorrespondArgs, ui: &Ui) -> anyhow::Result<()> {
             layer: m.map(|c| model.puppet.layers[c.binding.layer].name.clone()),
         })
         .collect();
-    let json = serde_json::to_vec_pretty(&rows)?;
-    puppet::atomic_file::write_atomic(&args.output, &json)?;
+    s.outputs.write(&args.output, &serde_json::to_vec_pretty(&rows)?)?;
     let lines: Vec<Pin> = matches.iter().flatten().map(|c| Pin { from: c.from, to: c.to }).collect();
-    let sheet = puppet::synth::output::contact_sheet(&[&a, &pin_overlay(&b, &lines)], 2);
-    let png = args.output.with_extension("png");
-    sheet.save_png(&png)?;
+    s.save_png(&png, &contact_sheet(&[&a, &pin_overlay(&b, &lines)], 2))?;
+    s.ui.finish();
     let mapped = matches.iter().flatten().count();
-    ui.say(format!(
+    s.ui.say(format!(
         "{mapped} of {} points mapped ({} not on the character in {}) → {} and {}",
         points.len(),
         points.len() - mapped,
         args.frames[0].display(),
         args.output.display(),
         png.display()
-    ));
-    Ok(())
+    ))
 }
 
-/// Points every `spacing` pixels where `frame` is mostly opaque.
-fn grid_points(frame: &Picture, spacing: f32) -> Vec<[f32; 2]> {
-    let mut out = Vec::new();
-    let mut y = spacing / 2.0;
-    while y < frame.height as f32 {
-        let mut x = spacing / 2.0;
-        while x < frame.width as f32 {
-            if frame.get(x as u32, y as u32)[3] > 0.5 {
-                out.push([x, y]);
-            }
-            x += spacing;
-        }
-        y += spacing;
-    }
-    out
-}
-
-fn run_sequence(args: &CorrespondArgs, seq: &std::path::Path, ui: &Ui) -> anyhow::Result<()> {
+fn run_sequence(args: &CorrespondArgs, seq: &Path, s: &Session) -> anyhow::Result<()> {
     let device = puppet::backend::device();
-    let model = Model::load(&args.model, &device)?;
-    let frames = Frames::load(seq)?;
-    let truth = frames
-        .truth
-        .as_ref()
-        .with_context(|| format!("{}: no truth.json (PCK needs a synthetic sequence)", seq.display()))?;
+    let dir = &args.model.model;
+    let model = Model::load(dir, &device)?;
+    let frames = Frames::load(seq, &frame_check(&model))?;
+    let truth = Truth::for_sequence(seq)?.with_context(|| format!("{}: no truth.json (PCK needs a synthetic sequence)", seq.display()))?;
     let test: Vec<usize> = if args.odd {
         (1..frames.frames.len()).step_by(2).collect()
     } else {
-        let split = SplitRecord::load(&args.model)?
-            .with_context(|| format!("{}: no split.json (was it trained by `puppet train`?)", args.model.display()))?;
-        split.test_indices(&frames.names()).with_context(|| {
-            format!(
-                "{}: the model's held-out frames are not all in {}",
-                args.model.display(),
-                seq.display()
-            )
-        })?
+        let split =
+            SplitRecord::load(dir)?.with_context(|| format!("{}: no split.json (was it trained by `puppet train`?)", dir.display()))?;
+        split
+            .test_indices(&frames.names())
+            .with_context(|| format!("{}: the model's held-out frames are not all in {}", dir.display(), seq.display()))?
     };
     anyhow::ensure!(
         test.len() >= 2,
         "{}: fewer than two held-out frames, no pair to score",
-        args.model.display()
+        dir.display()
     );
-    for (file, f) in frames.files.iter().zip(&frames.frames) {
-        model.check_frame(f).map_err(|e| anyhow::anyhow!("{}: {e}", file.display()))?;
-    }
-    ui.stage("fit", test.len() as u64);
-    let refine = args.refine.options(&args.model)?;
+    s.ui.stage("fit", test.len() as u64);
+    let pictures: Vec<&Picture> = test.iter().map(|&t| &frames.frames[t]).collect();
+    let fitted = fit(&model, &pictures, &args.fit.options(dir)?, &device, &s.ui)?;
     let mut fits = vec![Vec::new(); frames.frames.len()];
-    // Batches of 16, as training and `eval` run: one rasterizer and objective per batch.
-    for chunk in test.chunks(16) {
-        let pictures: Vec<_> = chunk.iter().map(|&t| &frames.frames[t]).collect();
-        for (&t, fit) in chunk.iter().zip(refined_fit(&model, &pictures, &refine, &device)?) {
-            fits[t] = fit;
-        }
-        ui.advance(chunk.len() as u64);
+    for (&t, pose) in test.iter().zip(fitted) {
+        fits[t] = pose;
     }
     let pairs = ordered_pairs(&test);
-    let sequence_dir = frames.dir.parent().unwrap_or(seq).to_path_buf();
-    let scored = pck_pairs(truth, &sequence_dir, &frames.files, &fits, &model.puppet, &pairs)?;
-    puppet::atomic_file::write_atomic(&args.output, &serde_json::to_vec(&scored)?)?;
+    let scored = pck_pairs(&truth, &frames.root, &frames.files, &fits, &model.puppet, &pairs)?;
+    s.outputs.write(&args.output, &serde_json::to_vec(&scored)?)?;
+    s.ui.finish();
     let table: Vec<String> = scored
         .alphas
         .iter()
         .zip(&scored.ours)
         .map(|(a, p)| format!("PCK@{a} {:.2}%", 100.0 * p))
         .collect();
-    ui.say(format!(
+    s.ui.print(format!(
         "{} held-out pairs, {} keypoints: {} → {}",
         pairs.len(),
         scored.pairs.iter().map(|p| p.points_a.len()).sum::<usize>(),
         table.join(", "),
         args.output.display()
-    ));
-    Ok(())
+    ))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::picture_path;
+    use crate::cli::tests::parses;
+
+    #[test]
+    fn parses_both_modes_and_never_names_the_picture_as_the_json() {
+        parses(&["correspond", "--model", "m", "a.png", "b.png", "-o", "c.json", "--spacing", "4"]);
+        parses(&["correspond", "--model", "m", "--sequence", "seq", "--odd", "-o", "c.json"]);
+        assert!(
+            clap::Parser::try_parse_from(["puppet", "correspond", "--model", "m", "a.png", "b.png"])
+                .map(|_: crate::cli::Cli| ())
+                .is_err(),
+            "the output is required"
+        );
+        assert_eq!(picture_path(std::path::Path::new("x.png")), std::path::Path::new("x_pairs.png"));
+    }
 }

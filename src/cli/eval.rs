@@ -4,53 +4,97 @@ use std::path::PathBuf;
 
 use anyhow::Context;
 use puppet::eval::report::evaluate;
+use puppet::fit::frame::frame_check;
 use puppet::model::Model;
+use puppet::puppet::sequence::Frames;
+use puppet::synth::Truth;
 use puppet::train::trainer::SplitRecord;
-use puppet::train::Frames;
 
-use super::fit::FitRefineArgs;
-use super::Ui;
+use super::args::{FitArgs, ModelArgs};
+use super::Session;
 
 /// Score a trained model: fit each held-out frame, render it, and report L2, masked RMSE and
 /// silhouette IoU (plus vertex error and PCK@0.1/0.05/0.025 where the sequence has truth.json).
+/// Frames that cannot be read are named and the rest scored; the command then exits with
+/// status 1.
 #[derive(Debug, clap::Args)]
 pub struct EvalArgs {
-    /// The model folder written by `puppet train`.
-    #[arg(long)]
-    pub model: PathBuf,
+    #[command(flatten)]
+    pub model: ModelArgs,
     /// The sequence: a folder of frames (or one holding frames/ and truth.json).
     pub sequence: PathBuf,
     /// Score every frame, not only those the model held out.
     #[arg(long)]
     pub all: bool,
-    /// Where to write the report as JSON (default: <model>/eval.json).
-    #[arg(short, long)]
+    /// Also write the report as JSON here.
+    #[arg(short, long, value_name = "FILE")]
     pub output: Option<PathBuf>,
     #[command(flatten)]
-    pub refine: FitRefineArgs,
+    pub fit: FitArgs,
 }
 
 /// Runs `puppet eval`.
-pub fn run(args: EvalArgs, ui: &Ui) -> anyhow::Result<()> {
+pub fn run(args: EvalArgs, s: &Session) -> anyhow::Result<()> {
+    if let Some(out) = &args.output {
+        s.outputs.claim(out)?;
+    }
     let device = puppet::backend::device();
-    let model = Model::load(&args.model, &device)?;
-    let frames = Frames::load(&args.sequence)?;
+    let dir = &args.model.model;
+    let model = Model::load(dir, &device)?;
+    let options = args.fit.options(dir)?;
+    let (frames, bad) = Frames::load_each(&args.sequence, &frame_check(&model))?;
+    let truth = Truth::for_sequence(&args.sequence)?;
     let names = frames.names();
-    let held_out = match (args.all, SplitRecord::load(&args.model)?) {
-        (false, Some(split)) => split.test_indices(&names),
+    let held_out = match (args.all, SplitRecord::load(dir)?) {
+        (false, Some(split)) => Some(split.test),
         _ => None,
     };
-    let (indices, which) = match held_out {
-        Some(i) => (i, "held-out frames"),
-        None if args.all => (Vec::new(), "all frames"),
-        None => (Vec::new(), "all frames (the model's held-out frames are not in this sequence)"),
+    let (indices, which): (Vec<usize>, String) = match &held_out {
+        Some(test) => {
+            let present: Vec<usize> = (0..names.len()).filter(|&i| test.contains(&names[i])).collect();
+            if present.is_empty() && bad.is_empty() {
+                (
+                    Vec::new(),
+                    "all frames (the model's held-out frames are not in this sequence)".into(),
+                )
+            } else {
+                (present, "held-out frames".into())
+            }
+        }
+        None => (Vec::new(), "all frames".into()),
     };
-    let report = evaluate(&model, &frames, &indices, &args.refine.options(&args.model)?, &device)?;
-    let out = args.output.unwrap_or_else(|| args.model.join("eval.json"));
-    let json = serde_json::to_vec_pretty(&report).context("while encoding the report")?;
-    puppet::atomic_file::write_atomic(&out, &json)?;
-    ui.say(format!("{} — {which}, {} of them:", args.sequence.display(), report.frames.len()));
-    print!("{}", report.table());
-    ui.say(format!("report → {}", out.display()));
+    // A bad frame counts only if it is one that would have been scored.
+    let scored = |file: &std::path::Path| {
+        let name = file.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
+        held_out.as_ref().is_none_or(|test| test.contains(&name))
+    };
+    let bad: Vec<puppet::Error> = bad.into_iter().filter(|(f, _)| scored(f)).map(|(_, e)| e).collect();
+    let report = if indices.is_empty() && held_out.is_some() && !bad.is_empty() {
+        None
+    } else {
+        Some(evaluate(&model, &frames, &indices, truth.as_ref(), &options, &device, &s.ui)?)
+    };
+    s.ui.finish();
+    if let Some(report) = &report {
+        s.ui.say(format!("{} — {which}, {} of them:", args.sequence.display(), report.frames.len()))?;
+        s.ui.print(report.table().trim_end())?;
+        if let Some(out) = &args.output {
+            let json = serde_json::to_vec_pretty(report).context("while encoding the report")?;
+            s.outputs.write(out, &json)?;
+            s.ui.say(format!("report → {}", out.display()))?;
+        }
+    }
+    puppet::Error::collect(bad)?;
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use crate::cli::tests::parses;
+
+    #[test]
+    fn parses_the_sequence_and_options() {
+        parses(&["eval", "--model", "m", "seq", "--all", "-o", "r.json", "--one-pass"]);
+        parses(&["eval", "--model", "m", "seq", "--vertex-rounds", "1"]);
+    }
 }

@@ -2,161 +2,142 @@
 
 use std::path::PathBuf;
 
-use anyhow::Context;
+use puppet::atomic_file::unique_stems;
+use puppet::fit::{fit, frame};
 use puppet::model::Model;
-use puppet::picture::Picture;
+use puppet::picture::{contact_sheet, Picture};
 use puppet::progress::Progress;
 use puppet::puppet::pose_file::PoseFile;
+use puppet::puppet::sequence::Frames;
 use puppet::render::preview::wireframe_preview;
 use puppet::render::render_crisp;
-use puppet::train::refine::{self, refined_fit, RefineOptions};
-use puppet::train::Frames;
 
-use super::Ui;
+use super::args::{FitArgs as FitOptionArgs, ModelArgs};
+use super::Session;
+
+/// The most frames sheet.png shows (evenly sampled when more are fitted).
+const SHEET_ROWS: usize = 16;
 
 /// Fit the puppet to frames: for each, the fitted mesh over the frame (NAME_overlay.png), the
 /// rendered reconstruction (NAME_render.png) and the fitted vertices (NAME_vertices.json, for
-/// `puppet render --pose`), plus sheet.png with frame | render | overlay side by side.
+/// `puppet render --pose`), plus sheet.png with frame | render | overlay side by side. NAME is
+/// the frame's file name, prefixed by its folders where two frames share a name. Frames that
+/// cannot be read are named and skipped; the command then exits with status 1.
 #[derive(Debug, clap::Args)]
 pub struct FitArgs {
-    /// The model folder written by `puppet train`.
-    #[arg(long)]
-    pub model: PathBuf,
-    /// Frames: PNG files, or folders of them.
+    #[command(flatten)]
+    pub model: ModelArgs,
+    /// Frames: PNG files, or folders of them (or holding frames/).
     #[arg(required = true)]
     pub frames: Vec<PathBuf>,
     /// Output folder.
     #[arg(short, long)]
     pub output: PathBuf,
     #[command(flatten)]
-    pub refine: FitRefineArgs,
-}
-
-/// Latent refinement options shared by every command that fits frames.
-#[derive(Debug, clap::Args)]
-pub struct RefineArgs {
-    /// After the encoder, this many Adam steps on each frame's latent lowering the training
-    /// objective for that frame (analysis by synthesis; the weights do not change). 0 = the
-    /// encoder's one-pass fit, as the paper evaluates; ~0.1 s per step for 16 frames at 128².
-    #[arg(long, default_value_t = refine::DEFAULT_STEPS)]
-    pub refine: usize,
-}
-
-impl RefineArgs {
-    /// Latent refinement with the objective the model in `model_dir` was trained with; no
-    /// vertex steps (edits move latents).
-    pub fn options(&self, model_dir: &std::path::Path) -> puppet::Result<RefineOptions> {
-        RefineOptions::for_model(model_dir, self.refine, 0)
-    }
-}
-
-/// Refinement options of the commands whose result is a fit (`fit`, `eval`, `correspond`).
-#[derive(Debug, clap::Args)]
-pub struct FitRefineArgs {
-    #[command(flatten)]
-    pub latent: RefineArgs,
-    /// Then this many Adam steps on the vertices themselves per round, σ falling from the
-    /// training's first to its last: off the decoder's manifold, held by the ARAP and joint
-    /// terms — a closer fit of poses the training frames never showed. 0 = stay on the manifold
-    /// (no limb search either); ~0.03 s per step for 16 frames at 128².
-    #[arg(long, default_value_t = refine::DEFAULT_VERTEX_STEPS)]
-    pub refine_vertices: usize,
-    /// Rounds of vertex refinement, each a search over limb turns about their joints (for limbs
-    /// drawn far from where the network put them) and then `--refine-vertices` steps.
-    #[arg(long, default_value_t = RefineOptions::default().vertex_rounds)]
-    pub vertex_rounds: usize,
-    /// Skip the limb search: vertex steps only.
-    #[arg(long)]
-    pub no_limb_search: bool,
-}
-
-impl FitRefineArgs {
-    /// Latent then vertex refinement with the objective the model in `model_dir` was trained with.
-    pub fn options(&self, model_dir: &std::path::Path) -> puppet::Result<RefineOptions> {
-        let options = RefineOptions::for_model(model_dir, self.latent.refine, self.refine_vertices)?;
-        Ok(RefineOptions {
-            vertex_rounds: self.vertex_rounds,
-            limb_search: options.limb_search.filter(|_| !self.no_limb_search),
-            ..options
-        })
-    }
+    pub fit: FitOptionArgs,
 }
 
 /// Runs `puppet fit`.
-pub fn run(args: FitArgs, ui: &Ui) -> anyhow::Result<()> {
+pub fn run(args: FitArgs, s: &Session) -> anyhow::Result<()> {
     let device = puppet::backend::device();
-    let model = Model::load(&args.model, &device)?;
-    let mut files = Vec::new();
-    let mut pictures = Vec::new();
+    let dir = &args.model.model;
+    let model = Model::load(dir, &device)?;
+    let options = args.fit.options(dir)?;
+    let check = frame::frame_check(&model);
+    let (mut files, mut pictures, mut problems) = (Vec::new(), Vec::new(), Vec::new());
     for path in &args.frames {
         if path.is_dir() {
-            let seq = Frames::load(path)?;
+            let (seq, bad) = Frames::load_each(path, &check)?;
             files.extend(seq.files);
             pictures.extend(seq.frames);
+            problems.extend(bad.into_iter().map(|(_, e)| e));
         } else {
-            pictures.push(Picture::load(path)?);
-            files.push(path.clone());
-        }
-    }
-    for (file, picture) in files.iter().zip(&pictures) {
-        model.check_frame(picture).with_context(|| format!("{}", file.display()))?;
-    }
-    ui.stage("fitting", pictures.len() as u64);
-    let (w, h) = (model.puppet.width, model.puppet.height);
-    let scale = (512 / w.max(h)).clamp(1, 4);
-    let mut rows = Vec::new();
-    for (chunk_files, chunk) in files.chunks(16).zip(pictures.chunks(16)) {
-        let refs: Vec<&Picture> = chunk.iter().collect();
-        let fits = refined_fit(&model, &refs, &args.refine.options(&args.model)?, &device)?;
-        for ((file, picture), fit) in chunk_files.iter().zip(chunk).zip(fits) {
-            let stem = file.file_stem().map_or("frame".into(), |s| s.to_string_lossy().into_owned());
-            let render = render_crisp(&model.puppet, &fit, w, h)?;
-            let overlay = wireframe_preview(&model.puppet, &fit, picture, scale);
-            render.save_png(&args.output.join(format!("{stem}_render.png")))?;
-            overlay.save_png(&args.output.join(format!("{stem}_overlay.png")))?;
-            PoseFile { vertices: fit }.save(&args.output.join(format!("{stem}_vertices.json")))?;
-            rows.push([upscale(picture, scale), upscale(&render, scale), overlay]);
-            ui.advance(1);
-        }
-    }
-    ui.finish();
-    let sheet_path = args.output.join("sheet.png");
-    sheet(&rows).save_png(&sheet_path)?;
-    ui.say(format!(
-        "fitted {} frames → {} (side by side: {})",
-        rows.len(),
-        args.output.display(),
-        sheet_path.display()
-    ));
-    Ok(())
-}
-
-/// Nearest-neighbour upscale over white (matching the overlay's look).
-fn upscale(p: &Picture, s: u32) -> Picture {
-    let mut out = Picture::filled(p.width * s, p.height * s, [1.0; 4]);
-    for y in 0..out.height {
-        for x in 0..out.width {
-            let [r, g, b, a] = p.get(x / s, y / s);
-            out.pixels[(y * out.width + x) as usize] = [r * a + 1.0 - a, g * a + 1.0 - a, b * a + 1.0 - a, 1.0];
-        }
-    }
-    out
-}
-
-/// Rows of equally sized pictures, 4 px apart, on light grey.
-fn sheet(rows: &[[Picture; 3]]) -> Picture {
-    let (cw, ch) = rows.first().map_or((1, 1), |r| (r[0].width, r[0].height));
-    let gap = 4;
-    let mut out = Picture::filled(3 * cw + 4 * gap, rows.len() as u32 * (ch + gap) + gap, [0.9, 0.9, 0.9, 1.0]);
-    for (ri, row) in rows.iter().enumerate() {
-        for (ci, pic) in row.iter().enumerate() {
-            let (ox, oy) = (gap + ci as u32 * (cw + gap), gap + ri as u32 * (ch + gap));
-            for y in 0..pic.height.min(ch) {
-                for x in 0..pic.width.min(cw) {
-                    out.pixels[((oy + y) * out.width + ox + x) as usize] = pic.get(x, y);
+            match frame::load_frame(path, &model) {
+                Ok(p) => {
+                    files.push(path.clone());
+                    pictures.push(p);
                 }
+                Err(e) => problems.push(e),
             }
         }
     }
-    out
+    let stems = unique_stems(&files);
+    let out = &args.output;
+    let paths = |stem: &str| ["render.png", "overlay.png", "vertices.json"].map(|end| out.join(format!("{stem}_{end}")));
+    for stem in &stems {
+        for path in paths(stem) {
+            s.outputs.claim(&path)?;
+        }
+    }
+    let sheet_path = out.join("sheet.png");
+    s.outputs.claim(&sheet_path)?;
+
+    s.ui.stage("fitting", pictures.len() as u64);
+    let refs: Vec<&Picture> = pictures.iter().collect();
+    let fits = fit(&model, &refs, &options, &device, &s.ui)?;
+    s.ui.stage("writing", pictures.len() as u64);
+    let (w, h) = (model.puppet.width, model.puppet.height);
+    let scale = (512 / w.max(h)).clamp(1, 4);
+    let shown: Vec<usize> = (0..SHEET_ROWS.min(pictures.len()))
+        .map(|k| k * pictures.len() / SHEET_ROWS.min(pictures.len()).max(1))
+        .collect();
+    let mut rows: Vec<Picture> = Vec::new();
+    for (k, ((stem, picture), pose)) in stems.iter().zip(&pictures).zip(fits).enumerate() {
+        let [render_path, overlay_path, vertices_path] = paths(stem);
+        let render = render_crisp(&model.puppet, &pose, w, h)?;
+        let overlay = wireframe_preview(&model.puppet, &pose, picture, scale);
+        s.save_png(&render_path, &render)?;
+        s.save_png(&overlay_path, &overlay)?;
+        s.outputs.write(&vertices_path, &PoseFile { vertices: pose }.to_json())?;
+        if shown.contains(&k) {
+            rows.extend([picture.upscaled_on_white(scale), render.upscaled_on_white(scale), overlay]);
+        }
+        s.ui.advance(1);
+    }
+    if !rows.is_empty() {
+        s.save_png(&sheet_path, &contact_sheet(&rows.iter().collect::<Vec<_>>(), 3))?;
+    }
+    s.ui.finish();
+    s.ui.say(format!(
+        "fitted {} frames → {} (side by side: {}{})",
+        pictures.len(),
+        out.display(),
+        sheet_path.display(),
+        if pictures.len() > SHEET_ROWS {
+            format!(", {SHEET_ROWS} of them")
+        } else {
+            String::new()
+        }
+    ))?;
+    puppet::Error::collect(problems)?;
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use crate::cli::tests::parses;
+
+    #[test]
+    fn parses_frames_and_fit_options() {
+        parses(&["fit", "--model", "m", "a.png", "dir", "-o", "out", "--one-pass"]);
+        parses(&[
+            "fit",
+            "--model",
+            "m",
+            "a.png",
+            "-o",
+            "out",
+            "--latent-steps",
+            "10",
+            "--vertex-steps",
+            "0",
+            "--no-limb-search",
+        ]);
+        assert!(
+            clap::Parser::try_parse_from(["puppet", "fit", "--model", "m", "-o", "out"])
+                .map(|_: crate::cli::Cli| ())
+                .is_err(),
+            "frames are required"
+        );
+    }
 }

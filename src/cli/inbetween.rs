@@ -2,34 +2,33 @@
 //! latent interpolation (neural-puppet.md §4.1), with the vertex-space interpolation and the
 //! nearest training frame beside each step (Figure 5).
 
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 
 use anyhow::Context;
-use puppet::edit::inbetween::{inbetween, nearest_frame};
-use puppet::edit::load_frame::load_frame;
-use puppet::model::Model;
-use puppet::picture::Picture;
-use puppet::progress::Progress;
-use puppet::puppet::pose_file::PoseFile;
-use puppet::render::animation::{sprite_sheet, write_gif, write_png_sequence};
-use puppet::render::render_crisp;
-use puppet::train::refine::RefineOptions;
 
-use super::fit::RefineArgs;
-use super::Ui;
+use puppet::edit::inbetween::{comparison_sheet, inbetween, steps_t, write_inbetweens, InbetweenFiles, MAX_STEPS};
+use puppet::eval::inbetween_eval::inbetween_scores;
+use puppet::fit::frame::{frame_check, load_frame};
+use puppet::fit::FitOptions;
+use puppet::model::Model;
+use puppet::progress::Progress;
+use puppet::puppet::sequence::Frames;
+use puppet::render::animation::{AnimationFiles, GifSettings};
+
+use super::args::{parse_colour, LatentFitArgs, ModelArgs};
+use super::Session;
 
 /// Make in-between frames of two frames by interpolating their latent codes.
 ///
-/// Writes into OUTPUT: latent/step_NNN.png (the decoded latent interpolation, end frames
-/// included), vertex/step_NNN.png (linear interpolation of the two fitted meshes, for
-/// comparison), latent/step_NNN.json (each pose's vertices), nearest/step_NNN.png (the training
-/// frame nearest each latent step, with --training), sheet.png (rows: latent, vertex, nearest)
-/// and sprites.png (the latent steps as a sprite sheet).
+/// Writes into OUTPUT: latent/step_NNN.png and .json (the decoded latent interpolation, end
+/// frames included, and each pose), vertex/step_NNN.png (linear interpolation of the two
+/// fitted meshes, for comparison), nearest/step_NNN.png (the training frame nearest each latent
+/// step, with --training), sheet.png (rows: latent, vertex, nearest; at most 12 steps shown) and
+/// sprites.png (the latent steps; further pages sprites_2.png, … past 4096 px).
 #[derive(Debug, clap::Args)]
 pub struct InbetweenArgs {
-    /// The model folder (written by `puppet train`).
-    #[arg(long, value_name = "DIR")]
-    pub model: PathBuf,
+    #[command(flatten)]
+    pub model: ModelArgs,
     /// The first frame (RGBA PNG of the puppet's frame size).
     #[arg(required_unless_present = "score")]
     pub a: Option<PathBuf>,
@@ -42,110 +41,110 @@ pub struct InbetweenArgs {
     /// and the model's own fit (for a model trained on the even frames only).
     #[arg(long, value_name = "SEQUENCE", conflicts_with_all = ["a", "b", "gif", "training"])]
     pub score: Option<PathBuf>,
-    /// Number of in-between frames strictly between A and B (1 to 10000).
+    /// Number of in-between frames strictly between A and B.
     #[arg(long, default_value_t = 8)]
     pub steps: usize,
+    /// The most in-betweens allowed (a guard against a typo's hour of rendering).
+    #[arg(long, default_value_t = MAX_STEPS, value_name = "N")]
+    pub max_steps: usize,
     /// Output folder (created if missing).
-    #[arg(short, long, value_name = "DIR")]
-    pub output: PathBuf,
+    #[arg(short, long, value_name = "DIR", required_unless_present = "score")]
+    pub output: Option<PathBuf>,
     /// Also write the latent in-betweens as an animated GIF (there and back).
     #[arg(long, value_name = "FILE")]
     pub gif: Option<PathBuf>,
     /// GIF frame time in milliseconds.
     #[arg(long, default_value_t = 80, value_name = "MS")]
     pub delay: u32,
-    /// Folder of training frames: the nearest one (Euclidean image distance) is written beside
-    /// each step.
+    /// The GIF's background (GIF has no partial transparency).
+    #[arg(long, default_value = "#ffffff", value_parser = parse_colour, value_name = "#RRGGBB")]
+    pub background: [f32; 3],
+    /// Training frames (a folder, or a sequence holding frames/): the nearest one (Euclidean
+    /// image distance) is written beside each step.
     #[arg(long, value_name = "DIR")]
     pub training: Option<PathBuf>,
     /// Cells per row of sprites.png.
     #[arg(long, default_value_t = 8, value_name = "N")]
     pub columns: usize,
     #[command(flatten)]
-    pub refine: RefineArgs,
+    pub fit: LatentFitArgs,
 }
 
 /// Runs `puppet inbetween`.
-pub fn run(args: InbetweenArgs, ui: &Ui) -> anyhow::Result<()> {
-    puppet::edit::inbetween::steps_t(args.steps)?;
+pub fn run(args: InbetweenArgs, s: &Session) -> anyhow::Result<()> {
+    let t = steps_t(args.steps, args.max_steps).context("--steps")?;
     let device = puppet::backend::device();
-    let model = Model::load(&args.model, &device)?;
+    let dir = &args.model.model;
+    let model = Model::load(dir, &device)?;
+    let options = args.fit.options(dir)?;
     if let Some(seq) = &args.score {
-        return score(&model, seq, &args.refine.options(&args.model)?, ui);
+        return score(&model, seq, &options, s);
     }
-    let (Some(a_path), Some(b_path)) = (&args.a, &args.b) else {
-        anyhow::bail!("give two frames A and B (or --score SEQUENCE)");
+    let (Some(a_path), Some(b_path), Some(out)) = (&args.a, &args.b, &args.output) else {
+        anyhow::bail!("give two frames A and B and an output folder (or --score SEQUENCE)");
     };
     let a = load_frame(a_path, &model)?;
     let b = load_frame(b_path, &model)?;
     let training = match &args.training {
-        Some(dir) => load_training(dir, &model)?,
+        Some(dir) => Frames::load(dir, &frame_check(&model))?.frames,
         None => Vec::new(),
     };
-    ui.stage("inbetween", 0);
-    let out = inbetween(&model, &a, &b, args.steps, &args.refine.options(&args.model)?, &device)?;
-    let (w, h) = (model.puppet.width, model.puppet.height);
-    ui.stage("render", out.t.len() as u64);
-    let mut latent = Vec::with_capacity(out.t.len());
-    let mut vertex = Vec::with_capacity(out.t.len());
-    for (lv, vv) in out.latent.iter().zip(&out.vertex) {
-        latent.push(render_crisp(&model.puppet, lv, w, h)?);
-        vertex.push(render_crisp(&model.puppet, vv, w, h)?);
-        ui.advance(1);
-    }
-    let nearest: Vec<Picture> = latent
-        .iter()
-        .filter_map(|p| nearest_frame(p, &training).map(|(k, _)| training[k].clone()))
-        .collect();
-    let dir = &args.output;
-    let latent_paths = write_png_sequence(&dir.join("latent"), "step", &latent)?;
-    for (path, pose) in latent_paths.iter().zip(&out.latent) {
-        PoseFile { vertices: pose.clone() }.save(&path.with_extension("json"))?;
-    }
-    write_png_sequence(&dir.join("vertex"), "step", &vertex)?;
-    let mut rows: Vec<&Picture> = latent.iter().chain(&vertex).collect();
-    if !nearest.is_empty() {
-        write_png_sequence(&dir.join("nearest"), "step", &nearest)?;
-        rows.extend(&nearest);
-    }
-    puppet::synth::output::contact_sheet(&rows, latent.len()).save_png(&dir.join("sheet.png"))?;
-    sprite_sheet(&latent, args.columns)?.save_png(&dir.join("sprites.png"))?;
+    let files = files(&args, out);
+    let sheet_path = out.join("sheet.png");
+    s.outputs.claim(&sheet_path)?;
+    s.ui.stage("inbetween", 0);
+    let ib = inbetween(&model, &a, &b, &t, &options, &device)?;
+    write_inbetweens(&model, &ib, &training, &files, &s.outputs, &s.ui)?;
+    s.save_png(&sheet_path, &comparison_sheet(&model, &ib, &training)?)?;
+    s.ui.finish();
     if let Some(gif) = &args.gif {
-        // There and back, so the loop has no jump.
-        let frames: Vec<Picture> = latent
-            .iter()
-            .chain(latent.iter().rev().skip(1).take(latent.len().saturating_sub(2)))
-            .cloned()
-            .collect();
-        write_gif(gif, &frames, args.delay, [1.0; 3])?;
-        ui.say(format!("wrote {}", gif.display()));
+        s.ui.say(format!("wrote {}", gif.display()))?;
     }
-    ui.say(format!(
-        "{} steps from {} to {} → {} (latent/, vertex/{}, sheet.png, sprites.png)",
-        out.t.len(),
+    s.ui.say(format!(
+        "{} in-betweens ({} frames with the two ends) from {} to {} → {} (latent/, vertex/{}, sheet.png, sprites.png)",
+        args.steps,
+        t.len(),
         a_path.display(),
         b_path.display(),
-        dir.display(),
-        if nearest.is_empty() { "" } else { ", nearest/" }
-    ));
-    Ok(())
+        out.display(),
+        if training.is_empty() { "" } else { ", nearest/" }
+    ))
 }
 
-/// `--score`: the in-between table of `edit::inbetween_eval` on the odd frames of `seq`.
-fn score(model: &Model, seq: &std::path::Path, refine: &RefineOptions, ui: &Ui) -> anyhow::Result<()> {
-    let device = puppet::backend::device();
-    let frames = puppet::train::Frames::load(seq)?;
-    for (file, f) in frames.files.iter().zip(&frames.frames) {
-        model.check_frame(f).map_err(|e| anyhow::anyhow!("{}: {e}", file.display()))?;
+/// The in-between files under `out`.
+fn files(args: &InbetweenArgs, out: &Path) -> InbetweenFiles {
+    let frames = |sub: &str| AnimationFiles {
+        frames: Some((out.join(sub), "step".into())),
+        ..AnimationFiles::default()
+    };
+    InbetweenFiles {
+        latent: AnimationFiles {
+            sprites: Some((out.join("sprites.png"), args.columns)),
+            gif: args.gif.as_ref().map(|path| GifSettings {
+                path: path.clone(),
+                delay_ms: args.delay,
+                background: args.background,
+            }),
+            ..frames("latent")
+        },
+        vertex: frames("vertex"),
+        nearest: frames("nearest"),
+        poses: Some(out.join("latent")),
     }
+}
+
+/// `--score`: the in-between table of `eval::inbetween_eval` on the odd frames of `seq`.
+fn score(model: &Model, seq: &Path, options: &FitOptions, s: &Session) -> anyhow::Result<()> {
+    let device = puppet::backend::device();
+    let frames = Frames::load(seq, &frame_check(model))?;
     let n = frames.frames.len();
     let even: Vec<usize> = (0..n).step_by(2).collect();
     let odd: Vec<usize> = (1..n).step_by(2).collect();
-    ui.stage("score", 0);
-    let scores = puppet::edit::inbetween_eval::inbetween_scores(model, &frames.frames, &even, &odd, refine, &device)?;
-    ui.finish();
-    let mean = |f: fn(&puppet::edit::inbetween_eval::InbetweenScore) -> f64| scores.iter().map(f).sum::<f64>() / scores.len() as f64;
-    ui.say(format!(
+    s.ui.stage("score", 0);
+    let scores = inbetween_scores(model, &frames.frames, &even, &odd, options, &device)?;
+    s.ui.finish();
+    let mean = |f: fn(&puppet::eval::inbetween_eval::InbetweenScore) -> f64| scores.iter().map(f).sum::<f64>() / scores.len() as f64;
+    s.ui.print(format!(
         "{} held-out frames of {}: mean L2 — latent {:.1}, vertex {:.1}, nearest even frame {:.1}, previous frame {:.1}, fit of the true frame {:.1}",
         scores.len(),
         seq.display(),
@@ -154,18 +153,36 @@ fn score(model: &Model, seq: &std::path::Path, refine: &RefineOptions, ui: &Ui) 
         mean(|s| s.nearest),
         mean(|s| s.hold),
         mean(|s| s.fit)
-    ));
-    Ok(())
+    ))
 }
 
-/// Every PNG in `dir` (natural order), checked against the model.
-fn load_training(dir: &std::path::Path, model: &Model) -> anyhow::Result<Vec<Picture>> {
-    let mut files: Vec<PathBuf> = std::fs::read_dir(dir)
-        .with_context(|| format!("reading --training {}", dir.display()))?
-        .filter_map(|e| e.ok().map(|e| e.path()))
-        .filter(|p| p.extension().is_some_and(|e| e.eq_ignore_ascii_case("png")))
-        .collect();
-    files.sort();
-    anyhow::ensure!(!files.is_empty(), "--training {}: no PNG frames", dir.display());
-    Ok(files.iter().map(|f| load_frame(f, model)).collect::<Result<_, _>>()?)
+#[cfg(test)]
+mod tests {
+    use crate::cli::tests::parses;
+
+    #[test]
+    fn parses_frames_or_a_score_sequence() {
+        parses(&[
+            "inbetween",
+            "--model",
+            "m",
+            "a.png",
+            "b.png",
+            "-o",
+            "out",
+            "--steps",
+            "4",
+            "--gif",
+            "x.gif",
+        ]);
+        parses(&["inbetween", "--model", "m", "--score", "seq"]);
+        for bad in [
+            vec!["inbetween", "--model", "m", "a.png"],
+            vec!["inbetween", "--model", "m", "--score", "seq", "--gif", "x.gif"],
+            vec!["inbetween", "--model", "m", "a.png", "b.png", "-o", "o", "--background", "white"],
+        ] {
+            let args = std::iter::once("puppet").chain(bad.iter().copied());
+            assert!(clap::Parser::try_parse_from(args).map(|_: crate::cli::Cli| ()).is_err(), "{bad:?}");
+        }
+    }
 }

@@ -1,7 +1,12 @@
 //! Subcommands, one file each: parse → validated library options → library call → report.
+//! Everything a command prints goes through [`Ui`]; everything it writes goes through the run's
+//! [`Outputs`], which refuses to replace what puppet did not write unless `--force`.
 
 use clap::{Parser, Subcommand};
+use puppet::atomic_file::Outputs;
+use puppet::error::FolderKind;
 
+mod args;
 mod build;
 mod correspond;
 mod demo;
@@ -30,9 +35,31 @@ pub struct Cli {
 /// Flags every subcommand takes.
 #[derive(Debug, clap::Args)]
 pub struct Common {
-    /// Print no progress bars or summaries (errors still go to stderr).
+    /// Print no progress or summaries (results and errors are still printed).
     #[arg(long, short, global = true)]
     pub quiet: bool,
+    /// Replace output files even if puppet did not write them (puppet lists what it wrote in
+    /// each output folder's .puppet-outputs and otherwise replaces only those).
+    #[arg(long, global = true)]
+    pub force: bool,
+}
+
+/// One command run: its terminal and its outputs.
+pub struct Session {
+    /// Progress, warnings and printed lines.
+    pub ui: Ui,
+    /// The files it writes.
+    pub outputs: Outputs,
+}
+
+impl Session {
+    /// Writes `picture` as a PNG at `path`, claimed first (see [`Outputs::claim`]).
+    ///
+    /// # Errors
+    /// As [`Outputs::write`].
+    pub fn save_png(&self, path: &std::path::Path, picture: &puppet::picture::Picture) -> puppet::Result<()> {
+        self.outputs.write(path, &picture.png_bytes(path)?)
+    }
 }
 
 /// The subcommands.
@@ -52,19 +79,125 @@ enum Command {
 }
 
 /// Runs the parsed command line.
+///
+/// # Errors
+/// Whatever the command reports.
 pub fn run(cli: Cli) -> anyhow::Result<()> {
-    let ui = Ui::new(cli.common.quiet);
-    match cli.command {
-        Command::Build(args) => build::run(args, &ui),
-        Command::Correspond(args) => correspond::run(args, &ui),
-        Command::Demo(args) => demo::run(args, &ui),
-        Command::Eval(args) => eval::run(args, &ui),
-        Command::Fit(args) => fit::run(args, &ui),
-        Command::Inbetween(args) => inbetween::run(args, &ui),
-        Command::Info(args) => info::run(args, &ui),
-        Command::Pose(args) => pose::run(args, &ui),
-        Command::Render(args) => render::run(args, &ui),
-        Command::Synth(args) => synth::run(args, &ui),
-        Command::Train(args) => train::run(args, &ui),
+    let session = Session {
+        ui: Ui::new(cli.common.quiet),
+        outputs: Outputs::new(cli.common.force),
+    };
+    let s = &session;
+    let result = match cli.command {
+        Command::Build(args) => build::run(args, s),
+        Command::Correspond(args) => correspond::run(args, s),
+        Command::Demo(args) => demo::run(args, s),
+        Command::Eval(args) => eval::run(args, s),
+        Command::Fit(args) => fit::run(args, s),
+        Command::Inbetween(args) => inbetween::run(args, s),
+        Command::Info(args) => info::run(args, s),
+        Command::Pose(args) => pose::run(args, s),
+        Command::Render(args) => render::run(args, s),
+        Command::Synth(args) => synth::run(args, s),
+        Command::Train(args) => train::run(args, s),
+    };
+    session.ui.finish();
+    result
+}
+
+/// Whether `err` is stdout closed by its reader (`puppet eval … | head`): not worth a message.
+pub fn is_broken_pipe(err: &anyhow::Error) -> bool {
+    err.chain().any(|e| {
+        e.downcast_ref::<std::io::Error>()
+            .is_some_and(|io| io.kind() == std::io::ErrorKind::BrokenPipe)
+    })
+}
+
+/// The message for `err`: its causes, outermost first, and what to do about it in this
+/// command line's words where the library's error says enough.
+pub fn describe(err: &anyhow::Error) -> String {
+    let advice = err
+        .chain()
+        .find_map(|e| e.downcast_ref::<puppet::Error>())
+        .and_then(|e| advice(e.innermost()));
+    match advice {
+        Some(advice) => format!("{err:#} ({advice})"),
+        None => format!("{err:#}"),
+    }
+}
+
+/// What to run or pass, for the errors whose remedy is a command or a flag.
+fn advice(err: &puppet::Error) -> Option<&'static str> {
+    use puppet::Error as E;
+    Some(match err {
+        E::RunExists { .. } => "continue it with --resume, or choose another output",
+        E::WouldOverwrite { .. } => "choose another output, or pass --force to replace it",
+        E::WrongFolder {
+            expected: FolderKind::Model,
+            ..
+        } => "train one with `puppet train <config.toml>`, or run `puppet demo` to make out/demo/model",
+        E::WrongFolder {
+            expected: FolderKind::Puppet,
+            ..
+        } => "build one with `puppet build <artwork> -o <dir>`",
+        E::WrongFolder {
+            expected: FolderKind::Sequence,
+            ..
+        } => "make one with `puppet synth -o <dir>`, or give a folder of PNG frames",
+        E::Diverged { .. } => "try a lower train.learning_rate, then --resume",
+        _ => return None,
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Parses a command line, panicking with clap's message if it does not parse.
+    pub fn parses(args: &[&str]) -> Cli {
+        Cli::try_parse_from(std::iter::once("puppet").chain(args.iter().copied())).unwrap_or_else(|e| panic!("{args:?}: {e}"))
+    }
+
+    #[test]
+    fn every_command_has_help_and_global_flags_go_anywhere() {
+        for command in [
+            "build",
+            "correspond",
+            "demo",
+            "eval",
+            "fit",
+            "inbetween",
+            "info",
+            "pose",
+            "render",
+            "synth",
+            "train",
+        ] {
+            let err = Cli::try_parse_from(["puppet", command, "--help"]).unwrap_err();
+            assert_eq!(err.kind(), clap::error::ErrorKind::DisplayHelp, "{command}");
+        }
+        let cli = parses(&["info", "x", "--quiet", "--force"]);
+        assert!(cli.common.quiet && cli.common.force);
+    }
+
+    #[test]
+    fn errors_carry_the_remedy_in_the_command_lines_words() {
+        let err = anyhow::Error::new(puppet::Error::RunExists {
+            path: "runs/x".into(),
+            step: 3,
+        });
+        let text = describe(&err);
+        assert!(text.contains("runs/x") && text.contains("--resume"), "{text}");
+        let wrapped = anyhow::Error::new(
+            puppet::Error::WrongFolder {
+                path: "m".into(),
+                expected: FolderKind::Model,
+                problem: "no net.json".into(),
+            }
+            .with_path("m"),
+        );
+        assert!(describe(&wrapped).contains("puppet train"), "{}", describe(&wrapped));
+        let pipe = anyhow::Error::new(std::io::Error::from(std::io::ErrorKind::BrokenPipe)).context("cannot write");
+        assert!(is_broken_pipe(&pipe));
     }
 }

@@ -4,85 +4,64 @@
 
 use std::path::{Path, PathBuf};
 
+use anyhow::Context as _;
+
 use puppet::edit::arap_drag::arap_drag;
-use puppet::edit::load_frame::load_frame;
 use puppet::edit::pin_overlay::pin_overlay;
 use puppet::edit::pose::{Pin, PoseEditor, PoseOptions, DEFAULT_ETA};
+use puppet::error::Context;
+use puppet::fit::frame::load_frame;
 use puppet::model::Model;
-use puppet::picture::Picture;
+use puppet::picture::{contact_sheet, Picture};
 use puppet::progress::Progress;
 use puppet::puppet::pose_file::PoseFile;
-use puppet::render::animation::write_gif;
+use puppet::render::animation::{AnimationFiles, AnimationWriter, GifSettings};
 use puppet::render::render_crisp;
 
-use super::fit::RefineArgs;
-use super::Ui;
+use super::args::{parse_pin, LatentFitArgs, ModelArgs};
+use super::Session;
 
-/// Pose a frame by dragging points: each --pin moves the character's point x,y to tx,ty.
+/// Drag points of a frame to new places: the frame is fitted, each pin's point is bound to the
+/// fitted mesh, and the latent is optimised so the points reach their targets (eq. 7–9).
 ///
-/// Writes OUTPUT (the posed character), OUTPUT's stem + "_arap.png" (the same pins solved
-/// as-rigid-as-possible in vertex space, for comparison), + "_sheet.png" (input | fit | ours |
-/// ARAP, pins drawn) and + ".json" (the posed vertices, for `puppet render --pose`).
+/// Writes OUTPUT (the posed frame), OUTPUT_arap.png (the same pins solved directly by ARAP in
+/// vertex space), OUTPUT_sheet.png (input | fit | ours | ARAP, pins drawn) and OUTPUT.json (the
+/// posed vertices); with --gif, the drag as an editor runs it.
 #[derive(Debug, clap::Args)]
 pub struct PoseArgs {
-    /// The model folder (written by `puppet train`).
-    #[arg(long, value_name = "DIR")]
-    pub model: PathBuf,
+    #[command(flatten)]
+    pub model: ModelArgs,
     /// The frame to pose (RGBA PNG of the puppet's frame size).
     pub image: PathBuf,
-    /// A pin "x,y:tx,ty" in frame pixels: the point x,y on the character goes to tx,ty.
-    /// Repeat for several pins.
+    /// A pin: the point X,Y (frame pixels, on the character) goes to TX,TY. Repeat for more.
     #[arg(long = "pin", value_parser = parse_pin, required = true, value_name = "X,Y:TX,TY")]
     pub pins: Vec<Pin>,
-    /// Output PNG.
+    /// The posed frame (a .png path; the other outputs are named after it).
     #[arg(short, long)]
     pub output: PathBuf,
     /// Gradient steps on the latent (paper: 2 to 5).
     #[arg(long, default_value_t = 5)]
     pub steps: usize,
-    /// Step size η of eq. 9.
+    /// The first step size η (later steps adapt it).
     #[arg(long, default_value_t = DEFAULT_ETA)]
     pub eta: f32,
-    /// Weight α1 of the ARAP term (paper: 25).
+    /// α1, the ARAP regulariser's weight (paper: 25).
     #[arg(long, default_value_t = 25.0)]
     pub alpha_reg: f32,
-    /// Weight α2 of the joint term (paper: 50).
+    /// α2, the joint term's weight (paper: 50).
     #[arg(long, default_value_t = 50.0)]
     pub alpha_joints: f32,
-    /// Also write the drag as an animated GIF: the targets move from the grabbed points to their
-    /// destinations over this many updates, each continuing from the last (as an editor would).
+    /// Also write the drag as an animated GIF: updates along straight lines to the targets.
     #[arg(long, value_name = "FILE")]
     pub gif: Option<PathBuf>,
-    /// Number of drag updates in the GIF.
+    /// Updates in the GIF.
     #[arg(long, default_value_t = 12, value_name = "N")]
     pub gif_frames: usize,
     #[command(flatten)]
-    pub refine: RefineArgs,
+    pub fit: LatentFitArgs,
 }
 
-/// Parses "x,y:tx,ty".
-pub fn parse_pin(s: &str) -> Result<Pin, String> {
-    let bad = || format!("{s:?} is not a pin X,Y:TX,TY (e.g. 40,60:52,48)");
-    let (a, b) = s.split_once(':').ok_or_else(bad)?;
-    let point = |t: &str| -> Result<[f32; 2], String> {
-        let (x, y) = t.split_once(',').ok_or_else(bad)?;
-        let (x, y) = (
-            x.trim().parse::<f32>().map_err(|_| bad())?,
-            y.trim().parse::<f32>().map_err(|_| bad())?,
-        );
-        if x.is_finite() && y.is_finite() {
-            Ok([x, y])
-        } else {
-            Err(bad())
-        }
-    };
-    Ok(Pin {
-        from: point(a)?,
-        to: point(b)?,
-    })
-}
-
-/// `out.png` → `out<suffix>`.
+/// `output` with `suffix` in place of its extension (`out.png` → `out_arap.png`).
 fn beside(output: &Path, suffix: &str) -> PathBuf {
     let stem = output
         .file_stem()
@@ -92,30 +71,57 @@ fn beside(output: &Path, suffix: &str) -> PathBuf {
 }
 
 /// Runs `puppet pose`.
-pub fn run(args: PoseArgs, ui: &Ui) -> anyhow::Result<()> {
+pub fn run(args: PoseArgs, s: &Session) -> anyhow::Result<()> {
     let options = PoseOptions {
         steps: args.steps,
         eta: args.eta,
         alpha_reg: args.alpha_reg,
         alpha_joints: args.alpha_joints,
     };
-    options.validate()?;
+    options.validate().context("--steps, --eta, --alpha-reg, --alpha-joints")?;
+    anyhow::ensure!(
+        args.output.extension().is_some_and(|e| e.eq_ignore_ascii_case("png")),
+        "-o {}: the posed frame is a PNG (give a path ending in .png)",
+        args.output.display()
+    );
     anyhow::ensure!(
         args.gif.is_none() || args.gif_frames >= 2,
         "--gif-frames {}: need at least 2",
         args.gif_frames
     );
+    let (arap_path, sheet_path, json_path) = (
+        beside(&args.output, "_arap.png"),
+        beside(&args.output, "_sheet.png"),
+        beside(&args.output, ".json"),
+    );
+    for path in [&args.output, &arap_path, &sheet_path, &json_path] {
+        s.outputs.claim(path)?;
+    }
     let device = puppet::backend::device();
-    let model = Model::load(&args.model, &device)?;
+    let dir = &args.model.model;
+    let model = Model::load(dir, &device)?;
     let frame = load_frame(&args.image, &model)?;
     let (w, h) = (model.puppet.width, model.puppet.height);
-    let mut editor = PoseEditor::new(&model, &frame, &args.refine.options(&args.model)?, &device)?;
+    let mut editor = PoseEditor::new(&model, &frame, &args.fit.options(dir)?, &device)?;
     let sources: Vec<[f32; 2]> = args.pins.iter().map(|p| p.from).collect();
     let targets: Vec<[f32; 2]> = args.pins.iter().map(|p| p.to).collect();
-    editor
-        .set_pins(&sources)
-        .map_err(|e| anyhow::anyhow!("{}: {e}", args.image.display()))?;
-    ui.stage("pose", 0);
+    editor.set_pins(&sources).at_path(&args.image)?;
+    let gif = args
+        .gif
+        .as_ref()
+        .map(|path| {
+            let files = AnimationFiles {
+                gif: Some(GifSettings {
+                    path: path.clone(),
+                    delay_ms: 80,
+                    background: [1.0; 3],
+                }),
+                ..AnimationFiles::default()
+            };
+            AnimationWriter::new(&files, args.gif_frames, w, h, &s.outputs)
+        })
+        .transpose()?;
+    s.ui.stage("pose", 0);
     let started = std::time::Instant::now();
     let dragged = editor.drag(&targets, &options)?;
     let took = started.elapsed();
@@ -124,41 +130,29 @@ pub fn run(args: PoseArgs, ui: &Ui) -> anyhow::Result<()> {
     let ours = render_crisp(&model.puppet, &dragged.vertices, w, h)?;
     let fit = render_crisp(&model.puppet, editor.fitted(), w, h)?;
     let arap_pic = render_crisp(&model.puppet, &arap, w, h)?;
-    ours.save_png(&args.output)?;
-    arap_pic.save_png(&beside(&args.output, "_arap.png"))?;
-    PoseFile {
-        vertices: dragged.vertices.clone(),
-    }
-    .save(&beside(&args.output, ".json"))?;
+    s.save_png(&args.output, &ours)?;
+    s.save_png(&arap_path, &arap_pic)?;
+    s.outputs.write(
+        &json_path,
+        &PoseFile {
+            vertices: dragged.vertices.clone(),
+        }
+        .to_json(),
+    )?;
     let drawn: Vec<Picture> = [&frame, &fit, &ours, &arap_pic]
         .iter()
         .map(|p| pin_overlay(p, &args.pins))
         .collect();
-    let refs: Vec<&Picture> = drawn.iter().collect();
-    puppet::synth::output::contact_sheet(&refs, 4).save_png(&beside(&args.output, "_sheet.png"))?;
-    if let Some(gif) = &args.gif {
-        let n = args.gif_frames;
-        ui.stage("drag", n as u64);
-        editor.reset();
-        let mut frames = Vec::with_capacity(n);
-        for k in 1..=n {
-            let s = k as f32 / n as f32;
-            let t: Vec<[f32; 2]> = args
-                .pins
-                .iter()
-                .map(|p| [p.from[0] + s * (p.to[0] - p.from[0]), p.from[1] + s * (p.to[1] - p.from[1])])
-                .collect();
-            let step = editor.drag(&t, &options)?;
-            let pic = render_crisp(&model.puppet, &step.vertices, w, h)?;
-            let shown: Vec<Pin> = args.pins.iter().zip(&t).map(|(p, &to)| Pin { from: p.from, to }).collect();
-            frames.push(pin_overlay(&pic, &shown));
-            ui.advance(1);
-        }
-        write_gif(gif, &frames, 80, [1.0; 3])?;
-        ui.say(format!("wrote {}", gif.display()));
+    s.save_png(&sheet_path, &contact_sheet(&drawn.iter().collect::<Vec<_>>(), 4))?;
+    if let (Some(mut writer), Some(path)) = (gif, &args.gif) {
+        s.ui.stage("drag", args.gif_frames as u64);
+        editor.write_drag(&args.pins, args.gif_frames, &options, &mut writer, &s.ui)?;
+        writer.finish()?;
+        s.ui.say(format!("wrote {}", path.display()))?;
     }
+    s.ui.finish();
     let errors: Vec<String> = dragged.pin_error.iter().map(|e| format!("{e:.1}")).collect();
-    ui.say(format!(
+    s.ui.say(format!(
         "{} pin(s), {} steps in {:.1} ms: pin error [{}] px, L_deform {:.3e} → {:.3e} → {} (+ _arap.png, _sheet.png, .json)",
         args.pins.len(),
         options.steps,
@@ -167,20 +161,24 @@ pub fn run(args: PoseArgs, ui: &Ui) -> anyhow::Result<()> {
         dragged.loss.first().copied().unwrap_or(0.0),
         dragged.loss.last().copied().unwrap_or(0.0),
         args.output.display()
-    ));
-    Ok(())
+    ))
 }
 
 #[cfg(test)]
 mod tests {
-    use super::parse_pin;
+    use crate::cli::tests::parses;
 
     #[test]
-    fn pins_parse_and_bad_ones_are_explained() {
-        let p = parse_pin("40,60:52.5,48").unwrap();
-        assert_eq!((p.from, p.to), ([40.0, 60.0], [52.5, 48.0]));
-        for bad in ["40,60", "40:60", "a,b:c,d", "1,2:3", "nan,1:2,3"] {
-            assert!(parse_pin(bad).unwrap_err().contains("is not a pin"), "{bad}");
+    fn parses_pins_and_drag_options() {
+        parses(&[
+            "pose", "--model", "m", "f.png", "--pin", "1,2:3,4", "--pin", "5,6:7,8", "-o", "o.png", "--steps", "3", "--gif", "d.gif",
+        ]);
+        for bad in [
+            vec!["pose", "--model", "m", "f.png", "-o", "o.png"],
+            vec!["pose", "--model", "m", "f.png", "--pin", "1,2", "-o", "o.png"],
+        ] {
+            let args = std::iter::once("puppet").chain(bad.iter().copied());
+            assert!(clap::Parser::try_parse_from(args).map(|_: crate::cli::Cli| ()).is_err(), "{bad:?}");
         }
     }
 }

@@ -4,9 +4,11 @@
 use std::path::PathBuf;
 
 use anyhow::Context;
+use puppet::atomic_file::record;
 use puppet::synth::{self, Motion, SynthOptions};
 
-use super::Ui;
+use super::args::parse_size;
+use super::Session;
 
 /// Generate a synthetic character: drawn frames, template artwork, label maps and ground truth.
 ///
@@ -17,7 +19,7 @@ use super::Ui;
 /// The same seed and options give byte-identical files.
 #[derive(Debug, clap::Args)]
 pub struct SynthArgs {
-    /// Output folder (created if missing; existing files of the same names are replaced).
+    /// Output folder (created if missing; a folder puppet did not make is refused unless --force).
     #[arg(short, long, value_name = "DIR")]
     pub output: PathBuf,
     /// Random seed: picks the character, its colours and its motion amplitudes.
@@ -27,8 +29,8 @@ pub struct SynthArgs {
     #[arg(long, default_value_t = 24)]
     pub frames: usize,
     /// Frame size in pixels, WIDTHxHEIGHT, each side 64 to 4096.
-    #[arg(long, default_value = "256x256", value_name = "WxH")]
-    pub size: String,
+    #[arg(long, default_value = "256x256", value_name = "WxH", value_parser = parse_size)]
+    pub size: (u32, u32),
     /// How the character moves.
     #[arg(long, value_enum, default_value_t = MotionArg::Walk)]
     pub motion: MotionArg,
@@ -72,27 +74,10 @@ impl From<MotionArg> for Motion {
     }
 }
 
-/// Parses `WIDTHxHEIGHT` (also `×` or `X`).
-fn parse_size(text: &str) -> anyhow::Result<(u32, u32)> {
-    let parts: Vec<&str> = text.split(['x', 'X', '×']).collect();
-    match parts.as_slice() {
-        [w, h] => {
-            let side = |s: &str| s.trim().parse::<u32>().ok();
-            match (side(w), side(h)) {
-                (Some(w), Some(h)) => Ok((w, h)),
-                _ => {
-                    anyhow::bail!("--size {text:?}: expected WIDTHxHEIGHT in pixels, e.g. 256x256")
-                }
-            }
-        }
-        _ => anyhow::bail!("--size {text:?}: expected WIDTHxHEIGHT in pixels, e.g. 256x256"),
-    }
-}
-
 impl SynthArgs {
     /// The validated library options.
     fn options(&self) -> anyhow::Result<SynthOptions> {
-        let (width, height) = parse_size(&self.size)?;
+        let (width, height) = self.size;
         let motion = if self.sprite_sheet { Motion::Random } else { self.motion.into() };
         let opts = SynthOptions {
             seed: self.seed,
@@ -112,16 +97,18 @@ impl SynthArgs {
 }
 
 /// Runs `puppet synth`.
-pub fn run(args: SynthArgs, ui: &Ui) -> anyhow::Result<()> {
+pub fn run(args: SynthArgs, s: &Session) -> anyhow::Result<()> {
     let opts = args.options()?;
-    let seq = synth::generate(&opts, ui).context("while generating the synthetic sequence")?;
+    s.outputs.claim_folder(&args.output)?;
+    let seq = synth::generate(&opts, &s.ui).context("while generating the synthetic sequence")?;
     let written = if args.sprite_sheet {
         synth::write_sprite_sheet(&seq, &args.output, args.columns)
     } else {
-        synth::write_sequence(&seq, &args.output, ui)
+        synth::write_sequence(&seq, &args.output, &s.ui)
     }
     .with_context(|| format!("while writing {}", args.output.display()))?;
-    ui.say(format!(
+    record(&std::path::absolute(&args.output)?)?;
+    s.ui.say(format!(
         "wrote {} ({} {}×{} {}, {} parts): {} images, {}, {}",
         written.dir.display(),
         opts.frames,
@@ -136,8 +123,7 @@ pub fn run(args: SynthArgs, ui: &Ui) -> anyhow::Result<()> {
         written.images,
         written.template.display(),
         written.truth.display()
-    ));
-    Ok(())
+    ))
 }
 
 #[cfg(test)]
@@ -173,11 +159,20 @@ mod tests {
     #[test]
     fn bad_inputs_are_clear_errors() {
         let err = parse(&["-o", "x", "--frames", "0"]).unwrap().options().unwrap_err().to_string();
-        assert!(err.contains("frames: 0"), "{err}");
+        assert!(err.contains("frames = 0"), "{err}");
         let err = parse(&["-o", "x", "--size", "16x16"]).unwrap().options().unwrap_err().to_string();
-        assert!(err.contains("width 16 px is out of range") && err.contains("height 16 px"), "{err}");
-        let err = parse(&["-o", "x", "--size", "big"]).unwrap().options().unwrap_err().to_string();
-        assert!(err.contains("expected WIDTHxHEIGHT"), "{err}");
+        assert!(
+            err.contains("width = 16 px (64 to 4096)") && err.contains("height = 16 px"),
+            "{err}"
+        );
+        let err = parse(&["-o", "x", "--size", "big"]).unwrap_err().to_string();
+        assert!(err.contains("is not a size WxH"), "{err}");
+        let err = parse(&["-o", "x", "--size", "4096x4096", "--frames", "100"])
+            .unwrap()
+            .options()
+            .unwrap_err()
+            .to_string();
+        assert!(err.contains("100 frames of 4096×4096") && err.contains("above the limit"), "{err}");
         let err = parse(&["-o", "x", "--motion", "dance"]).unwrap_err().to_string();
         assert!(err.contains("dance") && err.contains("walk"), "{err}");
     }

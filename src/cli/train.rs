@@ -4,14 +4,16 @@ use std::path::PathBuf;
 
 use puppet::train::{self, TrainConfig, TrainOptions};
 
-use super::Ui;
+use super::Session;
 
 /// Train the deformation network on a character's frames; the config names the puppet (or its
 /// artwork), the frames, the output model folder, and the settings (see configs/).
 ///
 /// Writes into the config's `output`: net.json, weights.bpk, puppet/, train.toml, split.json,
-/// log.csv, loss.png and checkpoints/. A killed run continues with --resume, losing at most
-/// `checkpoint_every` steps.
+/// log.csv, loss.png (with the held-out frames' loss) and checkpoints/. A killed run continues
+/// with --resume, losing at most `checkpoint_every` steps; a resume that does not match the
+/// checkpoint (another config — only train.steps may change —, split or puppet) is refused
+/// without touching a file.
 #[derive(Debug, clap::Args)]
 pub struct TrainArgs {
     /// The training config (TOML).
@@ -25,28 +27,47 @@ pub struct TrainArgs {
 }
 
 /// Runs `puppet train`.
-pub fn run(args: TrainArgs, ui: &Ui) -> anyhow::Result<()> {
+pub fn run(args: TrainArgs, s: &Session) -> anyhow::Result<()> {
     let config = TrainConfig::load(&args.config)?;
     let options = TrainOptions {
         resume: args.resume,
         pause_at: args.pause_at,
+        force: s.outputs.forced(),
     };
-    let summary = train::train(&config, &options, ui)?;
-    ui.finish();
+    let summary = train::train(&config, &options, &s.ui)?;
+    s.ui.finish();
     let (n_train, n_test) = summary.split;
-    let last = summary
-        .last
-        .map_or(String::new(), |r| format!(", last loss {:.4e} (rec {:.4e})", r.total, r.rec));
+    let last = summary.last.map_or(String::new(), |r| {
+        let held_out = if r.held_out.is_finite() {
+            format!(", held-out {:.4e}", r.held_out)
+        } else {
+            String::new()
+        };
+        format!(", last loss {:.4e} (rec {:.4e}{held_out})", r.total, r.rec)
+    });
     let state = if summary.finished {
         "done"
     } else {
         "paused (continue with --resume)"
     };
-    ui.say(format!(
-        "{state}: {} steps on {n_train} frames ({n_test} held out), {:.1} images/s{last} → {}",
+    s.ui.say(format!(
+        "{state}: {} steps on {n_train} frames ({n_test} held out), batch {}, {:.1} images/s{last} → {}",
         summary.steps,
+        summary.batch,
         summary.images_per_second,
         config.output.display()
-    ));
-    Ok(())
+    ))
+}
+
+#[cfg(test)]
+mod tests {
+    use crate::cli::tests::parses;
+
+    #[test]
+    fn parses_resume_and_pause() {
+        parses(&["train", "configs/kenney-robot.toml", "--resume", "--pause-at", "100"]);
+        assert!(clap::Parser::try_parse_from(["puppet", "train", "c.toml", "--pause-at", "x"])
+            .map(|_: crate::cli::Cli| ())
+            .is_err());
+    }
 }

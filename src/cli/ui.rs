@@ -1,42 +1,119 @@
-//! The terminal side of [`puppet::progress::Progress`]: indicatif bars with ETA on stderr, and
-//! the summary lines commands print on stdout.
+//! The terminal side of [`puppet::progress::Progress`]: indicatif bars with ETA on stderr when
+//! it is a terminal, plain lines at most every few seconds when it is not (a log file, CI),
+//! warnings as `puppet: warning: …` lines, and every line a command prints on stdout — through
+//! one place, so a closed pipe or a full disk ends the command with an error, never a panic.
 
-use std::io::Write;
+use std::io::{IsTerminal, Write};
 use std::sync::Mutex;
+use std::time::{Duration, Instant};
 
+use anyhow::Context;
 use indicatif::{ProgressBar, ProgressStyle};
 use puppet::progress::Progress;
 
-/// Progress bars and messages for one command run.
+/// How often a plain progress line is printed when stderr is not a terminal.
+const PLAIN_EVERY: Duration = Duration::from_secs(5);
+
+/// Progress, warnings and output for one command run.
 pub struct Ui {
     quiet: bool,
-    bar: Mutex<Option<ProgressBar>>,
+    terminal: bool,
+    state: Mutex<State>,
+}
+
+#[derive(Default)]
+struct State {
+    bar: Option<ProgressBar>,
+    plain: Option<Plain>,
+}
+
+/// A stage reported as plain lines.
+struct Plain {
+    name: String,
+    total: u64,
+    done: u64,
+    started: Instant,
+    printed: Instant,
+    message: String,
+}
+
+impl Plain {
+    fn line(&self) -> String {
+        let elapsed = self.started.elapsed().as_secs_f64();
+        let mut line = if self.total > 0 {
+            let left = (self.total.saturating_sub(self.done)) as f64 * elapsed / self.done.max(1) as f64;
+            format!(
+                "{}: {}/{} ({:.0} %), {elapsed:.0} s, about {left:.0} s left",
+                self.name,
+                self.done,
+                self.total,
+                100.0 * self.done as f64 / self.total as f64
+            )
+        } else {
+            format!("{}: {elapsed:.0} s", self.name)
+        };
+        if !self.message.is_empty() {
+            line.push_str(" — ");
+            line.push_str(&self.message);
+        }
+        line
+    }
 }
 
 impl Ui {
-    /// A UI that shows bars unless `quiet`.
+    /// A UI that reports progress unless `quiet`.
     pub fn new(quiet: bool) -> Self {
         Ui {
             quiet,
-            bar: Mutex::new(None),
+            terminal: std::io::stderr().is_terminal(),
+            state: Mutex::new(State::default()),
         }
+    }
+
+    fn state(&self) -> std::sync::MutexGuard<'_, State> {
+        self.state.lock().unwrap_or_else(std::sync::PoisonError::into_inner)
     }
 
     /// Prints a summary line on stdout (suppressed by `--quiet`).
-    pub fn say(&self, text: impl AsRef<str>) {
-        if !self.quiet {
-            self.finish();
-            // A closed pipe (`puppet info … | head`) is not worth failing over.
-            let _ = writeln!(std::io::stdout().lock(), "{}", text.as_ref());
+    ///
+    /// # Errors
+    /// Writing to stdout failed (a closed pipe, a full disk).
+    pub fn say(&self, text: impl AsRef<str>) -> anyhow::Result<()> {
+        if self.quiet {
+            return Ok(());
         }
+        self.print(text)
     }
 
-    /// Ends the current bar, leaving its last state on screen.
+    /// Prints a result on stdout (a table, a report), even with `--quiet`.
+    ///
+    /// # Errors
+    /// Writing to stdout failed (a closed pipe, a full disk).
+    pub fn print(&self, text: impl AsRef<str>) -> anyhow::Result<()> {
+        self.finish();
+        let mut out = std::io::stdout().lock();
+        writeln!(out, "{}", text.as_ref())
+            .and_then(|()| out.flush())
+            .context("cannot write to standard output")
+    }
+
+    /// Ends the current stage, leaving its last state on screen.
     pub fn finish(&self) {
-        if let Some(bar) = self.bar.lock().expect("no panics while holding the bar").take() {
+        let mut state = self.state();
+        if let Some(bar) = state.bar.take() {
             bar.finish();
         }
+        if let Some(plain) = state.plain.take() {
+            if plain.done > 0 || plain.total == 0 {
+                eprint_quietly(&plain.line());
+            }
+        }
     }
+}
+
+/// Writes a line to stderr; a failure there has nowhere to be reported.
+fn eprint_quietly(line: &str) {
+    let _ = writeln!(std::io::stderr().lock(), "{line}");
 }
 
 impl Progress for Ui {
@@ -45,6 +122,23 @@ impl Progress for Ui {
             return;
         }
         self.finish();
+        let mut state = self.state();
+        if !self.terminal {
+            let now = Instant::now();
+            state.plain = Some(Plain {
+                name: name.to_string(),
+                total,
+                done: 0,
+                started: now,
+                printed: now,
+                message: String::new(),
+            });
+            eprint_quietly(&format!(
+                "{name}: started{}",
+                if total > 0 { format!(", {total} steps") } else { String::new() }
+            ));
+            return;
+        }
         let bar = if total == 0 {
             ProgressBar::new_spinner()
         } else {
@@ -55,24 +149,43 @@ impl Progress for Ui {
         } else {
             "{prefix:>10} [{bar:30}] {pos}/{len} {elapsed_precise} eta {eta_precise} {msg}"
         };
-        bar.set_style(
-            ProgressStyle::with_template(template)
-                .expect("template is valid")
-                .progress_chars("=> "),
-        );
+        if let Ok(style) = ProgressStyle::with_template(template) {
+            bar.set_style(style.progress_chars("=> "));
+        }
         bar.set_prefix(name.to_string());
-        *self.bar.lock().expect("no panics while holding the bar") = Some(bar);
+        state.bar = Some(bar);
     }
 
     fn advance(&self, n: u64) {
-        if let Some(bar) = self.bar.lock().expect("no panics while holding the bar").as_ref() {
+        let mut state = self.state();
+        if let Some(bar) = &state.bar {
             bar.inc(n);
+        }
+        if let Some(plain) = &mut state.plain {
+            plain.done += n;
+            if plain.printed.elapsed() >= PLAIN_EVERY {
+                plain.printed = Instant::now();
+                eprint_quietly(&plain.line());
+            }
         }
     }
 
     fn message(&self, text: &str) {
-        if let Some(bar) = self.bar.lock().expect("no panics while holding the bar").as_ref() {
+        let mut state = self.state();
+        if let Some(bar) = &state.bar {
             bar.set_message(text.to_string());
+        }
+        if let Some(plain) = &mut state.plain {
+            plain.message = text.to_string();
+        }
+    }
+
+    fn warn(&self, text: &str) {
+        let state = self.state();
+        let line = format!("puppet: warning: {text}");
+        match &state.bar {
+            Some(bar) => bar.suspend(|| eprint_quietly(&line)),
+            None => eprint_quietly(&line),
         }
     }
 }

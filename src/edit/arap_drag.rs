@@ -23,21 +23,19 @@ pub const ARAP_ITERATIONS: usize = 20;
 /// (made on `fitted`) with its target in the same pixel space.
 ///
 /// # Errors
-/// [`Error::Invalid`] if `fitted` is not one position per vertex, there is no pin, a target is
-/// not finite, or the ARAP system cannot be set up (a degenerate template layer).
+/// [`Error::Mismatch`] if `fitted` is not one position per vertex; [`Error::Setting`] if there is
+/// no pin; [`Error::Geometry`] if a target is not finite or the ARAP system cannot be set up (a
+/// degenerate template layer).
 pub fn arap_drag(puppet: &Puppet, fitted: &[[f32; 2]], pins: &[(Binding, [f32; 2])]) -> Result<Vec<[f32; 2]>> {
     let n = puppet.vertex_count();
     if fitted.len() != n {
-        return Err(Error::Invalid(format!(
-            "arap drag: {} fitted vertices for a puppet of {n}",
-            fitted.len()
-        )));
+        return Err(Error::mismatch("arap drag: the fitted pose's vertex count", fitted.len(), n));
     }
     if pins.is_empty() {
-        return Err(Error::Invalid("arap drag: no pin".into()));
+        return Err(Error::setting("arap drag pins", 0, "at least one"));
     }
     if pins.iter().any(|(_, t)| !t[0].is_finite() || !t[1].is_finite()) {
-        return Err(Error::Invalid("arap drag: a pin target is not finite".into()));
+        return Err(Error::geometry("arap drag: a pin target", "is not finite"));
     }
     // Weld joint vertices (union-find over the global numbering).
     let mut parent: Vec<usize> = (0..n).collect();

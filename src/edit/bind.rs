@@ -47,19 +47,19 @@ impl Binding {
 /// `p`): front-most layer first; within [`SNAP_DISTANCE`] of a triangle if no triangle contains it.
 ///
 /// # Errors
-/// [`Error::Invalid`] if `vertices` is not one position per puppet vertex, `p` is not finite, or
-/// `p` is farther than [`SNAP_DISTANCE`] from every triangle (the message gives the distance to
-/// the nearest layer, by name).
+/// [`Error::Mismatch`] if `vertices` is not one position per puppet vertex, [`Error::Geometry`]
+/// if `p` is not finite or the puppet has no triangle, [`Error::OffCharacter`] if `p` is farther
+/// than [`SNAP_DISTANCE`] from every triangle (with the nearest layer and its distance).
 pub fn bind(puppet: &Puppet, vertices: &[[f32; 2]], p: [f32; 2]) -> Result<Binding> {
     if vertices.len() != puppet.vertex_count() {
-        return Err(Error::Invalid(format!(
-            "bind: {} vertices for a puppet of {}",
+        return Err(Error::mismatch(
+            "bind: the pose's vertex count",
             vertices.len(),
-            puppet.vertex_count()
-        )));
+            puppet.vertex_count(),
+        ));
     }
     if !p[0].is_finite() || !p[1].is_finite() {
-        return Err(Error::Invalid(format!("point ({}, {}) is not finite", p[0], p[1])));
+        return Err(Error::geometry(format!("point ({}, {})", p[0], p[1]), "is not finite"));
     }
     let offsets = puppet.vertex_offsets();
     // (distance, binding) of the nearest triangle seen so far, front to back.
@@ -88,11 +88,11 @@ pub fn bind(puppet: &Puppet, vertices: &[[f32; 2]], p: [f32; 2]) -> Result<Bindi
     }
     match nearest {
         Some((d, b)) if d <= SNAP_DISTANCE => Ok(b),
-        Some((d, b)) => Err(Error::Invalid(format!(
-            "point ({:.1}, {:.1}) is not on the character (nearest layer {:?} is {d:.1} px away)",
-            p[0], p[1], puppet.layers[b.layer].name
-        ))),
-        None => Err(Error::Invalid("bind: the puppet has no triangle".into())),
+        Some((d, b)) => Err(Error::OffCharacter {
+            point: p,
+            nearest: Some((puppet.layers[b.layer].name.clone(), d)),
+        }),
+        None => Err(Error::geometry("bind: the puppet", "has no triangle")),
     }
 }
 

@@ -3,9 +3,52 @@
 //! triangle of the front-most layer, [`bind`]) and placed with the same barycentric
 //! coordinates on the template fitted to b.
 
+use std::path::Path;
+
 use super::bind::{bind, Binding};
 use crate::error::{Error, Result};
+use crate::picture::Picture;
 use crate::puppet::Puppet;
+
+/// The most points a points file may list.
+pub const MAX_POINTS: usize = 1_000_000;
+
+/// Reads a points file: a JSON list of `[x, y]` points (frame pixels).
+///
+/// # Errors
+/// [`Error::Io`] if unreadable; [`Error::Format`] naming the file for anything but a list of
+/// finite number pairs, or more than [`MAX_POINTS`] of them.
+pub fn load_points(path: &Path) -> Result<Vec<[f32; 2]>> {
+    let bytes = std::fs::read(path).map_err(|e| Error::io(path, e))?;
+    let points: Vec<[f32; 2]> =
+        serde_json::from_slice(&bytes).map_err(|e| Error::format(path, format!("not a JSON list of [x, y] points: {e}")))?;
+    if points.len() > MAX_POINTS {
+        return Err(Error::limit("the points", points.len() as u64, MAX_POINTS as u64, "points").with_path(path));
+    }
+    if let Some(i) = points.iter().position(|p| !p[0].is_finite() || !p[1].is_finite()) {
+        return Err(Error::format(path, format!("point {i} is not finite")));
+    }
+    Ok(points)
+}
+
+/// A grid of points over the opaque pixels of `frame`, every `spacing` pixels (at least 1),
+/// offset by half a spacing from the corner.
+pub fn grid_points(frame: &Picture, spacing: f32) -> Vec<[f32; 2]> {
+    let spacing = spacing.max(1.0);
+    let mut out = Vec::new();
+    let mut y = spacing / 2.0;
+    while y < frame.height as f32 {
+        let mut x = spacing / 2.0;
+        while x < frame.width as f32 {
+            if frame.get(x as u32, y as u32)[3] > 0.5 {
+                out.push([x, y]);
+            }
+            x += spacing;
+        }
+        y += spacing;
+    }
+    out
+}
 
 /// Where one point of frame a lands in frame b.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -23,7 +66,7 @@ pub struct Correspondence {
 /// (see [`bind`]) maps to `None`.
 ///
 /// # Errors
-/// [`Error::Invalid`] if either pose does not have one position per puppet vertex.
+/// [`Error::Mismatch`] if either pose does not have one position per puppet vertex.
 pub fn correspond(
     puppet: &Puppet,
     from_vertices: &[[f32; 2]],
@@ -32,11 +75,11 @@ pub fn correspond(
 ) -> Result<Vec<Option<Correspondence>>> {
     for (name, v) in [("frame a", from_vertices), ("frame b", to_vertices)] {
         if v.len() != puppet.vertex_count() {
-            return Err(Error::Invalid(format!(
-                "correspond: the pose of {name} has {} vertices, the puppet {}",
+            return Err(Error::mismatch(
+                format!("correspond: the vertex count of {name}'s pose"),
                 v.len(),
-                puppet.vertex_count()
-            )));
+                puppet.vertex_count(),
+            ));
         }
     }
     Ok(points

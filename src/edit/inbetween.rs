@@ -8,10 +8,18 @@
 
 use burn::tensor::{Device, Tensor, TensorData};
 
+use std::path::PathBuf;
+
+use crate::atomic_file::Outputs;
 use crate::error::{Error, Result};
+use crate::fit::{fit_latents, FitOptions};
 use crate::model::Model;
+use crate::picture::contact_sheet;
 use crate::picture::Picture;
-use crate::train::refine::{fit_latents, RefineOptions};
+use crate::progress::Progress;
+use crate::puppet::pose_file::PoseFile;
+use crate::render::animation::{AnimationFiles, AnimationWriter};
+use crate::render::render_crisp;
 
 /// Latent and vertex-space interpolation between two frames.
 #[derive(Clone, Debug)]
@@ -34,12 +42,12 @@ pub struct Interpolator {
 }
 
 impl Interpolator {
-    /// Encodes frames `a` and `b` with `model` (latents refined as `refine` says).
+    /// Encodes frames `a` and `b` with `model` (latents fitted as `fit` says).
     ///
     /// # Errors
-    /// [`Error::Invalid`] if a frame is not the puppet's size (see [`Model::check_frame`]).
-    pub fn new(model: &Model, a: &Picture, b: &Picture, refine: &RefineOptions, device: &Device) -> Result<Self> {
-        let z = fit_latents(model, &[a, b], refine, device)?;
+    /// [`Error::Mismatch`] if a frame is not the puppet's size (see [`Model::check_frame`]).
+    pub fn new(model: &Model, a: &Picture, b: &Picture, fit: &FitOptions, device: &Device) -> Result<Self> {
+        let z = fit_latents(model, &[a, b], fit, device)?;
         let fitted = model.to_frame_vertices(model.decode(z.clone(), device));
         let mut it = fitted.into_iter();
         let (va, vb) = (it.next().unwrap_or_default(), it.next().unwrap_or_default());
@@ -79,27 +87,136 @@ impl Interpolator {
 /// The `N + 2` interpolation parameters of `steps = N` in-betweens (module doc).
 ///
 /// # Errors
-/// [`Error::Invalid`] if `steps` is 0 (nothing to generate) or above 10 000.
-pub fn steps_t(steps: usize) -> Result<Vec<f32>> {
-    if steps == 0 || steps > 10_000 {
-        return Err(Error::Invalid(format!(
-            "--steps {steps}: the number of in-between frames must be from 1 to 10000"
-        )));
+/// [`Error::Setting`] if `steps` is 0 (nothing to generate); [`Error::Limit`] if it is above
+/// `max_steps`.
+pub fn steps_t(steps: usize, max_steps: usize) -> Result<Vec<f32>> {
+    if steps == 0 {
+        return Err(Error::setting("in-between steps", 0, "at least 1"));
+    }
+    if steps > max_steps {
+        return Err(Error::limit("the in-between count", steps as u64, max_steps as u64, "frames"));
     }
     Ok((0..=steps + 1).map(|k| k as f32 / (steps + 1) as f32).collect())
 }
 
-/// In-betweens of frames `a` and `b`: latent and vertex-space interpolations at
-/// [`steps_t`]`(steps)`.
+/// The default most in-betweens one call makes ([`steps_t`]): 1000 frames are 40 s at 25 fps.
+pub const MAX_STEPS: usize = 1000;
+
+/// In-betweens of frames `a` and `b`: latent and vertex-space interpolations at each of `t`
+/// (e.g. [`steps_t`]).
 ///
 /// # Errors
-/// As [`steps_t`] and [`Interpolator::new`].
-pub fn inbetween(model: &Model, a: &Picture, b: &Picture, steps: usize, refine: &RefineOptions, device: &Device) -> Result<Inbetweens> {
-    let t = steps_t(steps)?;
-    let interp = Interpolator::new(model, a, b, refine, device)?;
-    let latent = interp.latent_poses(model, &t, device);
+/// As [`Interpolator::new`].
+pub fn inbetween(model: &Model, a: &Picture, b: &Picture, t: &[f32], fit: &FitOptions, device: &Device) -> Result<Inbetweens> {
+    let interp = Interpolator::new(model, a, b, fit, device)?;
+    let latent = interp.latent_poses(model, t, device);
     let vertex = t.iter().map(|&t| interp.vertex_pose(t)).collect();
-    Ok(Inbetweens { t, latent, vertex })
+    Ok(Inbetweens {
+        t: t.to_vec(),
+        latent,
+        vertex,
+    })
+}
+
+/// The most in-between steps [`comparison_sheet`] shows side by side.
+pub const SHEET_COLUMNS: usize = 12;
+
+/// Figure 5 of neural-puppet.md as one picture: at most [`SHEET_COLUMNS`] of the in-betweens'
+/// steps (evenly sampled, ends included), in rows — the latent interpolation, the vertex-space
+/// interpolation, and, if `training` is not empty, the training frame nearest each latent step.
+///
+/// # Errors
+/// Render errors (in-betweens of another puppet).
+pub fn comparison_sheet(model: &Model, inbetweens: &Inbetweens, training: &[Picture]) -> Result<Picture> {
+    let n = inbetweens.t.len();
+    let columns = n.clamp(1, SHEET_COLUMNS);
+    let picked: Vec<usize> = (0..columns)
+        .map(|c| if columns == 1 { 0 } else { c * (n - 1) / (columns - 1) })
+        .collect();
+    let (w, h) = (model.puppet.width, model.puppet.height);
+    let render = |poses: &[Vec<[f32; 2]>]| -> Result<Vec<Picture>> {
+        picked.iter().map(|&k| render_crisp(&model.puppet, &poses[k], w, h)).collect()
+    };
+    let latent = render(&inbetweens.latent)?;
+    let vertex = render(&inbetweens.vertex)?;
+    let nearest: Vec<Picture> = latent
+        .iter()
+        .filter_map(|p| nearest_frame(p, training).map(|(k, _)| training[k].clone()))
+        .collect();
+    let cells: Vec<&Picture> = latent.iter().chain(&vertex).chain(&nearest).collect();
+    Ok(contact_sheet(&cells, columns))
+}
+
+/// Where in-betweens are written; each animation is optional.
+#[derive(Clone, Debug, Default)]
+pub struct InbetweenFiles {
+    /// The latent interpolation (ours), played there and back in its GIF.
+    pub latent: AnimationFiles,
+    /// The vertex-space interpolation.
+    pub vertex: AnimationFiles,
+    /// The training frame nearest each latent step (written only if there are training frames).
+    pub nearest: AnimationFiles,
+    /// Each latent step's pose as `step_NNN.json` in this folder.
+    pub poses: Option<PathBuf>,
+}
+
+/// Renders and writes the in-betweens one frame at a time (memory does not grow with their
+/// number); `training` frames, if any, give the nearest-frame animation. Returns the files
+/// written.
+///
+/// # Errors
+/// [`Error::WouldOverwrite`] before anything is written if an output is in the way; render and
+/// write errors naming what failed.
+pub fn write_inbetweens(
+    model: &Model,
+    inbetweens: &Inbetweens,
+    training: &[Picture],
+    files: &InbetweenFiles,
+    outputs: &Outputs,
+    progress: &dyn Progress,
+) -> Result<Vec<PathBuf>> {
+    let n = inbetweens.t.len();
+    let (w, h) = (model.puppet.width, model.puppet.height);
+    let digits = n.saturating_sub(1).to_string().len().max(3);
+    let pose_paths: Vec<PathBuf> = match &files.poses {
+        Some(dir) => (0..n).map(|k| dir.join(format!("step_{k:0digits$}.json"))).collect(),
+        None => Vec::new(),
+    };
+    for path in &pose_paths {
+        outputs.claim(path)?;
+    }
+    let mut latent = AnimationWriter::new(&files.latent, n, w, h, outputs)?;
+    let mut vertex = AnimationWriter::new(&files.vertex, n, w, h, outputs)?;
+    let mut nearest = (!training.is_empty())
+        .then(|| AnimationWriter::new(&files.nearest, n, w, h, outputs))
+        .transpose()?;
+    progress.stage("render", n as u64);
+    for k in 0..n {
+        let picture = render_crisp(&model.puppet, &inbetweens.latent[k], w, h)?;
+        if let (Some(writer), Some((i, _))) = (&mut nearest, nearest_frame(&picture, training)) {
+            writer.push(&training[i])?;
+        }
+        latent.push(&picture)?;
+        vertex.push(&render_crisp(&model.puppet, &inbetweens.vertex[k], w, h)?)?;
+        if let Some(path) = pose_paths.get(k) {
+            let pose = PoseFile {
+                vertices: inbetweens.latent[k].clone(),
+            };
+            outputs.write(path, &pose.to_json())?;
+        }
+        progress.advance(1);
+    }
+    // The GIF's way back, without the two ends, so its loop has no jump.
+    for k in (1..n.saturating_sub(1)).rev() {
+        latent.push_gif(&render_crisp(&model.puppet, &inbetweens.latent[k], w, h)?)?;
+    }
+    let mut written = pose_paths;
+    written.extend(latent.finish()?);
+    written.extend(vertex.finish()?);
+    if let Some(writer) = nearest {
+        written.extend(writer.finish()?);
+    }
+    Ok(written)
 }
 
 /// The index of the picture in `candidates` nearest to `picture` in Euclidean image distance
@@ -110,7 +227,7 @@ pub fn nearest_frame(picture: &Picture, candidates: &[Picture]) -> Option<(usize
         .iter()
         .enumerate()
         .filter(|(_, c)| (c.width, c.height) == (picture.width, picture.height))
-        .map(|(k, c)| (k, crate::eval::l2(picture, c)))
+        .map(|(k, c)| (k, crate::metrics::l2(picture, c)))
         .min_by(|a, b| a.1.total_cmp(&b.1))
 }
 
@@ -141,7 +258,7 @@ mod tests {
         let a = crate::render::render_crisp(&model.puppet, &model.puppet.rest_vertices(), 48, 40).unwrap();
         let mut b = a.clone();
         b.pixels.rotate_left(37); // a different image, so a different latent
-        let out = inbetween(&model, &a, &b, 3, &RefineOptions::encoder_only(), &device).unwrap();
+        let out = inbetween(&model, &a, &b, &steps_t(3, MAX_STEPS).unwrap(), &FitOptions::one_pass(), &device).unwrap();
         assert_eq!(out.t, vec![0.0, 0.25, 0.5, 0.75, 1.0]);
         let fits = model.fit(&[&a, &b], &device).unwrap();
         let close = |x: &[[f32; 2]], y: &[[f32; 2]]| {
@@ -167,15 +284,13 @@ mod tests {
     }
 
     #[test]
-    fn zero_steps_and_wrong_sizes_are_refused() {
+    fn zero_or_too_many_steps_and_wrong_sizes_are_refused() {
         let (model, device) = small_model();
         let a = Picture::filled(48, 40, [1.0, 0.0, 0.0, 1.0]);
-        assert!(inbetween(&model, &a, &a, 0, &RefineOptions::encoder_only(), &device)
-            .unwrap_err()
-            .to_string()
-            .contains("--steps 0"));
+        assert!(matches!(steps_t(0, MAX_STEPS), Err(Error::Setting { .. })));
+        assert!(matches!(steps_t(11, 10), Err(Error::Limit { amount: 11, limit: 10, .. })));
         let small = Picture::filled(20, 20, [1.0; 4]);
-        let err = inbetween(&model, &a, &small, 2, &RefineOptions::encoder_only(), &device)
+        let err = inbetween(&model, &a, &small, &[0.0, 1.0], &FitOptions::one_pass(), &device)
             .unwrap_err()
             .to_string();
         assert!(err.contains("20×20") && err.contains("48×40"), "{err}");

@@ -1,17 +1,14 @@
 //! What users do with a trained puppet (neural-puppet.md §4.1–4.3): in-betweens by latent
-//! interpolation ([`inbetween`]), poses dragged into place by optimising the latent under pins
+//! interpolation ([`mod@inbetween`]), poses dragged into place by optimising the latent under pins
 //! ([`pose`], eq. 7–9, with the direct vertex-space ARAP drag of Figure 6 right beside it in
-//! [`arap_drag`]), and frame-to-frame correspondences through the fitted template
-//! ([`correspond`], scored by [`pck_pairs`] on synthetic ground truth). Points are tied to the
-//! mesh by barycentric coordinates ([`bind`]).
+//! [`mod@arap_drag`]), and frame-to-frame correspondences through the fitted template
+//! ([`mod@correspond`], scored by [`crate::eval::pck_pairs`] on synthetic ground truth). Points are
+//! tied to the mesh by barycentric coordinates ([`mod@bind`]).
 
 pub mod arap_drag;
 pub mod bind;
 pub mod correspond;
 pub mod inbetween;
-pub mod inbetween_eval;
-pub mod load_frame;
-pub mod pck_pairs;
 pub mod pin_overlay;
 pub mod pose;
 

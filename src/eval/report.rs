@@ -1,22 +1,20 @@
 //! Scoring a trained model on frames (`puppet eval`): fit each frame, render the fit crisply at
-//! the frame's size, and measure it with the metrics of this module; where the sequence has
-//! ground truth, also the fitted vertices against the true ones (vertex error, PCK).
+//! the frame's size, and measure it with [`crate::metrics`]; where the sequence has ground
+//! truth, also the fitted vertices against the true ones (vertex error, PCK).
 
 use burn::tensor::Device;
 use serde::Serialize;
 
 use super::visibility::visible_vertices;
-use super::{l2, masked_rmse, pck, silhouette_iou, vertex_error};
-use crate::error::{Error, Result};
+use crate::error::{Context, Error, Result};
+use crate::fit::{fit, FitOptions};
+use crate::metrics::{l2, masked_rmse, pck, silhouette_iou, vertex_error, PCK_ALPHAS};
 use crate::model::Model;
 use crate::picture::Picture;
+use crate::progress::Progress;
+use crate::puppet::sequence::Frames;
 use crate::render::render_crisp;
 use crate::synth::{true_positions, Truth};
-use crate::train::refine::{refined_fit, RefineOptions};
-use crate::train::Frames;
-
-/// The PCK thresholds of neural-puppet.md Table 2.
-pub const PCK_ALPHAS: [f64; 3] = [0.1, 0.05, 0.025];
 
 /// One frame's scores.
 #[derive(Clone, Debug, Serialize)]
@@ -57,44 +55,57 @@ pub struct Report {
     pub mean: FrameScores,
 }
 
-/// Fits (refined as `refine` says) and scores `frames.frames[i]` for each `i` in `indices` (all
-/// frames if empty).
+/// Fits (as `options` say) and scores `frames.frames[i]` for each `i` in `indices` (all frames if
+/// empty), against `truth` where given (matched to frames by file name).
 ///
 /// # Errors
-/// Frame-size mismatches (naming the file) and ground truth that does not fit the puppet.
-pub fn evaluate(model: &Model, frames: &Frames, indices: &[usize], refine: &RefineOptions, device: &Device) -> Result<Report> {
+/// A frame of the wrong size (naming the file); truth that does not fit the puppet.
+pub fn evaluate(
+    model: &Model,
+    frames: &Frames,
+    indices: &[usize],
+    truth: Option<&Truth>,
+    options: &FitOptions,
+    device: &Device,
+    progress: &dyn Progress,
+) -> Result<Report> {
     let indices: Vec<usize> = if indices.is_empty() {
         (0..frames.frames.len()).collect()
     } else {
         indices.to_vec()
     };
     let names = frames.names();
+    let pictures: Vec<&Picture> = indices.iter().map(|&i| &frames.frames[i]).collect();
+    for (&i, picture) in indices.iter().zip(&pictures) {
+        model.check_frame(picture).at_path(&frames.files[i])?;
+    }
+    progress.stage("fit", pictures.len() as u64);
+    let fits = fit(model, &pictures, options, device, progress)?;
     let mut scores = Vec::with_capacity(indices.len());
-    for chunk in indices.chunks(16) {
-        let pictures: Vec<_> = chunk.iter().map(|&i| &frames.frames[i]).collect();
-        for (&i, picture) in chunk.iter().zip(&pictures) {
-            model
-                .check_frame(picture)
-                .map_err(|e| Error::format(&frames.files[i], e.to_string()))?;
-        }
-        let fits = refined_fit(model, &pictures, refine, device)?;
-        for ((&i, picture), fit) in chunk.iter().zip(&pictures).zip(&fits) {
-            let render = render_crisp(&model.puppet, fit, picture.width, picture.height)?;
-            let truth = frames.truth.as_ref().map(|t| truth_scores(t, i, model, fit, picture)).transpose()?;
-            scores.push(FrameScores {
-                frame: names[i].clone(),
-                l2: l2(&render, picture),
-                masked_rmse: masked_rmse(&render, picture),
-                iou: silhouette_iou(&render, picture),
-                vertex_error: truth.map(|t| t.vertex_error),
-                pck: truth.map(|t| t.pck),
-                visible_vertex_error: truth.map(|t| t.visible_vertex_error),
-                visible_pck: truth.map(|t| t.visible_pck),
-                visible_share: truth.map(|t| t.visible_share),
-                true_pose_l2: truth.map(|t| t.true_pose_l2),
-                true_pose_iou: truth.map(|t| t.true_pose_iou),
-            });
-        }
+    for ((&i, picture), fit) in indices.iter().zip(&pictures).zip(&fits) {
+        let render = render_crisp(&model.puppet, fit, picture.width, picture.height)?;
+        let truth = match truth {
+            Some(t) => {
+                let k = t
+                    .frame_named(&names[i])
+                    .ok_or_else(|| Error::mismatch(format!("frame {:?}", names[i]), "not in truth.json", "a frame it describes"))?;
+                Some(truth_scores(t, k, model, fit, picture)?)
+            }
+            None => None,
+        };
+        scores.push(FrameScores {
+            frame: names[i].clone(),
+            l2: l2(&render, picture),
+            masked_rmse: masked_rmse(&render, picture),
+            iou: silhouette_iou(&render, picture),
+            vertex_error: truth.map(|t| t.vertex_error),
+            pck: truth.map(|t| t.pck),
+            visible_vertex_error: truth.map(|t| t.visible_vertex_error),
+            visible_pck: truth.map(|t| t.visible_pck),
+            visible_share: truth.map(|t| t.visible_share),
+            true_pose_l2: truth.map(|t| t.true_pose_l2),
+            true_pose_iou: truth.map(|t| t.true_pose_iou),
+        });
     }
     let mean = mean_scores(&scores);
     Ok(Report { frames: scores, mean })

@@ -75,11 +75,11 @@ impl<T: Float + Send + Sync> ArapEnergy<T> {
     /// `rest`: `#V` rest positions `[x, y]` in pixels; `triangles`: `#F` index triples.
     ///
     /// # Errors
-    /// [`Error::Invalid`] if the mesh has no vertex, a position is not finite, an index is out of
+    /// [`Error::Geometry`] if the mesh has no vertex, a position is not finite, an index is out of
     /// range or a triangle is degenerate (see [`cotan_weights`]).
     pub fn new(rest: &[[T; 2]], triangles: &[[u32; 3]]) -> Result<Self> {
         if rest.is_empty() {
-            return Err(Error::Invalid("arap: the mesh has no vertex".into()));
+            return Err(Error::geometry("arap mesh", "has no vertex"));
         }
         let p = positions_f64(rest)?;
         let edges = cotan_weights(&p, triangles)?;
@@ -138,17 +138,16 @@ impl<T: Float + Send + Sync> ArapEnergy<T> {
     /// energies. Batch items run in parallel (rayon).
     ///
     /// # Errors
-    /// [`Error::Invalid`] if `deformed.len()` is not a multiple of `2·#V` or `grad_out` differs
+    /// [`Error::Mismatch`] if `deformed.len()` is not a multiple of `2·#V` or `grad_out` differs
     /// from it in length.
     pub fn energy_and_gradient(&self, deformed: &[T], grad_out: &mut [T]) -> Result<Vec<T>> {
         let stride = 2 * self.vertex_count;
         if deformed.len() % stride != 0 || grad_out.len() != deformed.len() {
-            return Err(Error::Invalid(format!(
-                "arap: positions have {} values and the gradient buffer {}, expected the same multiple of 2×{} vertices",
-                deformed.len(),
-                grad_out.len(),
-                self.vertex_count
-            )));
+            return Err(Error::mismatch(
+                "arap: the positions and the gradient buffer",
+                format!("{} and {} values", deformed.len(), grad_out.len()),
+                format!("the same multiple of 2×{} vertices", self.vertex_count),
+            ));
         }
         Ok(deformed
             .par_chunks(stride)
@@ -227,7 +226,7 @@ impl<T: Float + Send + Sync> ArapEnergy<T> {
 /// cotangent weights. For repeated evaluation build an [`ArapEnergy`] once instead.
 ///
 /// # Errors
-/// As [`ArapEnergy::new`], and [`Error::Invalid`] if `deformed` and `rest` differ in length.
+/// As [`ArapEnergy::new`], and [`Error::Mismatch`] if `deformed` and `rest` differ in length.
 pub fn arap_energy(rest: &[[f64; 2]], deformed: &[[f64; 2]], triangles: &[[u32; 3]]) -> Result<f64> {
     check_same_len(rest.len(), deformed.len())?;
     Ok(ArapEnergy::new(rest, triangles)?.energy(deformed))
@@ -246,9 +245,11 @@ fn check_same_len(rest: usize, deformed: usize) -> Result<()> {
     if rest == deformed {
         Ok(())
     } else {
-        Err(Error::Invalid(format!(
-            "arap: {deformed} deformed positions for {rest} rest positions"
-        )))
+        Err(Error::mismatch(
+            "arap: the deformed positions",
+            deformed,
+            format!("{rest} (one per rest position)"),
+        ))
     }
 }
 
@@ -284,22 +285,22 @@ impl ArapSolver {
     /// [`solve`](Self::solve) prescribes, in the order its `targets` are given.
     ///
     /// # Errors
-    /// [`Error::Invalid`] for a bad mesh (as [`ArapEnergy::new`]), a handle out of range or
+    /// [`Error::Geometry`] for a bad mesh (as [`ArapEnergy::new`]), a handle out of range or
     /// repeated, or a connected component (a vertex in no triangle counts as its own component)
     /// without any handle: its position would be undetermined (a singular system). The message
     /// names one vertex of each such component.
     pub fn new(rest: &[[f64; 2]], triangles: &[[u32; 3]], handles: &[u32]) -> Result<Self> {
         if rest.is_empty() {
-            return Err(Error::Invalid("arap: the mesh has no vertex".into()));
+            return Err(Error::geometry("arap mesh", "has no vertex"));
         }
         let p = positions_f64(rest)?;
         let edges = cotan_weights(&p, triangles)?;
         let energy = ArapEnergy::from_weights(&p, &edges);
         if let Some((k, &h)) = handles.iter().enumerate().find(|&(_, &h)| h as usize >= rest.len()) {
-            return Err(Error::Invalid(format!(
-                "arap: handle {k} is vertex {h}, past the {} vertices",
-                rest.len()
-            )));
+            return Err(Error::geometry(
+                format!("arap handle {k}"),
+                format!("is vertex {h}, past the {} vertices", rest.len()),
+            ));
         }
         check_every_component_has_a_handle(rest.len(), triangles, handles)?;
         let mut q = laplacian_from_edges(rest.len(), &edges)?;
@@ -410,12 +411,15 @@ fn check_every_component_has_a_handle(n: usize, triangles: &[[u32; 3]], handles:
         0 => Ok(()),
         count => {
             let shown: Vec<String> = missing.iter().take(8).map(|v| v.to_string()).collect();
-            Err(Error::Invalid(format!(
-                "arap: {count} connected component(s) have no handle, so their position is undetermined \
-                 (expected at least one handle per component); they contain vertices {}{}",
-                shown.join(", "),
-                if count > 8 { ", …" } else { "" }
-            )))
+            Err(Error::geometry(
+                "arap mesh",
+                format!(
+                    "{count} connected component(s) have no handle, so their position is undetermined \
+                     (expected at least one handle per component); they contain vertices {}{}",
+                    shown.join(", "),
+                    if count > 8 { ", …" } else { "" }
+                ),
+            ))
         }
     }
 }

@@ -32,7 +32,7 @@ pub struct CotanEdge {
 /// Vertices used by no triangle simply have no edge. The weights are computed in f64 whatever `T`.
 ///
 /// # Errors
-/// [`Error::Invalid`] naming the first bad input: a non-finite position, a triangle index past
+/// [`Error::Geometry`] naming the first bad input: a non-finite position, a triangle index past
 /// `#V`, or a degenerate triangle (repeated index or zero area), for which cot is undefined.
 pub fn cotan_weights<T: Float>(positions: &[[T; 2]], triangles: &[[u32; 3]]) -> Result<Vec<CotanEdge>> {
     let p = positions_f64(positions)?;
@@ -46,9 +46,10 @@ pub fn cotan_weights<T: Float>(positions: &[[T; 2]], triangles: &[[u32; 3]]) -> 
         let scale = (0..3).map(|k| dist2(corners[k], corners[(k + 1) % 3])).fold(0.0, f64::max);
         // Relative test: the cotangents depend on shape only, so the threshold must too.
         if twice_area <= 1e-14 * scale || scale == 0.0 {
-            return Err(Error::Invalid(format!(
-                "triangle {t} {tri:?} is degenerate (zero area), cotangent weights are undefined"
-            )));
+            return Err(Error::geometry(
+                format!("triangle {t} {tri:?}"),
+                "is degenerate (zero area), cotangent weights are undefined",
+            ));
         }
         for k in 0..3 {
             let (a, b) = (tri[(k + 1) % 3], tri[(k + 2) % 3]);
@@ -97,7 +98,7 @@ pub(crate) fn laplacian_from_edges(n: usize, edges: &[CotanEdge]) -> Result<Spar
     }
     triplets.extend(diagonal.iter().enumerate().map(|(i, &d)| Triplet::new(i, i, d)));
     SparseColMat::try_new_from_triplets(n, n, &triplets)
-        .map_err(|e| Error::Invalid(format!("cotangent laplacian: cannot assemble {n}×{n} sparse matrix: {e:?}")))
+        .map_err(|e| Error::geometry("cotangent laplacian", format!("cannot assemble the {n}×{n} sparse matrix: {e:?}")))
 }
 
 /// Converts positions to f64, rejecting non-finite ones.
@@ -107,7 +108,7 @@ pub(crate) fn positions_f64<T: Float>(positions: &[[T; 2]]) -> Result<Vec<[f64; 
         .enumerate()
         .map(|(i, v)| match (v[0].to_f64(), v[1].to_f64()) {
             (Some(x), Some(y)) if x.is_finite() && y.is_finite() => Ok([x, y]),
-            _ => Err(Error::Invalid(format!("vertex {i} is not finite"))),
+            _ => Err(Error::geometry(format!("vertex {i}"), "is not finite")),
         })
         .collect()
 }
@@ -115,10 +116,10 @@ pub(crate) fn positions_f64<T: Float>(positions: &[[T; 2]]) -> Result<Vec<[f64; 
 /// The three corners of triangle `t`, checking its indices.
 fn triangle_corners(p: &[[f64; 2]], t: usize, tri: [u32; 3]) -> Result<[[f64; 2]; 3]> {
     if let Some(&bad) = tri.iter().find(|&&i| i as usize >= p.len()) {
-        return Err(Error::Invalid(format!(
-            "triangle {t} {tri:?}: index {bad} is past the {} vertices",
-            p.len()
-        )));
+        return Err(Error::geometry(
+            format!("triangle {t} {tri:?}"),
+            format!("index {bad} is past the {} vertices", p.len()),
+        ));
     }
     Ok(tri.map(|i| p[i as usize]))
 }
@@ -259,6 +260,6 @@ mod tests {
         assert!(msg(cotan_weights(&p[..3], &[[0, 1, 2]])).contains("degenerate"));
         assert!(msg(cotan_weights(&p[..3], &[[0, 1, 1]])).contains("degenerate"));
         assert!(msg(cotan_weights(&p[..3], &[[0, 1, 7]])).contains("index 7"));
-        assert!(msg(cotan_weights(&p, &[[0, 1, 3]])).contains("vertex 3 is not finite"));
+        assert!(msg(cotan_weights(&p, &[[0, 1, 3]])).contains("vertex 3: is not finite"));
     }
 }

@@ -46,23 +46,24 @@ impl MinQuadWithFixed {
     /// values `y` will be given to [`solve`](Self::solve).
     ///
     /// # Errors
-    /// [`Error::Invalid`] if `q` is not square `n × n`, a fixed index is out of range or repeated,
+    /// [`Error::Geometry`] if `q` is not square `n × n`, a fixed index is out of range or repeated,
     /// or Q_ff is not numerically positive definite (e.g. a connected component of Q's graph has no
     /// fixed unknown, so Q_ff is singular).
     pub fn new(q: SparseColMatRef<'_, usize, f64>, fixed: &[u32]) -> Result<Self> {
         let n = q.nrows();
         if q.ncols() != n {
-            return Err(Error::Invalid(format!(
-                "min_quad_with_fixed: Q is {}×{}, expected square",
-                n,
-                q.ncols()
-            )));
+            return Err(Error::mismatch("min_quad_with_fixed: Q", format!("{n}×{}", q.ncols()), "square"));
         }
         let mut free_index = vec![0u32; n];
         for (k, &c) in fixed.iter().enumerate() {
             match free_index.get_mut(c as usize) {
-                None => return Err(Error::Invalid(format!("fixed unknown {c} (entry {k}) is past the {n} unknowns"))),
-                Some(slot) if *slot == FIXED => return Err(Error::Invalid(format!("fixed unknown {c} is listed twice"))),
+                None => {
+                    return Err(Error::geometry(
+                        format!("fixed unknown {c} (entry {k})"),
+                        format!("is past the {n} unknowns"),
+                    ))
+                }
+                Some(slot) if *slot == FIXED => return Err(Error::geometry(format!("fixed unknown {c}"), "is listed twice")),
                 Some(slot) => *slot = FIXED,
             }
         }
@@ -92,12 +93,15 @@ impl MinQuadWithFixed {
         } else {
             let m = free.len();
             let q_ff = SparseColMat::<usize, f64>::try_new_from_triplets(m, m, &ff)
-                .map_err(|e| Error::Invalid(format!("min_quad_with_fixed: cannot assemble Q_ff: {e:?}")))?;
+                .map_err(|e| Error::geometry("min_quad_with_fixed", format!("cannot assemble Q_ff: {e:?}")))?;
             Some(q_ff.sp_cholesky(Side::Lower).map_err(|e| {
-                Error::Invalid(format!(
-                    "min_quad_with_fixed: Q restricted to the {m} free unknowns is not positive definite ({e:?}); \
-                     does every connected part have a fixed unknown?"
-                ))
+                Error::geometry(
+                    "min_quad_with_fixed",
+                    format!(
+                        "Q restricted to the {m} free unknowns is not positive definite ({e:?}); \
+                         does every connected part have a fixed unknown?"
+                    ),
+                )
             })?)
         };
         Ok(Self {

@@ -1,10 +1,6 @@
 //! A trained model on disk and in memory (DESIGN.md "Formats": Burn record + the config it was
-//! trained with + the puppet it was trained for), and fitting frames with it.
-//!
-//! Layout of a model folder: `net.json` (the [`DeformationNetConfig`]), `weights.bpk` (Burn's
-//! burnpack record), `puppet/` (the puppet, `puppet.json` + textures), and `train.toml` (the
-//! training config, written by `train`). The network works in the letterboxed S×S square; this
-//! type converts to and from frame pixels.
+//! trained with + the puppet it was trained for). The folder's layout is [`ModelFolder`]'s. The
+//! network works in the letterboxed S×S square; this type converts to and from frame pixels.
 
 use std::path::Path;
 
@@ -13,18 +9,12 @@ use burn::store::ModuleRecord;
 use burn::tensor::{Bytes, Device, Tensor, TensorData};
 
 use super::deformation::{rest_tensor, DeformationNet, DeformationNetConfig};
+use super::folder::ModelFolder;
 use super::letterbox::Letterbox;
 use crate::atomic_file::write_atomic;
-use crate::error::{Error, Result};
+use crate::error::{Context, Error, Result};
 use crate::picture::Picture;
 use crate::puppet::{format, Puppet};
-
-/// File names inside a model folder.
-pub const NET_FILE: &str = "net.json";
-/// The Burn record of the weights.
-pub const WEIGHTS_FILE: &str = "weights.bpk";
-/// The puppet's subfolder.
-pub const PUPPET_DIR: &str = "puppet";
 
 /// A deformation network together with the puppet it deforms.
 #[derive(Clone, Debug)]
@@ -43,8 +33,8 @@ impl Model {
     /// A fresh (untrained) model for `puppet` on `device`.
     ///
     /// # Errors
-    /// [`Error::Invalid`] if the config's vertex count is not the puppet's or the input size is
-    /// not a positive multiple of 8.
+    /// [`Error::Mismatch`] if the config's vertex count is not the puppet's, [`Error::Setting`] if
+    /// the input size is not a positive multiple of 8.
     pub fn new(config: DeformationNetConfig, puppet: Puppet, device: &Device) -> Result<Self> {
         check_config(&config, &puppet)?;
         let letterbox = Letterbox::new(puppet.width, puppet.height, config.input_size as u32);
@@ -59,38 +49,36 @@ impl Model {
     /// Loads a model folder onto `device`.
     ///
     /// # Errors
-    /// [`Error::Io`]/[`Error::Format`] naming the file that is missing or wrong, including
-    /// weights that do not fit the config or the puppet.
+    /// [`Error::WrongFolder`] if `dir` is not a model folder; [`Error::Io`]/[`Error::Format`]
+    /// naming the file that is missing or wrong, including weights that do not fit the config or
+    /// the puppet.
     pub fn load(dir: &Path, device: &Device) -> Result<Self> {
-        if !dir.is_dir() {
-            return Err(Error::format(
-                dir,
-                "not a model folder (expected net.json, weights.bpk and puppet/ written by `puppet train`)",
-            ));
-        }
-        let net_path = dir.join(NET_FILE);
+        let folder = ModelFolder::open(dir)?;
+        let net_path = folder.net();
         let text = std::fs::read_to_string(&net_path).map_err(|e| Error::io(&net_path, e))?;
         let config: DeformationNetConfig =
             serde_json::from_str(&text).map_err(|e| Error::format(&net_path, format!("invalid network config: {e}")))?;
-        let puppet = format::load(&dir.join(PUPPET_DIR))?;
-        check_config(&config, &puppet).map_err(|e| Error::format(&net_path, e.to_string()))?;
+        let puppet = format::load(&folder.puppet())?;
+        check_config(&config, &puppet).at_path(&net_path)?;
         let mut model = Model::new(config, puppet, device)?;
-        let weights_path = dir.join(WEIGHTS_FILE);
+        let weights_path = folder.weights();
         let bytes = std::fs::read(&weights_path).map_err(|e| Error::io(&weights_path, e))?;
         model.net = load_weights(model.net, bytes, &weights_path)?;
         Ok(model)
     }
 
-    /// Writes the model folder (each file atomically).
+    /// Writes the network config, the puppet and the weights into the model folder `dir` (each
+    /// file atomically).
     ///
     /// # Errors
     /// [`Error::Io`] naming the file that could not be written.
     pub fn save(&self, dir: &Path) -> Result<()> {
-        let net_path = dir.join(NET_FILE);
+        let folder = ModelFolder::new(dir);
+        let net_path = folder.net();
         let json = serde_json::to_string_pretty(&self.config).map_err(|e| Error::format(&net_path, e.to_string()))?;
         write_atomic(&net_path, json.as_bytes())?;
-        format::save(&self.puppet, &dir.join(PUPPET_DIR))?;
-        let weights_path = dir.join(WEIGHTS_FILE);
+        format::save(&self.puppet, &folder.puppet())?;
+        let weights_path = folder.weights();
         write_atomic(&weights_path, &weights_bytes(&self.net, &weights_path)?)
     }
 
@@ -107,8 +95,8 @@ impl Model {
     /// The network input for `frames`, `[B, 4, S, S]`.
     ///
     /// # Errors
-    /// [`Error::Invalid`] if a frame is not the puppet's size (the message gives both sizes;
-    /// callers that know the file wrap it with the path).
+    /// [`Error::Mismatch`] if a frame is not the puppet's size (callers that know the file wrap
+    /// it with the path).
     pub fn input(&self, frames: &[&Picture], device: &Device) -> Result<Tensor<4>> {
         let s = self.letterbox.size as usize;
         let mut data = Vec::with_capacity(frames.len() * 4 * s * s);
@@ -122,13 +110,14 @@ impl Model {
     /// Checks a frame has the puppet's size.
     ///
     /// # Errors
-    /// [`Error::Invalid`] naming both sizes.
+    /// [`Error::Mismatch`] naming both sizes.
     pub fn check_frame(&self, frame: &Picture) -> Result<()> {
         if (frame.width, frame.height) != (self.puppet.width, self.puppet.height) {
-            return Err(Error::Invalid(format!(
-                "frame is {}×{}, but the puppet was made from {}×{} frames",
-                frame.width, frame.height, self.puppet.width, self.puppet.height
-            )));
+            return Err(Error::mismatch(
+                "the frame",
+                format!("{}×{}", frame.width, frame.height),
+                format!("{}×{} (the puppet's frames)", self.puppet.width, self.puppet.height),
+            ));
         }
         Ok(())
     }
@@ -178,17 +167,14 @@ impl Model {
 
 fn check_config(config: &DeformationNetConfig, puppet: &Puppet) -> Result<()> {
     if config.vertices != puppet.vertex_count() {
-        return Err(Error::Invalid(format!(
-            "the network predicts {} vertices but the puppet has {} (a model for a different puppet?)",
+        return Err(Error::mismatch(
+            "the network's vertex count",
             config.vertices,
-            puppet.vertex_count()
-        )));
+            format!("{}, the puppet's (a model for a different puppet?)", puppet.vertex_count()),
+        ));
     }
     if config.input_size == 0 || config.input_size % 8 != 0 {
-        return Err(Error::Invalid(format!(
-            "input size {} is not a positive multiple of 8",
-            config.input_size
-        )));
+        return Err(Error::setting("input_size", config.input_size, "a positive multiple of 8"));
     }
     Ok(())
 }

@@ -4,14 +4,15 @@
 //! - a label map (one flat colour per part) + the reference image + a legend in `character.toml`;
 //! - an OpenRaster `.ora` file (see [`super::ora`]).
 //!
-//! Every bad layer of an import is reported at once ([`Error::Many`]).
+//! Every bad layer of an import is reported at once ([`Error::Partial`]). Sizes are checked
+//! against [`ImportOptions`]' limits from image headers, before any layer is decoded.
 
 use std::path::{Path, PathBuf};
 
 use super::character::{parse_color, Character};
 use super::LayerKind;
-use crate::error::{Error, Result};
-use crate::picture::Picture;
+use crate::error::{Context, Error, Result};
+use crate::picture::{ImageLimits, Picture};
 
 /// One layer of imported artwork, full reference-frame size, straight alpha.
 #[derive(Clone, Debug, PartialEq)]
@@ -39,7 +40,7 @@ pub struct Artwork {
     pub joint_pairs: Option<Vec<[usize; 2]>>,
 }
 
-/// How the label-map form cuts parts out of the reference image.
+/// How artwork is read: how the label-map form cuts parts, and how large an import may be.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct ImportOptions {
     /// Pixels each label-map part extends under the parts in front of it (colours copied from
@@ -47,11 +48,50 @@ pub struct ImportOptions {
     /// and no gap opens when a limb rotates. Holes of a part that lie entirely under parts in
     /// front of it are filled the same way.
     pub label_overlap: u32,
+    /// The largest canvas (and layer image).
+    pub image: ImageLimits,
+    /// The most layers.
+    pub max_layers: usize,
+    /// The most pixels over all layers (each layer is canvas-sized in memory, 16 bytes a pixel).
+    pub max_total_pixels: u64,
 }
+
+/// The default [`ImportOptions::max_layers`].
+pub const DEFAULT_MAX_LAYERS: usize = 256;
+/// The default [`ImportOptions::max_total_pixels`]: 64 Mpx, 1 GB of layers in memory.
+pub const DEFAULT_MAX_TOTAL_PIXELS: u64 = 64 << 20;
 
 impl Default for ImportOptions {
     fn default() -> Self {
-        ImportOptions { label_overlap: 2 }
+        ImportOptions {
+            label_overlap: 2,
+            image: ImageLimits::default(),
+            max_layers: DEFAULT_MAX_LAYERS,
+            max_total_pixels: DEFAULT_MAX_TOTAL_PIXELS,
+        }
+    }
+}
+
+impl ImportOptions {
+    /// Checks that `layers` canvas-sized layers of `width` × `height` fit the limits.
+    ///
+    /// # Errors
+    /// [`Error::Limit`] naming the limit that is exceeded.
+    pub fn check(&self, layers: usize, width: u32, height: u32) -> Result<()> {
+        self.image.check(width, height)?;
+        if layers > self.max_layers {
+            return Err(Error::limit("the layer count", layers as u64, self.max_layers as u64, "layers"));
+        }
+        let total = layers as u64 * u64::from(width) * u64::from(height);
+        if total > self.max_total_pixels {
+            return Err(Error::limit(
+                format!("{layers} layers of {width}×{height}"),
+                total,
+                self.max_total_pixels,
+                "pixels",
+            ));
+        }
+        Ok(())
     }
 }
 
@@ -94,13 +134,14 @@ pub fn over(top: [f32; 4], bottom: [f32; 4]) -> [f32; 4] {
 /// the map, unlabelled opaque pixels, or a corrupt `.ora` — each naming the file and layer.
 pub fn load(path: &Path, opts: &ImportOptions) -> Result<Artwork> {
     if !path.exists() {
-        return Err(Error::format(
-            path,
-            "no such file or folder (expected a folder with character.toml, a character.toml, or an .ora)",
-        ));
+        return Err(Error::WrongFolder {
+            path: path.to_path_buf(),
+            expected: crate::error::FolderKind::Artwork,
+            problem: "no such file or folder".into(),
+        });
     }
     if path.extension().is_some_and(|e| e.eq_ignore_ascii_case("ora")) {
-        return super::ora::load(path);
+        return super::ora::load(path, opts);
     }
     let toml_path = if path.is_dir() {
         path.join("character.toml")
@@ -114,10 +155,15 @@ pub fn load(path: &Path, opts: &ImportOptions) -> Result<Artwork> {
         Some(labels) => {
             let map_path = dir.join(&labels.map);
             let image_path = dir.join(&labels.image);
-            let (map, image) = (Picture::load(&map_path)?, Picture::load(&image_path)?);
+            let (w, h) = Picture::file_size(&image_path)?;
+            opts.check(character.layers.len() + 2, w, h).at_path(&image_path)?;
+            let (map, image) = (
+                Picture::load_within(&map_path, &opts.image)?,
+                Picture::load_within(&image_path, &opts.image)?,
+            );
             cut_label_map(&character, &map, &map_path, &image, &image_path, opts)?
         }
-        None => load_layer_pngs(&character, dir, &toml_path)?,
+        None => load_layer_pngs(&character, dir, &toml_path, opts)?,
     };
     let index = |n: &str| character.layers.iter().position(|l| l.name == n).expect("validated joint names");
     let joint_pairs = character
@@ -139,52 +185,52 @@ fn folder_name(dir: &Path) -> String {
         .map_or_else(|| "character".into(), |n| n.to_string_lossy().into_owned())
 }
 
-/// Loads the layer-PNG form, checking sizes and emptiness of every layer.
-fn load_layer_pngs(character: &Character, dir: &Path, toml_path: &Path) -> Result<Vec<ArtLayer>> {
+/// Loads the layer-PNG form, checking every layer's size from its header against the first
+/// readable one (and the limits) before decoding it, and every layer for emptiness.
+fn load_layer_pngs(character: &Character, dir: &Path, toml_path: &Path, opts: &ImportOptions) -> Result<Vec<ArtLayer>> {
+    let files: Vec<PathBuf> = character
+        .layers
+        .iter()
+        .map(|spec| dir.join(spec.file.as_ref().expect("validated: layer-PNG form has files")))
+        .collect();
+    let sizes: Vec<Result<(u32, u32)>> = files.iter().map(|f| Picture::file_size(f)).collect();
+    // The whole import is sized from the first readable header before any layer is decoded.
+    let canvas = sizes
+        .iter()
+        .zip(&character.layers)
+        .find_map(|(s, spec)| s.as_ref().ok().map(|&s| (s, spec)));
+    if let Some(((w, h), first)) = canvas {
+        let file = dir.join(first.file.as_ref().expect("validated: layer-PNG form has files"));
+        opts.check(files.len(), w, h).at_path(file)?;
+    }
     let mut layers = Vec::new();
     let mut problems = Vec::new();
-    for spec in &character.layers {
-        let file = dir.join(spec.file.as_ref().expect("validated: layer-PNG form has files"));
-        match Picture::load(&file) {
-            Ok(picture) => layers.push((
-                ArtLayer {
-                    name: spec.name.clone(),
-                    kind: spec.kind,
-                    picture,
-                },
+    for ((spec, file), size) in character.layers.iter().zip(&files).zip(sizes) {
+        let picture = size.and_then(|(w, h)| match canvas {
+            Some(((cw, ch), first)) if (w, h) != (cw, ch) => Err(Error::layer(
                 file,
+                &spec.name,
+                format!("{w}×{h}, expected {cw}×{ch} like layer {:?}", first.name),
             )),
-            Err(e) => problems.push(e),
-        }
-    }
-    if let Some((first, first_file)) = layers.first() {
-        let (w, h) = (first.picture.width, first.picture.height);
-        for (layer, file) in &layers[1..] {
-            if (layer.picture.width, layer.picture.height) != (w, h) {
-                problems.push(Error::layer(
-                    file,
-                    &layer.name,
-                    format!(
-                        "{}×{}, expected {w}×{h} like layer {:?} ({})",
-                        layer.picture.width,
-                        layer.picture.height,
-                        first.name,
-                        first_file.display()
-                    ),
-                ));
+            _ => Picture::load_within(file, &opts.image),
+        });
+        match picture {
+            Ok(picture) if picture.pixels.iter().all(|p| p[3] == 0.0) => {
+                problems.push(Error::layer(file, &spec.name, "fully transparent (no pixel has alpha > 0)"))
             }
-        }
-    }
-    for (layer, file) in &layers {
-        if layer.picture.pixels.iter().all(|p| p[3] == 0.0) {
-            problems.push(Error::layer(file, &layer.name, "fully transparent (no pixel has alpha > 0)"));
+            Ok(picture) => layers.push(ArtLayer {
+                name: spec.name.clone(),
+                kind: spec.kind,
+                picture,
+            }),
+            Err(e) => problems.push(e),
         }
     }
     if layers.is_empty() && problems.is_empty() {
         problems.push(Error::format(toml_path, "no layers"));
     }
     Error::collect(problems)?;
-    Ok(layers.into_iter().map(|(l, _)| l).collect())
+    Ok(layers)
 }
 
 /// Cuts the reference image into one layer per label-map colour (label-map form).

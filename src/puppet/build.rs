@@ -62,7 +62,8 @@ pub struct BuildReport {
     pub unconnected: Vec<String>,
 }
 
-/// Builds the puppet of `artwork`.
+/// Builds the puppet of `artwork`; body layers no joint connects to the root are reported as a
+/// warning through `progress` (and in the [`BuildReport`]).
 ///
 /// # Errors
 /// [`Error::Layer`] for every layer that cannot be meshed (empty, too small — naming the layer
@@ -144,6 +145,14 @@ pub fn build(artwork: &Artwork, opts: &BuildOptions, progress: &dyn Progress) ->
         })
         .collect();
     let unconnected = unconnected_body_layers(artwork, &sites);
+    if !unconnected.is_empty() {
+        progress.warn(&format!(
+            "{}: no joint connects these body layers to the root {:?}: {} (they will drift apart; make them overlap or list joints in character.toml)",
+            artwork.source.display(),
+            artwork.layers[artwork.root].name,
+            unconnected.join(", ")
+        ));
+    }
     let puppet = Puppet {
         width,
         height,

@@ -90,7 +90,7 @@ impl Character {
     /// layers share a colour, joints name existing layers.
     ///
     /// # Errors
-    /// [`Error::Format`] naming `path`, or [`Error::Many`] listing every problem found.
+    /// [`Error::Format`] naming `path`, or [`Error::Partial`] listing every problem found.
     pub fn parse(text: &str, path: &Path) -> Result<Self> {
         let character: Character =
             toml::from_str(text).map_err(|e| Error::format(path, format!("invalid character.toml: {}", e.message())))?;

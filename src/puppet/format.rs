@@ -105,6 +105,20 @@ pub fn load(path: &Path) -> Result<Puppet> {
     } else {
         path.to_path_buf()
     };
+    if !json_path.is_file() {
+        let problem = if path.join("net.json").is_file() {
+            "this is a trained model folder; its puppet is in its puppet/ folder"
+        } else if path.exists() {
+            "no puppet.json"
+        } else {
+            "no such file or folder"
+        };
+        return Err(Error::WrongFolder {
+            path: path.to_path_buf(),
+            expected: crate::error::FolderKind::Puppet,
+            problem: problem.into(),
+        });
+    }
     let dir = json_path.parent().unwrap_or(Path::new("."));
     let text = std::fs::read_to_string(&json_path).map_err(|e| Error::io(&json_path, e))?;
     let version: Version = serde_json::from_str(&text).map_err(|e| Error::format(&json_path, format!("not a puppet file: {e}")))?;
@@ -121,6 +135,18 @@ pub fn load(path: &Path) -> Result<Puppet> {
     let mut problems = Vec::new();
     let mut layers = Vec::new();
     for lf in file.layers {
+        // Textures live inside the puppet folder: a path that leaves it is refused, not read.
+        if lf.texture.is_absolute() || lf.texture.components().any(|c| !matches!(c, std::path::Component::Normal(_))) {
+            problems.push(Error::layer(
+                &json_path,
+                &lf.name,
+                format!(
+                    "texture path {:?} leaves the puppet folder (expected e.g. textures/00_torso.png)",
+                    lf.texture
+                ),
+            ));
+            continue;
+        }
         let texture_path = dir.join(&lf.texture);
         let texture = match Picture::load(&texture_path) {
             Ok(t) => t,

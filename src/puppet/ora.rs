@@ -6,16 +6,26 @@
 //! Hidden layers (`visibility="hidden"`) are skipped. Layers inside a stack named `accessories`
 //! are accessories; all others are body parts. The root is the body layer with the most opaque
 //! pixels. Every overlapping pair of layers is joined.
+//!
+//! A zip can declare anything: `stack.xml` is read to at most [`MAX_STACK_XML`] bytes, each layer
+//! PNG to at most [`MAX_LAYER_ENTRY`] bytes however small its compressed form, and the canvas and
+//! layer count are checked against [`ImportOptions`] before any layer is decoded.
 
 use std::io::Read;
 use std::path::Path;
 
 use quick_xml::events::Event;
 
-use super::artwork::{ArtLayer, Artwork};
+use super::artwork::{ArtLayer, Artwork, ImportOptions};
 use super::LayerKind;
 use crate::error::{Error, Result};
 use crate::picture::Picture;
+
+/// The most bytes `stack.xml` may inflate to (a real one is a few kilobytes).
+pub const MAX_STACK_XML: u64 = 4 << 20;
+/// The most bytes one layer's PNG may inflate to (a 16-bit RGBA PNG of the largest canvas,
+/// stored uncompressed, is 128 MB).
+pub const MAX_LAYER_ENTRY: u64 = 144 << 20;
 
 /// One `<layer>` element of `stack.xml`.
 struct StackLayer {
@@ -32,19 +42,22 @@ struct StackLayer {
 /// # Errors
 /// [`Error::Io`] if unreadable; [`Error::Format`] for a bad zip, a missing or malformed
 /// `stack.xml`, or a layer whose PNG is absent; [`Error::Layer`] for an undecodable or fully
-/// transparent layer.
-pub fn load(path: &Path) -> Result<Artwork> {
+/// transparent layer; [`Error::Limit`] for a canvas, layer count or entry past the limits.
+pub fn load(path: &Path, opts: &ImportOptions) -> Result<Artwork> {
     let file = std::fs::File::open(path).map_err(|e| Error::io(path, e))?;
     let mut zip = zip::ZipArchive::new(file).map_err(|e| Error::format(path, format!("not a valid OpenRaster zip: {e}")))?;
-    let stack_xml = read_entry(&mut zip, "stack.xml", path)?;
+    let stack_xml = read_entry(&mut zip, "stack.xml", MAX_STACK_XML, path)?
+        .ok_or_else(|| Error::format(path, "no stack.xml in the archive (not an OpenRaster file?)"))?;
     let stack_xml = String::from_utf8(stack_xml).map_err(|_| Error::format(path, "stack.xml is not UTF-8"))?;
     let (width, height, entries) = parse_stack(&stack_xml).map_err(|p| Error::format(path, format!("stack.xml: {p}")))?;
+    opts.check(entries.len(), width, height)
+        .map_err(|e| e.with_key("stack.xml").with_path(path))?;
     let mut layers = Vec::new();
     let mut problems = Vec::new();
     for entry in entries.iter().rev() {
-        let bytes = match read_entry(&mut zip, &entry.src, path) {
-            Ok(b) => b,
-            Err(_) => {
+        let bytes = match read_entry(&mut zip, &entry.src, MAX_LAYER_ENTRY, path) {
+            Ok(Some(b)) => b,
+            Ok(None) => {
                 problems.push(Error::layer(
                     path,
                     &entry.name,
@@ -52,9 +65,13 @@ pub fn load(path: &Path) -> Result<Artwork> {
                 ));
                 continue;
             }
+            Err(e) => {
+                problems.push(e);
+                continue;
+            }
         };
         let inner = path.join(&entry.src);
-        match Picture::decode(&bytes, &inner) {
+        match Picture::decode_within(&bytes, &inner, &opts.image) {
             Ok(pic) => {
                 let picture = place(&pic, entry, width, height);
                 if picture.pixels.iter().all(|p| p[3] == 0.0) {
@@ -96,15 +113,23 @@ pub fn load(path: &Path) -> Result<Artwork> {
     })
 }
 
-fn read_entry(zip: &mut zip::ZipArchive<std::fs::File>, name: &str, path: &Path) -> Result<Vec<u8>> {
-    let mut entry = zip
-        .by_name(name)
-        .map_err(|_| Error::format(path, format!("no {name} in the archive (not an OpenRaster file?)")))?;
+/// The entry `name` inflated, at most `limit` bytes; `None` if the archive has no such entry.
+fn read_entry(zip: &mut zip::ZipArchive<std::fs::File>, name: &str, limit: u64, path: &Path) -> Result<Option<Vec<u8>>> {
+    let entry = match zip.by_name(name) {
+        Ok(entry) => entry,
+        Err(zip::result::ZipError::FileNotFound) => return Ok(None),
+        Err(e) => return Err(Error::format(path, format!("{name}: cannot unzip: {e}"))),
+    };
     let mut bytes = Vec::new();
+    // The declared size can lie; read one byte past the limit to know it was exceeded.
     entry
+        .take(limit + 1)
         .read_to_end(&mut bytes)
         .map_err(|e| Error::format(path, format!("{name}: cannot unzip: {e}")))?;
-    Ok(bytes)
+    if bytes.len() as u64 > limit {
+        return Err(Error::limit(format!("{name} inflated"), bytes.len() as u64, limit, "bytes").with_path(path));
+    }
+    Ok(Some(bytes))
 }
 
 /// Draws a layer PNG at its offset on a `width`×`height` canvas, scaled by its opacity.

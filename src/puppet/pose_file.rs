@@ -23,8 +23,16 @@ impl PoseFile {
     /// # Errors
     /// [`Error::Io`] if unreadable, [`Error::Format`] for bad JSON or a pose of another puppet.
     pub fn load(path: &Path, puppet: &Puppet) -> Result<Self> {
-        let text = std::fs::read_to_string(path).map_err(|e| Error::io(path, e))?;
-        let pose: PoseFile = serde_json::from_str(&text).map_err(|e| Error::format(path, format!("not a pose file: {e}")))?;
+        let bytes = std::fs::read(path).map_err(|e| Error::io(path, e))?;
+        Self::parse(&bytes, path, puppet)
+    }
+
+    /// Parses the bytes of the pose file `path` and checks them against `puppet`.
+    ///
+    /// # Errors
+    /// As [`PoseFile::load`].
+    pub fn parse(bytes: &[u8], path: &Path, puppet: &Puppet) -> Result<Self> {
+        let pose: PoseFile = serde_json::from_slice(bytes).map_err(|e| Error::format(path, format!("not a pose file: {e}")))?;
         if pose.vertices.len() != puppet.vertex_count() {
             return Err(Error::format(
                 path,
@@ -41,12 +49,8 @@ impl PoseFile {
         Ok(pose)
     }
 
-    /// Writes the pose atomically.
-    ///
-    /// # Errors
-    /// [`Error::Io`] naming `path`.
-    pub fn save(&self, path: &Path) -> Result<()> {
-        let json = serde_json::to_vec(self).expect("a list of number pairs serialises");
-        crate::atomic_file::write_atomic(path, &json)
+    /// The pose as JSON bytes.
+    pub fn to_json(&self) -> Vec<u8> {
+        serde_json::to_vec(self).expect("a list of number pairs serialises")
     }
 }

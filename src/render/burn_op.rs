@@ -35,15 +35,17 @@ pub struct Rendered {
 /// [`crate::backend::train_device`]) the result is differentiable w.r.t. it.
 ///
 /// # Errors
-/// [`Error::Invalid`] if the shape is not `[B, V, 2]` for this puppet, a coordinate is not
-/// finite, `params` are invalid, or the tensor is not on the compiled-in backend.
+/// [`Error::Mismatch`] if the shape is not `[B, V, 2]` for this puppet, [`Error::Geometry`] if a
+/// coordinate is not finite, [`Error::Setting`] if `params` are invalid, [`Error::Backend`] if the
+/// tensor is not on the compiled-in backend.
 pub fn soft_raster(vertices: Tensor<3>, raster: &Arc<SoftRasterizer>, width: usize, height: usize, params: Params) -> Result<Rendered> {
     let [batch, v, two] = vertices.dims();
     if v != raster.vertex_count() || two != 2 {
-        return Err(Error::Invalid(format!(
-            "render: vertex tensor is [{batch}, {v}, {two}], expected [B, {}, 2]",
-            raster.vertex_count()
-        )));
+        return Err(Error::mismatch(
+            "render: the vertex tensor",
+            format!("[{batch}, {v}, {two}]"),
+            format!("[B, {}, 2]", raster.vertex_count()),
+        ));
     }
     params.validate()?;
     let call = Call {
@@ -70,8 +72,9 @@ pub fn soft_raster(vertices: Tensor<3>, raster: &Arc<SoftRasterizer>, width: usi
     } else if let Ok(plain) = vertices.try_into_primitive::<Inner>() {
         Tensor::from_primitive::<Inner>(call.forward(&host::<Inner>(plain))?)
     } else {
-        return Err(Error::Invalid(
-            "render: the vertex tensor is not on the compiled-in backend (crate::backend::device)".into(),
+        return Err(Error::backend(
+            "render",
+            "the vertex tensor is not on the compiled-in backend (crate::backend::device)",
         ));
     };
     Ok(Rendered {

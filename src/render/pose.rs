@@ -10,8 +10,9 @@ use crate::puppet::Puppet;
 /// `width × height` straight-alpha picture, with SoftRas sharpness `sigma` (px²; 0 = crisp).
 ///
 /// # Errors
-/// [`crate::Error::Invalid`] if the vertex count differs from the puppet's, a coordinate is not
-/// finite, the size is empty, `sigma` is negative, or a layer is malformed.
+/// [`crate::Error::Mismatch`] if the vertex count differs from the puppet's,
+/// [`crate::Error::Geometry`] if a coordinate is not finite, the size is empty or a layer is
+/// malformed, [`crate::Error::Setting`] if `sigma` is negative.
 pub fn render_pose(puppet: &Puppet, vertices: &[[f32; 2]], width: u32, height: u32, sigma: f32, background: Background) -> Result<Picture> {
     let raster = SoftRasterizer::new(puppet)?;
     let flat: Vec<f32> = vertices.iter().flatten().copied().collect();

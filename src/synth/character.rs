@@ -13,9 +13,9 @@ use std::f32::consts::PI;
 use serde::{Deserialize, Serialize};
 
 use super::look::{Feature, FeatureShape, Look, Pattern, Rgb};
-use super::rng::Rng;
 use super::shape::{Primitive, Shape};
 use super::similarity::Similarity;
+use crate::rng::Rng;
 
 /// What a part is, which decides how it moves.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]

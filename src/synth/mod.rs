@@ -21,13 +21,12 @@ pub mod look;
 pub mod output;
 mod part_arap;
 pub mod pose;
-pub mod rng;
 pub mod sequence;
 pub mod shape;
 pub mod similarity;
 pub mod truth;
 
-pub use output::{contact_sheet, write_sequence, write_sprite_sheet, Written};
+pub use output::{write_sequence, write_sprite_sheet, Written};
 pub use pose::Motion;
 pub use sequence::{generate, Sequence, SynthOptions};
 pub use truth::{true_positions, Truth};

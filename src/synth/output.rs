@@ -10,7 +10,7 @@ use super::sequence::{frame_name, Sequence};
 use super::truth::SheetLayout;
 use crate::atomic_file::write_atomic;
 use crate::error::{Error, Result};
-use crate::picture::Picture;
+use crate::picture::{contact_sheet, Picture};
 use crate::progress::Progress;
 
 /// What was written, for the CLI's report.
@@ -56,31 +56,6 @@ pub fn mask_picture(image: &Picture) -> Picture {
         height: image.height,
         pixels: image.pixels.iter().map(|p| [p[3], p[3], p[3], 1.0]).collect(),
     }
-}
-
-/// Frames composited on white in a grid of `columns`, 2-pixel light grey gutters.
-///
-/// # Panics
-/// If `frames` is empty or `columns` is 0 (caller bugs).
-pub fn contact_sheet(frames: &[&Picture], columns: usize) -> Picture {
-    assert!(!frames.is_empty() && columns > 0, "contact sheet of nothing");
-    let (w, h) = (frames[0].width as usize, frames[0].height as usize);
-    let cols = columns.min(frames.len());
-    let rows = frames.len().div_ceil(cols);
-    let gap = 2;
-    let (sw, sh) = (cols * w + (cols + 1) * gap, rows * h + (rows + 1) * gap);
-    let mut sheet = Picture::filled(sw as u32, sh as u32, [0.8, 0.8, 0.8, 1.0]);
-    for (k, f) in frames.iter().enumerate() {
-        let (ox, oy) = (gap + (k % cols) * (w + gap), gap + (k / cols) * (h + gap));
-        for y in 0..h.min(f.height as usize) {
-            for x in 0..w.min(f.width as usize) {
-                let p = f.pixels[y * f.width as usize + x];
-                let a = p[3];
-                sheet.pixels[(oy + y) * sw + ox + x] = [p[0] * a + 1.0 - a, p[1] * a + 1.0 - a, p[2] * a + 1.0 - a, 1.0];
-            }
-        }
-    }
-    sheet
 }
 
 /// Tiles same-size pictures into a `columns`-wide sheet without gutters, keeping alpha.
@@ -137,10 +112,10 @@ pub fn write_sequence(seq: &Sequence, dir: &Path, progress: &dyn Progress) -> Re
 /// frame coordinates are cell coordinates).
 ///
 /// # Errors
-/// [`Error::Io`] or [`Error::Image`] naming the file; [`Error::Invalid`] if `columns` is 0.
+/// [`Error::Io`] or [`Error::Image`] naming the file; [`Error::Setting`] if `columns` is 0.
 pub fn write_sprite_sheet(seq: &Sequence, dir: &Path, columns: usize) -> Result<Written> {
     if columns == 0 {
-        return Err(Error::Invalid("sprite sheet: 0 columns (expected at least 1)".into()));
+        return Err(Error::setting("sprite sheet columns", 0, "at least 1"));
     }
     create_dir(dir)?;
     let columns = columns.min(seq.frames.len());

@@ -8,10 +8,10 @@
 //! away from the pivots, carry the offsets.
 
 use super::deformation::Grid;
-use super::rng::Rng;
 use super::shape::Shape;
 use crate::error::{Error, Result};
 use crate::geom::ArapSolver;
+use crate::rng::Rng;
 
 /// ARAP iterations per frame (libigl's usual 10; the offsets are small, so this converges).
 const ITERATIONS: usize = 10;
@@ -31,7 +31,7 @@ impl PartArap {
     /// points kept in place, `free` the number of offset handles, `rng` picks them.
     ///
     /// # Errors
-    /// [`Error::Invalid`] if the solver cannot be set up (a degenerate grid).
+    /// [`Error::Geometry`] if the solver cannot be set up (a degenerate grid).
     pub fn new(grid: &Grid, shape: &Shape, pins: &[[f32; 2]], free: usize, rng: &mut Rng) -> Result<Self> {
         let vertices = grid.vertices();
         let nearest = |p: [f32; 2]| {
@@ -82,8 +82,8 @@ impl PartArap {
             })
             .collect();
         let rest: Vec<[f64; 2]> = vertices.iter().map(|p| [p[0] as f64, p[1] as f64]).collect();
-        let solver =
-            ArapSolver::new(&rest, &grid.triangles(), &handles).map_err(|e| Error::Invalid(format!("synthetic part deformation: {e}")))?;
+        let solver = ArapSolver::new(&rest, &grid.triangles(), &handles)
+            .map_err(|e| Error::geometry("synthetic part deformation", e.to_string()))?;
         Ok(PartArap {
             solver,
             rest,

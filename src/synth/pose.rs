@@ -8,9 +8,9 @@ use std::str::FromStr;
 use serde::{Deserialize, Serialize};
 
 use super::character::{Character, Role, Side};
-use super::rng::Rng;
 use super::similarity::Similarity;
 use crate::error::{Error, Result};
+use crate::rng::Rng;
 
 /// How the character moves over the sequence.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
@@ -48,7 +48,7 @@ impl FromStr for Motion {
         Motion::ALL
             .into_iter()
             .find(|m| m.name() == s)
-            .ok_or_else(|| Error::Invalid(format!("unknown motion {s:?} (expected walk, wave, jump or random)")))
+            .ok_or_else(|| Error::setting("motion", format!("{s:?}"), "walk, wave, jump or random"))
     }
 }
 
@@ -223,7 +223,7 @@ mod tests {
             assert_eq!(m.name().parse::<Motion>().unwrap(), m);
         }
         let err = "dance".parse::<Motion>().unwrap_err().to_string();
-        assert!(err.contains("unknown motion \"dance\"") && err.contains("walk"), "{err}");
+        assert!(err.contains("motion = \"dance\"") && err.contains("walk"), "{err}");
     }
 
     #[test]

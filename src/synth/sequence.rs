@@ -9,12 +9,12 @@ use super::labels::label_hex;
 use super::look::Wobble;
 use super::part_arap::PartArap;
 use super::pose::{Animator, Motion};
-use super::rng::Rng;
 use super::similarity::Similarity;
 use super::truth::{FrameTruth, PartFrame, PartTruth, Truth, TRUTH_VERSION};
 use crate::error::{Error, Result};
 use crate::picture::Picture;
 use crate::progress::Progress;
+use crate::rng::Rng;
 
 /// Smallest frame side: below this a character's limbs are a pixel or two wide.
 pub const MIN_SIDE: u32 = 64;
@@ -22,6 +22,9 @@ pub const MIN_SIDE: u32 = 64;
 pub const MAX_SIDE: u32 = 4096;
 /// Most frames in one sequence.
 pub const MAX_FRAMES: usize = 100_000;
+/// The most pixels over all frames of a sequence: what a training run reads by default
+/// ([`crate::puppet::sequence::DEFAULT_MAX_TOTAL_PIXELS`]).
+pub const MAX_TOTAL_PIXELS: u64 = crate::puppet::sequence::DEFAULT_MAX_TOTAL_PIXELS;
 
 /// What to generate.
 #[derive(Clone, Debug, PartialEq)]
@@ -61,27 +64,36 @@ impl SynthOptions {
     /// Checks the options.
     ///
     /// # Errors
-    /// [`Error::Invalid`] naming the bad option and the accepted range.
+    /// [`Error::Setting`] naming the bad option and the accepted range.
     pub fn validate(&self) -> Result<()> {
         let mut problems = Vec::new();
         if self.frames == 0 || self.frames > MAX_FRAMES {
-            problems.push(Error::Invalid(format!("frames: {} (expected 1 to {MAX_FRAMES})", self.frames)));
+            problems.push(Error::setting("frames", self.frames, format!("1 to {MAX_FRAMES}")));
         }
         for (name, v) in [("width", self.width), ("height", self.height)] {
             if !(MIN_SIDE..=MAX_SIDE).contains(&v) {
-                problems.push(Error::Invalid(format!(
-                    "size: {name} {v} px is out of range (expected {MIN_SIDE} to {MAX_SIDE})"
-                )));
+                problems.push(Error::setting(
+                    name.to_string(),
+                    format!("{v} px"),
+                    format!("{MIN_SIDE} to {MAX_SIDE}"),
+                ));
             }
         }
+        let pixels = self.frames as u64 * u64::from(self.width) * u64::from(self.height);
+        if problems.is_empty() && pixels > MAX_TOTAL_PIXELS {
+            // The whole sequence is drawn in memory (and training reads it all back).
+            problems.push(Error::limit(
+                format!("{} frames of {}×{}", self.frames, self.width, self.height),
+                pixels,
+                MAX_TOTAL_PIXELS,
+                "pixels",
+            ));
+        }
         if !(0.0..=0.1).contains(&self.deform_sigma) {
-            problems.push(Error::Invalid(format!(
-                "deformation σ {} (expected 0 to 0.1 of the image size)",
-                self.deform_sigma
-            )));
+            problems.push(Error::setting("deformation σ", self.deform_sigma, "0 to 0.1 of the image size"));
         }
         if !(0.0..=2.0).contains(&self.wobble) {
-            problems.push(Error::Invalid(format!("wobble {} px (expected 0 to 2)", self.wobble)));
+            problems.push(Error::setting("wobble", format!("{} px", self.wobble), "0 to 2"));
         }
         Error::collect(problems)
     }
@@ -109,7 +121,7 @@ pub fn frame_name(prefix: &str, t: usize, n: usize) -> String {
 /// Generates the sequence `opts` describes, reporting one step per frame.
 ///
 /// # Errors
-/// [`Error::Invalid`] for bad options ([`SynthOptions::validate`]) or if a part's deformation
+/// [`Error::Setting`] for bad options ([`SynthOptions::validate`]) or if a part's deformation
 /// cannot be set up.
 pub fn generate(opts: &SynthOptions, progress: &dyn Progress) -> Result<Sequence> {
     opts.validate()?;

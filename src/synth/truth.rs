@@ -15,6 +15,9 @@ use super::similarity::Similarity;
 use crate::error::{Error, Result};
 use crate::puppet::Puppet;
 
+/// The ground-truth file a synthetic sequence carries beside its frames.
+pub const TRUTH_FILE: &str = "truth.json";
+
 /// The truth.json schema version this build writes and reads.
 pub const TRUTH_VERSION: u32 = 1;
 
@@ -116,6 +119,26 @@ impl Truth {
         placed.world.apply(moved)
     }
 
+    /// Index of the frame whose image file is named `name` (its file name, without folders).
+    pub fn frame_named(&self, name: &str) -> Option<usize> {
+        self.frames
+            .iter()
+            .position(|f| Path::new(&f.file).file_name().is_some_and(|n| n == name))
+    }
+
+    /// The `truth.json` of the sequence at `root`, if it has one.
+    ///
+    /// # Errors
+    /// As [`Truth::load`].
+    pub fn for_sequence(root: &Path) -> Result<Option<Self>> {
+        let path = root.join(TRUTH_FILE);
+        if path.is_file() {
+            Self::load(&path).map(Some)
+        } else {
+            Ok(None)
+        }
+    }
+
     /// Index of the part called `name`.
     pub fn part_index(&self, name: &str) -> Option<usize> {
         self.parts.iter().position(|p| p.name == name)
@@ -178,25 +201,29 @@ impl Truth {
 /// name (rest placement⁻¹, then that frame's deformation and placement).
 ///
 /// # Errors
-/// [`Error::Invalid`] if `frame` is out of range or a layer names no part of the truth (all
+/// [`Error::Mismatch`] if `frame` is out of range or a layer names no part of the truth (all
 /// such layers are listed).
 pub fn true_positions(truth: &Truth, frame: usize, puppet: &Puppet) -> Result<Vec<[f32; 2]>> {
     if frame >= truth.frames.len() {
-        return Err(Error::Invalid(format!(
-            "truth: frame {frame} requested, the sequence has {} frames",
-            truth.frames.len()
-        )));
+        return Err(Error::mismatch(
+            "the truth's frame count",
+            truth.frames.len(),
+            format!("more than {frame}"),
+        ));
     }
     let mut problems = Vec::new();
     let mut out = Vec::with_capacity(puppet.vertex_count());
     for layer in &puppet.layers {
         match truth.part_index(&layer.name) {
             Some(p) => out.extend(layer.mesh.vertices.iter().map(|&v| truth.map_point(frame, p, v))),
-            None => problems.push(Error::Invalid(format!(
-                "truth: layer {:?} has no part of that name (parts: {})",
-                layer.name,
-                truth.parts.iter().map(|p| p.name.as_str()).collect::<Vec<_>>().join(", ")
-            ))),
+            None => problems.push(Error::mismatch(
+                format!("layer {:?}", layer.name),
+                "not a part of the truth",
+                format!(
+                    "one of {}",
+                    truth.parts.iter().map(|p| p.name.as_str()).collect::<Vec<_>>().join(", ")
+                ),
+            )),
         }
     }
     Error::collect(problems)?;

@@ -17,8 +17,10 @@ use crate::error::{Error, Result};
 /// The checkpoints folder inside a model folder.
 pub const CHECKPOINT_DIR: &str = "checkpoints";
 const LATEST: &str = "latest";
-const WEIGHTS: &str = "weights.bpk";
-const OPTIMIZER: &str = "optimizer.bpk";
+/// A checkpoint's weights.
+pub const WEIGHTS: &str = "weights.bpk";
+/// A checkpoint's optimiser state.
+pub const OPTIMIZER: &str = "optimizer.bpk";
 const STATE: &str = "state.json";
 
 /// What a checkpoint records besides the tensors.

@@ -13,24 +13,44 @@
 //!
 //! [train]
 //! steps = 2000
-//! batch = 16
+//! batch = 16                        # at most the number of training frames
 //! learning_rate = 1e-4
 //! learning_rate_end = 1e-5          # optional: half-cosine decay to this by the last step
 //! sigma = [4.0, 0.5]                # σ (px² of the working square) at the first and last step
 //! checkpoint_every = 100
+//! eval_every = 100                  # the held-out frames' loss, logged and plotted
+//!
+//! [train.adam]                      # the optimiser; all optional (PyTorch's defaults)
+//! beta_1 = 0.9
+//! beta_2 = 0.999
+//! epsilon = 1e-8
+//! weight_decay = 0.0
 //!
 //! [loss]                            # weights; see `LossWeights` for the units
 //! arap = 2500.0
 //! joints = 1e4
 //! masked = false                    # eq. 10–11: frames drawn over a background
 //! area = 2e-3
+//!
+//! [limits]                          # what a run may read; all optional
+//! max_frames = 4096
+//! max_total_pixels = 67108864       # over all frames (16 bytes each in memory)
+//! max_image_pixels = 16777216       # one frame
 //! ```
+//!
+//! Paths are stored canonical (absolute, links resolved) once the config is loaded, so a run
+//! resumed from another working directory, or whose folder was moved, is recognised.
 
 use std::path::{Path, PathBuf};
 
 use serde::{Deserialize, Serialize};
 
-use crate::error::{Error, Result};
+use crate::picture::ImageLimits;
+use crate::puppet::sequence::FrameCheck;
+
+use super::optim::AdamSettings;
+use crate::error::{Context, Error, Result};
+pub use crate::objective::LossWeights;
 
 /// A whole training config.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -58,6 +78,31 @@ pub struct TrainConfig {
     /// Loss weights.
     #[serde(default)]
     pub loss: LossWeights,
+    /// What the run may read.
+    #[serde(default)]
+    pub limits: Limits,
+}
+
+/// Bounds on what a training run reads, checked before the memory is spent.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct Limits {
+    /// The most frames in the sequence.
+    pub max_frames: usize,
+    /// The most pixels over all frames.
+    pub max_total_pixels: u64,
+    /// The most pixels of one frame (or artwork layer).
+    pub max_image_pixels: u64,
+}
+
+impl Default for Limits {
+    fn default() -> Self {
+        Limits {
+            max_frames: crate::puppet::sequence::DEFAULT_MAX_FRAMES,
+            max_total_pixels: crate::puppet::sequence::DEFAULT_MAX_TOTAL_PIXELS,
+            max_image_pixels: crate::picture::DEFAULT_MAX_PIXELS,
+        }
+    }
 }
 
 /// The network settings a config may change (the rest are the paper's).
@@ -101,6 +146,10 @@ pub struct TrainSettings {
     pub sigma: [f32; 2],
     /// Steps between checkpoints (a killed run loses at most this many).
     pub checkpoint_every: u64,
+    /// Steps between measurements of the loss on the held-out frames (logged and plotted).
+    pub eval_every: u64,
+    /// Adam's settings besides the learning rate.
+    pub adam: AdamSettings,
 }
 
 impl Default for TrainSettings {
@@ -112,39 +161,42 @@ impl Default for TrainSettings {
             learning_rate_end: None,
             sigma: [4.0, 0.5],
             checkpoint_every: 100,
+            eval_every: 100,
+            adam: AdamSettings::new(),
         }
     }
 }
 
-/// Weights of eq. 4 (and eq. 10–11 for masked training).
-///
-/// Units, so the paper's numbers mean what they meant there (NMR: images in [0, 1], vertices in
-/// normalised device coordinates where the image spans [−1, 1]): L_rec is eq. 1 as written, the
-/// squared norm of the premultiplied-RGBA difference summed over the pixels and channels of an
-/// image (eq. 10's masked variant is, as written, normalised by the silhouette's area); ARAP
-/// (eq. 2) and the joint term (eq. 3) are sums over edges / joints of squared lengths in NDC,
-/// i.e. working pixels divided by S/2; every term is averaged over the batch; the area term
-/// (eq. 11) compares mask sums as fractions of the image.
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields, default)]
-pub struct LossWeights {
-    /// λ1, ARAP (paper: 2500).
-    pub arap: f64,
-    /// λ2, joints (paper: 1e4).
-    pub joints: f64,
-    /// Use the masked loss of eq. 10 and the area penalty of eq. 11 (frames over a background).
-    pub masked: bool,
-    /// Weight of eq. 11's area penalty (paper: 2e-3).
-    pub area: f64,
-}
+/// The largest batch a config may ask for (memory grows with it; frames beyond the training set
+/// repeat, see [`crate::train::trainer`]).
+pub const MAX_BATCH: usize = 256;
 
-impl Default for LossWeights {
-    fn default() -> Self {
-        LossWeights {
-            arap: 2500.0,
-            joints: 1e4,
-            masked: false,
-            area: 2e-3,
+/// `path` absolute, with links and `..` resolved: its longest existing ancestor canonically, the
+/// rest (not yet created) lexically.
+pub fn canonical(path: &Path) -> PathBuf {
+    let absolute = std::path::absolute(path).unwrap_or_else(|_| path.to_path_buf());
+    let mut existing = absolute.as_path();
+    let mut rest = Vec::new();
+    loop {
+        if let Ok(real) = std::fs::canonicalize(existing) {
+            let mut out = real;
+            for part in rest.iter().rev() {
+                match part {
+                    std::path::Component::ParentDir => {
+                        out.pop();
+                    }
+                    std::path::Component::Normal(name) => out.push(name),
+                    _ => {}
+                }
+            }
+            return out;
+        }
+        match (existing.parent(), existing.components().next_back()) {
+            (Some(parent), Some(last)) => {
+                rest.push(last);
+                existing = parent;
+            }
+            _ => return absolute,
         }
     }
 }
@@ -158,68 +210,101 @@ fn default_test_fraction() -> f64 {
 }
 
 impl TrainConfig {
-    /// Reads `path`, resolves its relative paths against the file's folder, and validates it.
+    /// Reads `path`, resolves its relative paths against the file's folder (canonically, where
+    /// they exist), and validates it.
     ///
     /// # Errors
-    /// [`Error::Io`] if unreadable; [`Error::Format`] naming `path` for bad TOML, an unknown key
-    /// or an invalid value (see [`TrainConfig::validate`]).
+    /// [`Error::Io`] if unreadable; [`Error::Format`] naming `path` for bad TOML or an unknown
+    /// key; [`Error::Setting`] (about `path`) for an invalid value (see [`TrainConfig::validate`]).
     pub fn load(path: &Path) -> Result<Self> {
         let text = std::fs::read_to_string(path).map_err(|e| Error::io(path, e))?;
-        let mut config: TrainConfig = toml::from_str(&text).map_err(|e| Error::format(path, format!("invalid training config: {e}")))?;
+        Self::parse(&text, path)
+    }
+
+    /// Parses the text of the config file `path` (relative paths in it are relative to the file's
+    /// folder) and validates it.
+    ///
+    /// # Errors
+    /// As [`TrainConfig::load`].
+    pub fn parse(text: &str, path: &Path) -> Result<Self> {
+        let mut config: TrainConfig = toml::from_str(text).map_err(|e| Error::format(path, format!("invalid training config: {e}")))?;
         let base = path.parent().unwrap_or(Path::new("."));
         for p in [&mut config.puppet, &mut config.frames, &mut config.output] {
             if p.is_relative() {
                 *p = base.join(&*p);
             }
+            *p = canonical(p);
         }
-        config.validate().map_err(|problem| Error::format(path, problem))?;
+        config.validate().at_path(path)?;
         Ok(config)
     }
 
     /// Checks values that TOML types cannot: ranges and the input size.
     ///
     /// # Errors
-    /// The problem as a sentence naming the key.
-    pub fn validate(&self) -> std::result::Result<(), String> {
+    /// [`Error::Setting`] naming the key.
+    pub fn validate(&self) -> Result<()> {
         let t = &self.train;
+        let positive = |v: f64| v.is_finite() && v > 0.0;
         let checks = [
             (
                 !(0.0..1.0).contains(&self.test_fraction),
-                format!("test_fraction = {} is not in [0, 1)", self.test_fraction),
+                Error::setting("test_fraction", self.test_fraction, "in [0, 1)"),
             ),
             (
                 self.model.input_size == 0 || self.model.input_size % 8 != 0,
-                format!("model.input_size = {} is not a positive multiple of 8", self.model.input_size),
-            ),
-            (self.model.latent == 0, "model.latent must be positive".into()),
-            (t.steps == 0, "train.steps must be positive".into()),
-            (t.batch == 0, "train.batch must be positive".into()),
-            (t.checkpoint_every == 0, "train.checkpoint_every must be positive".into()),
-            (
-                !(t.learning_rate.is_finite() && t.learning_rate > 0.0),
-                format!("train.learning_rate = {} must be positive", t.learning_rate),
+                Error::setting("model.input_size", self.model.input_size, "a positive multiple of 8"),
             ),
             (
-                t.learning_rate_end.is_some_and(|e| !(e.is_finite() && e > 0.0)),
-                format!(
-                    "train.learning_rate_end = {:?} must be positive",
-                    t.learning_rate_end.unwrap_or(f64::NAN)
-                ),
+                self.model.input_size > 1024,
+                Error::setting("model.input_size", self.model.input_size, "at most 1024"),
+            ),
+            (self.model.latent == 0, Error::setting("model.latent", 0, "positive")),
+            (t.steps == 0, Error::setting("train.steps", 0, "positive")),
+            (
+                !(1..=MAX_BATCH).contains(&t.batch),
+                Error::setting("train.batch", t.batch, format!("from 1 to {MAX_BATCH}")),
+            ),
+            (t.checkpoint_every == 0, Error::setting("train.checkpoint_every", 0, "positive")),
+            (t.eval_every == 0, Error::setting("train.eval_every", 0, "positive")),
+            (
+                !positive(t.learning_rate),
+                Error::setting("train.learning_rate", t.learning_rate, "positive"),
+            ),
+            (
+                t.learning_rate_end.is_some_and(|e| !positive(e)),
+                Error::setting("train.learning_rate_end", t.learning_rate_end.unwrap_or(f64::NAN), "positive"),
             ),
             (
                 !t.sigma.iter().all(|s| s.is_finite() && *s > 0.0),
-                format!("train.sigma = {:?} must be two positive numbers", t.sigma),
+                Error::setting("train.sigma", format!("{:?}", t.sigma), "two positive numbers"),
             ),
             (
                 ![self.loss.arap, self.loss.joints, self.loss.area]
                     .iter()
                     .all(|w| w.is_finite() && *w >= 0.0),
-                "loss weights must be finite and non-negative".into(),
+                Error::setting(
+                    "loss",
+                    format!("[{}, {}, {}]", self.loss.arap, self.loss.joints, self.loss.area),
+                    "weights that are finite and ≥ 0",
+                ),
             ),
         ];
-        match checks.into_iter().find(|(bad, _)| *bad) {
-            Some((_, problem)) => Err(problem),
-            None => Ok(()),
+        if let Some((_, problem)) = checks.into_iter().find(|(bad, _)| *bad) {
+            return Err(problem);
+        }
+        t.adam.validate()
+    }
+
+    /// The frame checks of this run for frames of a `width` × `height` puppet.
+    pub fn frame_check(&self, width: u32, height: u32) -> FrameCheck {
+        FrameCheck {
+            size: Some((width, height)),
+            image: ImageLimits {
+                max_pixels: self.limits.max_image_pixels,
+            },
+            max_frames: self.limits.max_frames,
+            max_total_pixels: self.limits.max_total_pixels,
         }
     }
 
@@ -298,6 +383,18 @@ mod tests {
                 "learning_rat",
             ),
             ("frames = \"f\"\noutput = \"o\"\n", "puppet"),
+            (
+                "puppet = \"p\"\nframes = \"f\"\noutput = \"o\"\n[train]\nbatch = 100000\n",
+                "from 1 to 256",
+            ),
+            (
+                "puppet = \"p\"\nframes = \"f\"\noutput = \"o\"\n[train.adam]\nbeta_1 = 1.5\n",
+                "adam.beta_1",
+            ),
+            (
+                "puppet = \"p\"\nframes = \"f\"\noutput = \"o\"\n[train.adam]\nbeta1 = 0.5\n",
+                "beta1",
+            ),
         ] {
             let (_dir, path) = write(text);
             let err = TrainConfig::load(&path).unwrap_err().to_string();

@@ -1,6 +1,6 @@
 //! The training log: one CSV row per step (`log.csv`) and a loss-curve picture (`loss.png`,
-//! log-scale y, one line per term, labelled with a built-in 3×5 pixel font so no font files
-//! are needed).
+//! log-scale y, one line per term and one for the held-out frames' loss, labelled with a
+//! built-in 3×5 pixel font so no font files are needed).
 
 use std::fs::OpenOptions;
 use std::io::Write;
@@ -10,7 +10,7 @@ use crate::error::{Error, Result};
 use crate::picture::Picture;
 
 /// The CSV header; [`LogRow`] writes the same columns.
-pub const HEADER: &str = "step,total,rec,arap,joints,area,sigma,seconds";
+pub const HEADER: &str = "step,total,rec,arap,joints,area,sigma,seconds,held_out";
 
 /// One step's numbers (weighted terms are not stored: the config holds the weights).
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -31,6 +31,8 @@ pub struct LogRow {
     pub sigma: f64,
     /// Training seconds so far.
     pub seconds: f64,
+    /// Eq. 4's total on the held-out frames after this step (NaN where not measured).
+    pub held_out: f64,
 }
 
 /// Appends rows to `log.csv`; on resume, rows past the checkpoint are dropped first so the log
@@ -55,8 +57,9 @@ impl TrainLog {
                     .map(str::parse)
                     .collect::<std::result::Result<_, _>>()
                     .map_err(|_| Error::format(path, format!("line {}: not numbers", n + 1)))?;
-                if v.len() != 8 {
-                    return Err(Error::format(path, format!("line {}: {} columns, expected 8", n + 1, v.len())));
+                // Logs written before the held-out column have 8 columns.
+                if !(8..=9).contains(&v.len()) {
+                    return Err(Error::format(path, format!("line {}: {} columns, expected 9", n + 1, v.len())));
                 }
                 let row = LogRow {
                     step: v[0] as u64,
@@ -67,6 +70,7 @@ impl TrainLog {
                     area: v[5],
                     sigma: v[6],
                     seconds: v[7],
+                    held_out: v.get(8).copied().unwrap_or(f64::NAN),
                 };
                 if row.step <= keep_through {
                     rows.push(row);
@@ -107,25 +111,36 @@ impl TrainLog {
 impl LogRow {
     fn to_csv(self) -> String {
         format!(
-            "{},{},{},{},{},{},{},{:.3}\n",
-            self.step, self.total, self.rec, self.arap, self.joints, self.area, self.sigma, self.seconds
+            "{},{},{},{},{},{},{},{:.3},{}\n",
+            self.step, self.total, self.rec, self.arap, self.joints, self.area, self.sigma, self.seconds, self.held_out
         )
     }
 }
 
-/// The loss curves (total, rec, and the weighted regularisers) on a log-scale y axis.
+/// The loss curves (total, rec, the weighted regularisers, and the held-out frames' total where
+/// measured) on a log-scale y axis.
 pub fn plot(rows: &[LogRow], weights: [f64; 3]) -> Picture {
     let (w, h, left, bottom, top, right) = (720u32, 400u32, 44i64, 20i64, 24i64, 12i64);
     let mut pic = Picture::filled(w, h, [1.0, 1.0, 1.0, 1.0]);
     // Name, colour, and the plotted value of each series (regularisers weighted, as summed).
-    let series: [(&str, [f32; 3]); 5] = [
+    let series: [(&str, [f32; 3]); 6] = [
         ("total", [0.0, 0.0, 0.0]),
         ("rec", [0.1, 0.35, 0.9]),
         ("arap", [0.95, 0.5, 0.0]),
         ("joints", [0.1, 0.65, 0.2]),
         ("area", [0.7, 0.1, 0.6]),
+        ("held-out", [0.85, 0.1, 0.1]),
     ];
-    let values = |r: &LogRow| [r.total, r.rec, r.arap * weights[0], r.joints * weights[1], r.area * weights[2]];
+    let values = |r: &LogRow| {
+        [
+            r.total,
+            r.rec,
+            r.arap * weights[0],
+            r.joints * weights[1],
+            r.area * weights[2],
+            r.held_out,
+        ]
+    };
     let positive: Vec<f64> = rows.iter().flat_map(values).filter(|v| *v > 0.0 && v.is_finite()).collect();
     let (lo, hi) = positive.iter().fold((f64::MAX, f64::MIN), |(a, b), v| (a.min(*v), b.max(*v)));
     let (lo, hi) = if positive.is_empty() {
@@ -157,6 +172,10 @@ pub fn plot(rows: &[LogRow], weights: [f64; 3]) -> Picture {
         let mut prev: Option<[i64; 2]> = None;
         for r in rows {
             let v = values(r)[k];
+            if v.is_nan() {
+                // Not measured at this step (the held-out loss): join the measured ones.
+                continue;
+            }
             let p = (v > 0.0 && v.is_finite()).then(|| [px(r.step as f64), py(v)]);
             if let (Some(a), Some(b)) = (prev, p) {
                 line(&mut pic, a, b, *colour);
@@ -242,6 +261,7 @@ mod tests {
             area: 0.0,
             sigma: 1.0,
             seconds: step as f64,
+            held_out: if step % 2 == 0 { 2.0 / step as f64 } else { f64::NAN },
         }
     }
 
@@ -256,7 +276,8 @@ mod tests {
         let log = TrainLog::open(&path, 3).unwrap();
         assert_eq!(log.rows().iter().map(|r| r.step).collect::<Vec<_>>(), [1, 2, 3]);
         assert_eq!(std::fs::read_to_string(&path).unwrap().lines().count(), 4);
-        assert_eq!(log.rows()[1], row(2, 0.5));
+        assert_eq!(log.rows()[1], row(2, 0.5), "a measured held-out loss reads back");
+        assert!(log.rows()[0].held_out.is_nan(), "an unmeasured one reads back as NaN");
     }
 
     #[test]
@@ -266,5 +287,6 @@ mod tests {
         let count = |c: [f32; 3]| pic.pixels.iter().filter(|p| p[..3] == c).count();
         assert!(count([0.1, 0.35, 0.9]) > 300, "rec line");
         assert!(count([0.95, 0.5, 0.0]) > 300, "arap line");
+        assert!(count([0.85, 0.1, 0.1]) > 300, "held-out line, joined across unmeasured steps");
     }
 }

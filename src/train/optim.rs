@@ -28,41 +28,74 @@
 //! `flex` backend a tensor nobody else holds converts to and from `TensorData` without a copy,
 //! so the update touches each of the four buffers once (a shared weight is copied once first).
 
-use burn::config::Config;
 use burn::optim::{AdamState, AdaptiveMomentumState, LearningRate, ModuleOptimizer, Optimizer};
 use burn::tensor::{DType, Device, Tensor, TensorData};
 use num_traits::Float;
 use rayon::prelude::*;
+use serde::{Deserialize, Serialize};
 
 use crate::error::{Error, Result};
 
 /// Adam's hyper-parameters except the learning rate, which is given at every step
-/// (`ModuleOptimizer::step(lr, module, grads)`). Defaults are PyTorch's (ε = 1e-8, not Burn's
-/// 1e-5).
-#[derive(Config, Debug, PartialEq)]
+/// (`ModuleOptimizer::step(lr, module, grads)`): the `[train.adam]` table of a training config.
+/// Defaults are PyTorch's (ε = 1e-8, not Burn's 1e-5).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
 pub struct AdamSettings {
     /// Decay of the first moment β1.
-    #[config(default = 0.9)]
     pub beta_1: f32,
     /// Decay of the second moment β2.
-    #[config(default = 0.999)]
     pub beta_2: f32,
     /// ε added to √v̂ (PyTorch's placement; Burn's formula scales it by √(1−β2ᵗ) to match).
-    #[config(default = 1e-8)]
     pub epsilon: f32,
     /// L2 weight decay λ added to the gradient as λ·θ (PyTorch's `Adam(weight_decay=λ)`).
-    #[config(default = 0.0)]
     pub weight_decay: f32,
 }
 
+impl Default for AdamSettings {
+    fn default() -> Self {
+        AdamSettings {
+            beta_1: 0.9,
+            beta_2: 0.999,
+            epsilon: 1e-8,
+            weight_decay: 0.0,
+        }
+    }
+}
+
 impl AdamSettings {
+    /// PyTorch's defaults.
+    pub fn new() -> Self {
+        Self::default()
+    }
+
+    /// With β1 = `beta_1`.
+    pub fn with_beta_1(self, beta_1: f32) -> Self {
+        AdamSettings { beta_1, ..self }
+    }
+
+    /// With β2 = `beta_2`.
+    pub fn with_beta_2(self, beta_2: f32) -> Self {
+        AdamSettings { beta_2, ..self }
+    }
+
+    /// With ε = `epsilon`.
+    pub fn with_epsilon(self, epsilon: f32) -> Self {
+        AdamSettings { epsilon, ..self }
+    }
+
+    /// With weight decay λ = `weight_decay`.
+    pub fn with_weight_decay(self, weight_decay: f32) -> Self {
+        AdamSettings { weight_decay, ..self }
+    }
+
     /// Checks that the settings describe a working Adam.
     ///
     /// # Errors
-    /// [`Error::Invalid`] naming the setting if a β is outside [0, 1), ε is not positive, or λ is
+    /// [`Error::Setting`] naming the setting if a β is outside [0, 1), ε is not positive, or λ is
     /// negative or not finite.
     pub fn validate(&self) -> Result<()> {
-        let bad = |name: &str, value: f32, expected: &str| Err(Error::Invalid(format!("adam: {name} = {value} ({expected})")));
+        let bad = |name: &str, value: f32, expected: &str| Err(Error::setting(format!("adam.{name}"), value, expected));
         for (name, beta) in [("beta_1", self.beta_1), ("beta_2", self.beta_2)] {
             if !(0.0..1.0).contains(&beta) {
                 return bad(name, beta, "expected 0 ≤ β < 1");

@@ -1,41 +1,37 @@
 //! The training loop of neural-puppet.md §3.2: encode a batch of frames, decode the template's
 //! vertices, render them with the soft rasterizer, and minimise eq. 4 (or its masked variant)
-//! with Adam; seeded, logged, checkpointed atomically, resumable, and stopped on NaN.
+//! with Adam; seeded, logged (with the held-out frames' loss), checkpointed atomically,
+//! resumable, and stopped on NaN.
+//!
+//! Nothing is written until everything that can be checked has been: a fresh run refuses a folder
+//! holding anything puppet did not write; a resume refuses a changed config (only `train.steps`
+//! may change), a changed split or puppet, and a checkpoint that does not load — each leaving
+//! every file of the model folder as it was.
 
-use std::path::{Path, PathBuf};
-use std::sync::Arc;
+use std::path::Path;
 use std::time::Instant;
 
+use burn::module::Module;
 use burn::optim::{GradientsParams, ModuleOptimizer};
 use burn::tensor::{Bytes, Device, Tensor, TensorData};
 use serde::{Deserialize, Serialize};
 
-use super::checkpoint::{self, CheckpointState};
-use super::config::TrainConfig;
+use super::checkpoint::{self, Checkpoint, CheckpointState};
+use super::config::{canonical, TrainConfig};
 use super::log::{plot, LogRow, TrainLog};
-use super::loss::{LossTerms, Objective};
-use super::optim::{adam, AdamSettings};
-use super::sequence::{shuffled, split, Frames};
-use crate::atomic_file::write_atomic;
-use crate::error::{Error, Result};
+use super::optim::adam;
+use super::split::{shuffled, split};
+use crate::atomic_file::{record, write_atomic, Outputs};
+use crate::error::{Context, Error, Result};
 use crate::model::bundle::{load_weights, weights_bytes};
 use crate::model::deformation::{rest_tensor, DeformationNetConfig};
-use crate::model::Model;
-use crate::picture::Picture;
+use crate::model::{Model, ModelFolder};
+use crate::objective::{LossTerms, Objective};
+use crate::picture::{ImageLimits, Picture};
 use crate::progress::Progress;
+use crate::puppet::sequence::Frames;
 use crate::puppet::{artwork, build, format, Puppet};
-use crate::render::burn_op::soft_raster;
-use crate::render::soft_raster::{Background, Params, SoftRasterizer};
-use crate::synth::rng::Rng;
-
-/// The copy of the config a model folder keeps.
-pub const CONFIG_FILE: &str = "train.toml";
-/// Which frames trained and which are held out.
-pub const SPLIT_FILE: &str = "split.json";
-/// The per-step log.
-pub const LOG_FILE: &str = "log.csv";
-/// The loss curves.
-pub const PLOT_FILE: &str = "loss.png";
+use crate::rng::Rng;
 
 /// How to run (as opposed to what to train, which is the config).
 #[derive(Clone, Debug, Default)]
@@ -44,6 +40,8 @@ pub struct TrainOptions {
     pub resume: bool,
     /// Pause after this many steps in total (checkpointed, resumable), e.g. to split a long run.
     pub pause_at: Option<u64>,
+    /// Write into an output folder even if it holds files puppet did not write.
+    pub force: bool,
 }
 
 /// The frames a model trained on and those held out, by file name.
@@ -51,7 +49,7 @@ pub struct TrainOptions {
 #[serde(deny_unknown_fields)]
 pub struct SplitRecord {
     /// The folder holding the frame files (absolute).
-    pub frames: PathBuf,
+    pub frames: std::path::PathBuf,
     /// Training frames' file names.
     pub train: Vec<String>,
     /// Held-out frames' file names.
@@ -64,7 +62,7 @@ impl SplitRecord {
     /// # Errors
     /// [`Error::Format`] naming the file if it is not a split record.
     pub fn load(model_dir: &Path) -> Result<Option<Self>> {
-        let path = model_dir.join(SPLIT_FILE);
+        let path = ModelFolder::new(model_dir).split();
         if !path.is_file() {
             return Ok(None);
         }
@@ -93,17 +91,24 @@ pub struct TrainSummary {
     pub images_per_second: f64,
     /// Split sizes (train, test).
     pub split: (usize, usize),
+    /// Frames per step (the config's batch, or fewer if there are fewer training frames).
+    pub batch: usize,
 }
 
-/// Loads a puppet folder, or builds a puppet from character artwork with default options.
+/// Loads a puppet folder, or builds a puppet from character artwork with default options
+/// (images within `limits`); build warnings go to `progress`.
 ///
 /// # Errors
 /// Whatever loading or building reports, naming the file.
-pub fn load_or_build_puppet(path: &Path, progress: &dyn Progress) -> Result<Puppet> {
+pub fn load_or_build_puppet(path: &Path, limits: &ImageLimits, progress: &dyn Progress) -> Result<Puppet> {
     if path.join(format::PUPPET_FILE).is_file() || path.extension().is_some_and(|e| e == "json") {
         format::load(path)
     } else {
-        let art = artwork::load(path, &artwork::ImportOptions::default())?;
+        let options = artwork::ImportOptions {
+            image: *limits,
+            ..artwork::ImportOptions::default()
+        };
+        let art = artwork::load(path, &options)?;
         Ok(build::build(&art, &build::BuildOptions::default(), progress)?.0)
     }
 }
@@ -112,57 +117,54 @@ pub fn load_or_build_puppet(path: &Path, progress: &dyn Progress) -> Result<Pupp
 ///
 /// # Errors
 /// Bad inputs name their file (puppet, frames of another size, a split without test frames);
-/// an existing checkpoint without `resume` (or `resume` without one) is an error rather than
-/// overwriting work; a non-finite loss stops the run naming the step and the last good
-/// checkpoint.
+/// [`Error::RunExists`] for a folder with a checkpoint when not resuming; [`Error::Resume`] for a
+/// resume that does not match the checkpoint; [`Error::WouldOverwrite`] for a folder holding
+/// files puppet did not write; [`Error::Diverged`] when the loss is not finite. None of these
+/// changes a file.
 pub fn train(config: &TrainConfig, options: &TrainOptions, progress: &dyn Progress) -> Result<TrainSummary> {
-    let out = &config.output;
-    let previous = checkpoint::latest(out)?;
+    let folder = ModelFolder::new(&config.output);
+    let out = folder.dir();
+    let previous = checkpoint::latest(out)?.map(|dir| checkpoint::load(&dir)).transpose()?;
     match (&previous, options.resume) {
-        (Some(dir), false) => {
-            return Err(Error::Invalid(format!(
-                "{}: holds a checkpoint of an earlier run ({}); pass --resume to continue it, or choose another output",
-                out.display(),
-                dir.display()
-            )))
+        (Some(c), false) => {
+            return Err(Error::RunExists {
+                path: out.to_path_buf(),
+                step: c.state.step,
+            })
         }
         (None, true) => {
-            return Err(Error::Invalid(format!(
-                "{}: --resume, but there is no checkpoint to resume from",
-                out.display()
-            )))
+            return Err(Error::Resume {
+                path: out.to_path_buf(),
+                problem: "there is no checkpoint to resume from".into(),
+            })
         }
-        _ => {}
+        (None, false) => Outputs::new(options.force).claim_folder(out)?,
+        (Some(_), true) => {}
     }
 
-    let puppet = load_or_build_puppet(&config.puppet, progress)?;
-    let frames = Frames::load(&config.frames)?;
-    if let Some((file, f)) = frames
-        .files
-        .iter()
-        .zip(&frames.frames)
-        .find(|(_, f)| (f.width, f.height) != (puppet.width, puppet.height))
-    {
-        return Err(Error::format(
-            file,
-            format!(
-                "frame is {}×{}, but the puppet {} was made from {}×{} frames (a different character?)",
-                f.width,
-                f.height,
-                config.puppet.display(),
-                puppet.width,
-                puppet.height
-            ),
+    let image_limits = ImageLimits {
+        max_pixels: config.limits.max_image_pixels,
+    };
+    let puppet = load_or_build_puppet(&config.puppet, &image_limits, progress)?;
+    let frames = Frames::load(&config.frames, &config.frame_check(puppet.width, puppet.height))?;
+    let (train_idx, test_idx) = split(frames.frames.len(), config.test_fraction, config.seed).at_path(&config.frames)?;
+    if config.test_fraction > 0.0 && test_idx.is_empty() {
+        return Err(Error::setting("test_fraction", config.test_fraction, "one that leaves a test frame").with_path(&config.frames));
+    }
+    let batch = config.train.batch.min(train_idx.len());
+    if batch < config.train.batch {
+        progress.warn(&format!(
+            "train.batch = {} is more than the {} training frames; each step uses all {batch} once",
+            config.train.batch,
+            train_idx.len()
         ));
     }
-    let (train_idx, test_idx) = split(frames.frames.len(), config.test_fraction, config.seed)
-        .map_err(|e| Error::Invalid(format!("{}: {e}", config.frames.display())))?;
-    if config.test_fraction > 0.0 && test_idx.is_empty() {
-        return Err(Error::Invalid(format!(
-            "{}: the split leaves no test frame",
-            config.frames.display()
-        )));
-    }
+    let names = frames.names();
+    let record = SplitRecord {
+        frames: canonical(&frames.dir),
+        train: train_idx.iter().map(|&i| names[i].clone()).collect(),
+        test: test_idx.iter().map(|&i| names[i].clone()).collect(),
+    };
 
     let device = crate::backend::train_device();
     device.seed(config.seed);
@@ -171,44 +173,33 @@ pub fn train(config: &TrainConfig, options: &TrainOptions, progress: &dyn Progre
         .with_latent(config.model.latent)
         .with_offset_scale(config.model.offset_scale);
     let model = Model::new(net_config, puppet, &device)?;
-    model.save(out)?;
-    write_atomic(
-        &out.join(CONFIG_FILE),
-        toml::to_string_pretty(config)
-            .map_err(|e| Error::Invalid(e.to_string()))?
-            .as_bytes(),
-    )?;
-    let names = frames.names();
-    let record = SplitRecord {
-        frames: std::fs::canonicalize(&frames.dir).unwrap_or_else(|_| frames.dir.clone()),
-        train: train_idx.iter().map(|&i| names[i].clone()).collect(),
-        test: test_idx.iter().map(|&i| names[i].clone()).collect(),
-    };
-    write_atomic(
-        &out.join(SPLIT_FILE),
-        &serde_json::to_vec_pretty(&record).map_err(|e| Error::Invalid(e.to_string()))?,
-    )?;
-
-    let mut trainer = Trainer::new(
-        config,
-        model,
-        &train_idx.iter().map(|&i| &frames.frames[i]).collect::<Vec<_>>(),
-        &device,
-    )?;
-    let config_json = serde_json::to_value(config).map_err(|e| Error::Invalid(e.to_string()))?;
+    let pick = |idx: &[usize]| idx.iter().map(|&i| &frames.frames[i]).collect::<Vec<_>>();
+    let mut trainer = Trainer::new(config, model, &pick(&train_idx), &pick(&test_idx), &device)?;
+    // Through text, as the checkpoint stores it: an f32 (train.adam.beta_2 = 0.999) read back
+    // from text is not the f32's exact value widened to f64.
+    let config_json: serde_json::Value = serde_json::to_string(config)
+        .and_then(|text| serde_json::from_str(&text))
+        .map_err(|e| Error::format(folder.config(), e.to_string()))?;
     let (mut step, mut elapsed) = (0u64, 0f64);
-    if let Some(dir) = previous {
-        let c = checkpoint::load(&dir)?;
-        if !same_run(&c.state.config, &config_json) {
-            return Err(Error::format(
-                dir.join("state.json"),
-                "this checkpoint was written with a different config (only train.steps may change for --resume)",
-            ));
+    match &previous {
+        Some(c) => {
+            // Everything is checked before anything is written.
+            check_resume(&folder, c, &config_json, &record, &trainer.model.puppet)?;
+            trainer.restore(c)?;
+            (step, elapsed) = (c.state.step, c.state.elapsed);
+            if c.state.config.get("train").and_then(|t| t.get("steps")) != config_json.get("train").and_then(|t| t.get("steps")) {
+                write_config(&folder, config)?;
+            }
         }
-        trainer.restore(c.weights, c.optimizer, &dir)?;
-        (step, elapsed) = (c.state.step, c.state.elapsed);
+        None => {
+            trainer.model.save(out)?;
+            write_config(&folder, config)?;
+            let split_json = serde_json::to_vec_pretty(&record).map_err(|e| Error::format(folder.split(), e.to_string()))?;
+            write_atomic(&folder.split(), &split_json)?;
+            record_folder(out)?;
+        }
     }
-    let mut log = TrainLog::open(&out.join(LOG_FILE), step)?;
+    let mut log = TrainLog::open(&folder.log(), step)?;
     let weights = [
         config.loss.arap,
         config.loss.joints,
@@ -225,27 +216,32 @@ pub fn train(config: &TrainConfig, options: &TrainOptions, progress: &dyn Progre
         let t0 = Instant::now();
         let (losses, terms) = trainer.losses(step)?;
         if !losses.total.is_finite() {
-            let keep = checkpoint::latest(out)?.map_or("none was written yet".to_string(), |d| d.display().to_string());
-            return Err(Error::Invalid(format!(
-                "step {}: the loss is not finite (total {}, rec {}, arap {}, joints {}); stopped — the last good checkpoint is {keep} (try a lower train.learning_rate)",
-                step + 1,
-                losses.total,
-                losses.rec,
-                losses.arap,
-                losses.joints
-            )));
+            return Err(Error::Diverged {
+                step: step + 1,
+                losses: format!(
+                    "total {}, rec {}, arap {}, joints {}",
+                    losses.total, losses.rec, losses.arap, losses.joints
+                ),
+                checkpoint: checkpoint::latest(out)?,
+            });
         }
         // The weights that produced this finite loss are checkpointed before they change (the
         // untrained ones too, so a run that diverges at once still has one to resume from).
         if (step > first_step || step == 0) && step % config.train.checkpoint_every == 0 {
-            save_checkpoint(out, &trainer, step, elapsed, &config_json, &log, weights)?;
+            save_checkpoint(&folder, &trainer, step, elapsed, &config_json, &log, weights)?;
         }
         trainer.update(terms, step);
         step += 1;
         elapsed += t0.elapsed().as_secs_f64();
+        let held_out = if step % config.train.eval_every == 0 || step == config.train.steps {
+            trainer.held_out_loss(step - 1)?
+        } else {
+            f64::NAN
+        };
         let row = LogRow {
             step,
             seconds: elapsed,
+            held_out,
             ..losses
         };
         log.push(row)?;
@@ -258,18 +254,110 @@ pub fn train(config: &TrainConfig, options: &TrainOptions, progress: &dyn Progre
     }
     let seconds = started.elapsed().as_secs_f64();
     let finished = step >= config.train.steps;
-    save_checkpoint(out, &trainer, step, elapsed, &config_json, &log, weights)?;
+    save_checkpoint(&folder, &trainer, step, elapsed, &config_json, &log, weights)?;
     Ok(TrainSummary {
         steps: step,
         finished,
         last,
-        images_per_second: ((step - first_step) as usize * config.train.batch) as f64 / seconds.max(1e-9),
+        images_per_second: ((step - first_step) as usize * batch) as f64 / seconds.max(1e-9),
         split: (train_idx.len(), test_idx.len()),
+        batch,
     })
 }
 
+/// Refuses a resume whose config (but `output` and `train.steps`), split or puppet differs from
+/// what the folder was trained with.
+fn check_resume(
+    folder: &ModelFolder,
+    checkpoint: &Checkpoint,
+    config: &serde_json::Value,
+    split: &SplitRecord,
+    puppet: &Puppet,
+) -> Result<()> {
+    let refuse = |problem: String| Error::Resume {
+        path: folder.dir().to_path_buf(),
+        problem,
+    };
+    let changed = changed_keys(&checkpoint.state.config, config);
+    if !changed.is_empty() {
+        return Err(refuse(format!(
+            "the config differs from the checkpoint's in {} (only train.steps may change)",
+            changed.join(", ")
+        )));
+    }
+    match SplitRecord::load(folder.dir())? {
+        None => return Err(refuse(format!("{} is missing", ModelFolder::SPLIT))),
+        Some(stored) if stored.train != split.train || stored.test != split.test => {
+            return Err(refuse(format!("the frames split differently from {}", ModelFolder::SPLIT)))
+        }
+        Some(stored) if canonical(&stored.frames) != split.frames => {
+            return Err(refuse(format!(
+                "{} trained on frames in {}, the config names {}",
+                ModelFolder::SPLIT,
+                stored.frames.display(),
+                split.frames.display()
+            )))
+        }
+        Some(_) => {}
+    }
+    let stored = format::load(&folder.puppet())?;
+    if let Some(difference) = template_difference(&stored, puppet) {
+        return Err(refuse(format!(
+            "the puppet differs from the one in {}/: {difference}",
+            ModelFolder::PUPPET
+        )));
+    }
+    Ok(())
+}
+
+/// The dotted keys whose values differ between two configs, ignoring `output` (a moved run
+/// folder is the same run) and `train.steps` (a resume may extend the run).
+fn changed_keys(a: &serde_json::Value, b: &serde_json::Value) -> Vec<String> {
+    fn walk(prefix: &str, a: Option<&serde_json::Value>, b: Option<&serde_json::Value>, out: &mut Vec<String>) {
+        if let (Some(serde_json::Value::Object(x)), Some(serde_json::Value::Object(y))) = (a, b) {
+            let keys: std::collections::BTreeSet<&String> = x.keys().chain(y.keys()).collect();
+            for k in keys {
+                let key = if prefix.is_empty() { k.clone() } else { format!("{prefix}.{k}") };
+                walk(&key, x.get(k), y.get(k), out);
+            }
+        } else if a != b && !matches!(prefix, "output" | "train.steps") {
+            out.push(prefix.to_string());
+        }
+    }
+    let mut out = Vec::new();
+    walk("", Some(a), Some(b), &mut out);
+    out
+}
+
+/// The first difference between two puppets' templates (layers, meshes, joints), if any.
+fn template_difference(a: &Puppet, b: &Puppet) -> Option<String> {
+    if (a.width, a.height) != (b.width, b.height) {
+        return Some(format!("{}×{} vs {}×{}", a.width, a.height, b.width, b.height));
+    }
+    let names = |p: &Puppet| p.layers.iter().map(|l| l.name.clone()).collect::<Vec<_>>();
+    if names(a) != names(b) {
+        return Some(format!("layers {:?} vs {:?}", names(a), names(b)));
+    }
+    if let Some(l) = a.layers.iter().zip(&b.layers).find(|(x, y)| x.mesh != y.mesh) {
+        return Some(format!("the mesh of layer {:?}", l.0.name));
+    }
+    (a.joints != b.joints || a.root != b.root).then(|| "the joints".to_string())
+}
+
+fn write_config(folder: &ModelFolder, config: &TrainConfig) -> Result<()> {
+    let text = toml::to_string_pretty(config).map_err(|e| Error::format(folder.config(), e.to_string()))?;
+    write_atomic(&folder.config(), text.as_bytes())
+}
+
+/// Records the model folder as puppet's in its parent's manifest (so a later `--force`-less run
+/// may replace it).
+fn record_folder(dir: &Path) -> Result<()> {
+    let absolute = std::path::absolute(dir).map_err(|e| Error::io(dir, e))?;
+    record(&absolute)
+}
+
 fn save_checkpoint(
-    out: &Path,
+    folder: &ModelFolder,
     trainer: &Trainer,
     step: u64,
     elapsed: f64,
@@ -277,75 +365,74 @@ fn save_checkpoint(
     log: &TrainLog,
     weights: [f64; 3],
 ) -> Result<()> {
-    let dir = out.join(checkpoint::CHECKPOINT_DIR);
-    let (net, optim) = trainer.state_bytes(&dir)?;
+    let (net, optim) = trainer.state_bytes(&folder.checkpoints())?;
     let state = CheckpointState {
         step,
         elapsed,
         config: config.clone(),
     };
-    checkpoint::save(out, &state, &net, &optim)?;
+    checkpoint::save(folder.dir(), &state, &net, &optim)?;
     // The model folder always holds the newest weights, so `fit`/`eval` work during training.
-    write_atomic(&out.join(crate::model::bundle::WEIGHTS_FILE), &net)?;
-    plot(log.rows(), weights).save_png(&out.join(PLOT_FILE))
+    write_atomic(&folder.weights(), &net)?;
+    plot(log.rows(), weights).save_png(&folder.plot())
 }
 
-/// One model under training: the network, its optimiser, the rasterizer and the losses, and the
-/// training frames as network inputs. [`Trainer::step`] is one optimiser step.
+/// One model under training: the network, its optimiser, the objective, and the training and
+/// held-out frames as network inputs. [`Trainer::step`] is one optimiser step.
 pub struct Trainer {
     /// The model being trained.
     pub model: Model,
     optimizer: ModuleOptimizer,
-    raster: Arc<SoftRasterizer>,
     /// Rest vertices in working pixels `[V, 2]`, built once (the decoder adds offsets to them).
     rest: Tensor<2>,
     objective: Objective,
     inputs: Vec<Vec<f32>>,
+    held_out: Vec<Vec<f32>>,
     batches: BatchOrder,
     config: TrainConfig,
     device: Device,
 }
 
 impl Trainer {
-    /// Prepares training `model` on `frames` (the puppet's size) with `config`'s settings.
+    /// Prepares training `model` on `frames` (the puppet's size) with `config`'s settings,
+    /// measuring the loss on `held_out` frames when asked.
     ///
     /// # Errors
     /// A frame of the wrong size; a degenerate mesh.
-    pub fn new(config: &TrainConfig, model: Model, frames: &[&Picture], device: &Device) -> Result<Self> {
-        let size = model.letterbox.size as usize;
-        for f in frames {
+    pub fn new(config: &TrainConfig, model: Model, frames: &[&Picture], held_out: &[&Picture], device: &Device) -> Result<Self> {
+        for f in frames.iter().chain(held_out) {
             model.check_frame(f)?;
         }
+        let size = model.letterbox.size as usize;
         // The rasterizer renders the working square: vertices in working pixels, textures by UV.
-        let raster = Arc::new(SoftRasterizer::new(&model.puppet)?);
         let rest = model.rest_work_points();
-        let rest_area = rest_coverage(&raster, &rest, size)?;
-        let objective = Objective::new(&model.puppet, &rest, size, rest_area, config.loss.clone())?;
-        let inputs = frames.iter().map(|f| model.letterbox.premultiplied_planes(f)).collect();
+        let objective = Objective::new(&model.puppet, &rest, size, config.loss.clone())?;
+        let planes = |f: &[&Picture]| f.iter().map(|f| model.letterbox.premultiplied_planes(f)).collect();
         Ok(Trainer {
-            model,
-            optimizer: adam(&AdamSettings::new()),
-            raster,
+            inputs: planes(frames),
+            held_out: planes(held_out),
+            optimizer: adam(&config.train.adam),
             rest: rest_tensor(&rest, device),
             objective,
-            inputs,
-            batches: BatchOrder::new(frames.len(), config.train.batch, config.seed),
+            batches: BatchOrder::new(frames.len(), config.train.batch.min(frames.len()), config.seed),
             config: config.clone(),
             device: device.clone(),
+            model,
         })
     }
 
-    /// Loads a checkpoint's weights and optimiser state (read from `dir`, for messages).
+    /// Loads a checkpoint's weights and optimiser state.
     ///
     /// # Errors
     /// [`Error::Format`] naming the file that does not fit.
-    pub fn restore(&mut self, weights: Vec<u8>, optimizer: Vec<u8>, dir: &Path) -> Result<()> {
-        self.model.net = load_weights(self.model.net.clone(), weights, &dir.join("weights.bpk"))?;
+    pub fn restore(&mut self, checkpoint: &Checkpoint) -> Result<()> {
+        let dir = &checkpoint.dir;
+        self.model.net = load_weights(self.model.net.clone(), checkpoint.weights.clone(), &dir.join(checkpoint::WEIGHTS))?;
         self.optimizer = self
             .optimizer
             .clone()
-            .from_bytes(Bytes::from_bytes_vec(optimizer))
-            .map_err(|e| Error::format(dir.join("optimizer.bpk"), format!("cannot read optimiser state: {e:?}")))?;
+            .from_bytes(Bytes::from_bytes_vec(checkpoint.optimizer.clone()))
+            .map_err(|e| Error::format(dir.join(checkpoint::OPTIMIZER), format!("cannot read optimiser state: {e:?}")))?;
         Ok(())
     }
 
@@ -361,36 +448,27 @@ impl Trainer {
         Ok((weights_bytes(&self.model.net, dir)?, optim.to_vec()))
     }
 
+    fn images(&self, planes: &[&Vec<f32>], device: &Device) -> Tensor<4> {
+        let size = self.model.letterbox.size as usize;
+        let mut data = Vec::with_capacity(planes.len() * 4 * size * size);
+        for p in planes {
+            data.extend_from_slice(p);
+        }
+        Tensor::from_data(TensorData::new(data, [planes.len(), 4, size, size]), device)
+    }
+
     /// The forward pass of step `step` (its batch and σ): the losses as numbers, and as tensors
     /// for [`Trainer::update`].
     ///
     /// # Errors
     /// Shape errors from the rasterizer or ARAP operations.
     pub fn losses(&self, step: u64) -> Result<(LogRow, LossTerms)> {
-        let size = self.model.letterbox.size as usize;
-        let batch = self.batches.batch(step);
-        let mut data = Vec::with_capacity(batch.len() * 4 * size * size);
-        for &i in &batch {
-            data.extend_from_slice(&self.inputs[i]);
-        }
-        let images: Tensor<4> = Tensor::from_data(TensorData::new(data, [batch.len(), 4, size, size]), &self.device);
+        let batch: Vec<&Vec<f32>> = self.batches.batch(step).into_iter().map(|i| &self.inputs[i]).collect();
+        let images = self.images(&batch, &self.device);
         let sigma = self.config.sigma_at(step);
         let net = &self.model.net;
         let vertices = net.vertices(net.encode(images.clone()), &self.rest);
-        let params = Params {
-            sigma,
-            background: Background::Transparent,
-            ..Params::default()
-        };
-        let rendered = soft_raster(vertices.clone(), &self.raster, size, size, params)?;
-        let terms = self.objective.evaluate(vertices, &rendered, images, &self.device)?;
-        let value = |t: &Tensor<1>| {
-            t.clone()
-                .into_data()
-                .convert::<f64>()
-                .try_to_vec::<f64>()
-                .map_or(f64::NAN, |v| v[0])
-        };
+        let terms = self.objective.evaluate(vertices, images, sigma, &self.device)?;
         let row = LogRow {
             step: step + 1,
             total: value(&terms.total),
@@ -400,8 +478,31 @@ impl Trainer {
             area: value(&terms.area),
             sigma: sigma as f64,
             seconds: 0.0,
+            held_out: f64::NAN,
         };
         Ok((row, terms))
+    }
+
+    /// Eq. 4 on the held-out frames at step `step`'s σ, by the network as it is (no gradient);
+    /// NaN when there are none.
+    ///
+    /// # Errors
+    /// As [`Trainer::losses`].
+    pub fn held_out_loss(&self, step: u64) -> Result<f64> {
+        if self.held_out.is_empty() {
+            return Ok(f64::NAN);
+        }
+        let net = self.model.net.valid();
+        let device = crate::backend::device();
+        let rest = rest_tensor(&self.model.rest_work_points(), &device);
+        let mut sum = 0.0;
+        for chunk in self.held_out.chunks(16) {
+            let images = self.images(&chunk.iter().collect::<Vec<_>>(), &device);
+            let vertices = net.vertices(net.encode(images.clone()), &rest);
+            let terms = self.objective.evaluate(vertices, images, self.config.sigma_at(step), &device)?;
+            sum += value(&terms.total) * chunk.len() as f64;
+        }
+        Ok(sum / self.held_out.len() as f64)
     }
 
     /// Backpropagates `terms.total` and takes Adam step number `step` (its learning rate).
@@ -424,23 +525,12 @@ impl Trainer {
     }
 }
 
-/// Configs of the same run, ignoring `train.steps` (which a resume may extend).
-fn same_run(a: &serde_json::Value, b: &serde_json::Value) -> bool {
-    let strip = |v: &serde_json::Value| {
-        let mut v = v.clone();
-        if let Some(t) = v.get_mut("train").and_then(|t| t.as_object_mut()) {
-            t.remove("steps");
-        }
-        v
-    };
-    strip(a) == strip(b)
-}
-
-/// The rest pose's silhouette area as a fraction of the S×S square (eq. 11's Σ R(V_init)).
-pub(crate) fn rest_coverage(raster: &SoftRasterizer, rest: &[[f32; 2]], size: usize) -> Result<f32> {
-    let flat: Vec<f32> = rest.iter().flatten().copied().collect();
-    let f = raster.forward(&flat, 1, size, size, &Params::crisp(Background::Transparent))?;
-    Ok(f.mask.iter().sum::<f32>() / (size * size) as f32)
+fn value(t: &Tensor<1>) -> f64 {
+    t.clone()
+        .into_data()
+        .convert::<f64>()
+        .try_to_vec::<f64>()
+        .map_or(f64::NAN, |v| v[0])
 }
 
 /// The frames of each step: passes over the training set, each in its own seeded order, cut
@@ -489,5 +579,13 @@ mod tests {
         assert_eq!(pass, [0, 1, 2, 3, 4]);
         assert_eq!(BatchOrder::new(5, 3, 9).batch(1), order.batch(1));
         assert_ne!(BatchOrder::new(5, 3, 10).batch(0), order.batch(0));
+    }
+
+    #[test]
+    fn changed_keys_ignore_the_output_and_the_step_count() {
+        let a = serde_json::json!({"output": "/a", "seed": 1, "train": {"steps": 10, "batch": 4}, "loss": {"arap": 1.0}});
+        let b = serde_json::json!({"output": "/b", "seed": 1, "train": {"steps": 20, "batch": 8}, "loss": {"arap": 2.0}});
+        assert_eq!(changed_keys(&a, &b), ["loss.arap", "train.batch"]);
+        assert!(changed_keys(&a, &a).is_empty());
     }
 }

@@ -1,4 +1,4 @@
-//! Meshing one layer (neural-puppet.md §3.1: "standard triangulation algorithm [52]"): alpha
+//! Meshing one layer (neural-puppet.md §3.1: "standard triangulation algorithm \[52\]"): alpha
 //! threshold → boundary polygons with holes (marching squares, sub-pixel) → simplification →
 //! constrained Delaunay triangulation (spade) refined to a minimum angle and maximum area →
 //! optional midpoint subdivision.

@@ -1,5 +1,5 @@
 //! Constrained Delaunay triangulation of a layer's rings, refined to quality (neural-puppet.md
-//! §3.1 "standard triangulation algorithm [52]"; Ruppert 1995 / Chew refinement as implemented
+//! §3.1 "standard triangulation algorithm \[52\]"; Ruppert 1995 / Chew refinement as implemented
 //! by spade's `ConstrainedDelaunayTriangulation::refine`).
 //!
 //! Ring edges are constraint edges; triangles outside the part or inside holes (even winding)

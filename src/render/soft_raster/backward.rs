@@ -24,7 +24,7 @@ impl SoftRasterizer {
     /// [`SoftRasterizer::forward_saving`], [`SoftRasterizer::backward_saved`] does not.
     ///
     /// # Errors
-    /// [`Error::Invalid`] if sizes disagree or inputs are not finite (as for `forward`).
+    /// [`Error::Mismatch`] if sizes disagree, [`Error::Geometry`] if inputs are not finite (as for `forward`).
     #[allow(clippy::too_many_arguments)] // the forward's arguments plus the two output gradients
     pub fn backward<T: Real>(
         &self,
@@ -44,7 +44,7 @@ impl SoftRasterizer {
     /// of this rasterizer (poses, sizes and parameters are those of that call).
     ///
     /// # Errors
-    /// [`Error::Invalid`] if the gradient sizes disagree with the forward call, or `saved` comes
+    /// [`Error::Mismatch`] if the gradient sizes disagree with the forward call, or `saved` comes
     /// from a rasterizer of another puppet.
     pub fn backward_saved<T: Real>(&self, saved: &Saved<T>, d_image: Option<&[T]>, d_mask: Option<&[T]>) -> Result<Vec<T>> {
         self.vjp(saved, d_image, d_mask, Routes::ALL)
@@ -57,12 +57,11 @@ impl SoftRasterizer {
         let (batch, width, height) = (saved.batch, saved.width, saved.height);
         let npx = batch * width * height;
         if d_image.is_some_and(|g| g.len() != npx * 4) || d_mask.is_some_and(|g| g.len() != npx) {
-            return Err(Error::Invalid(format!(
-                "render backward: gradient sizes {:?} (image) and {:?} (mask), expected {} and {npx}",
-                d_image.map(<[T]>::len),
-                d_mask.map(<[T]>::len),
-                npx * 4
-            )));
+            return Err(Error::mismatch(
+                "render backward: the gradient sizes (image, mask)",
+                format!("{:?}, {:?}", d_image.map(<[T]>::len), d_mask.map(<[T]>::len)),
+                format!("{}, {npx}", npx * 4),
+            ));
         }
         let pose = 2 * self.vertex_count;
         let mut grads = vec![T::zero(); batch * pose];
@@ -452,7 +451,7 @@ mod tests {
         smaller.layers.pop();
         let other = SoftRasterizer::new(&smaller).unwrap();
         let err = other.backward_saved(&saved, Some(&gi), None).unwrap_err().to_string();
-        assert!(err.contains("does not fit this puppet"), "{err}");
+        assert!(err.contains("saved forward") && err.contains("this puppet"), "{err}");
         assert!(raster.backward_saved(&saved, Some(&gi), None).is_ok());
     }
 }

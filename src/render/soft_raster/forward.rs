@@ -357,8 +357,8 @@ impl SoftRasterizer {
     /// y down, pixel centres at (x + 0.5, y + 0.5)).
     ///
     /// # Errors
-    /// [`crate::Error::Invalid`] if the sizes disagree, a coordinate is not finite, the image is
-    /// empty, or `params` is invalid.
+    /// [`crate::Error::Mismatch`] if the sizes disagree, [`crate::Error::Geometry`] if a coordinate
+    /// is not finite or the image is empty, [`crate::Error::Setting`] if `params` is invalid.
     pub fn forward<T: Real>(&self, vertices: &[T], batch: usize, width: usize, height: usize, params: &Params) -> Result<Frames<T>> {
         self.render(vertices, batch, width, height, params, false).map(|(f, _)| f)
     }
@@ -442,12 +442,11 @@ impl<T: Real> Saved<T> {
     pub(crate) fn check(&self, raster: &SoftRasterizer) -> Result<()> {
         let bands = self.height.div_ceil(TILE);
         if self.vertices.len() != self.batch * raster.vertex_count * 2 || self.bands.len() != self.batch * bands {
-            return Err(Error::Invalid(format!(
-                "render backward: saved forward of {} poses × {} coordinates does not fit this puppet ({} vertices)",
-                self.batch,
-                self.vertices.len() / self.batch.max(1),
-                raster.vertex_count
-            )));
+            return Err(Error::mismatch(
+                "render backward: the saved forward",
+                format!("{} poses × {} coordinates", self.batch, self.vertices.len() / self.batch.max(1)),
+                format!("{} vertices per pose (this puppet)", raster.vertex_count),
+            ));
         }
         Ok(())
     }

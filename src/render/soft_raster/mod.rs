@@ -122,20 +122,17 @@ impl Params {
     /// Checks σ ≥ 0 (finite), 0 < ε < 1/2, and a finite background in [0, 1].
     ///
     /// # Errors
-    /// [`Error::Invalid`] naming the bad setting.
+    /// [`Error::Setting`] naming the bad setting.
     pub fn validate(&self) -> Result<()> {
         if !(self.sigma.is_finite() && self.sigma >= 0.0) {
-            return Err(Error::Invalid(format!(
-                "render: sigma {} is not a finite value ≥ 0 (px²)",
-                self.sigma
-            )));
+            return Err(Error::setting("render sigma", self.sigma, "a finite value ≥ 0, px²"));
         }
         if !(self.cutoff > 0.0 && self.cutoff < 0.5) {
-            return Err(Error::Invalid(format!("render: cutoff {} is not in (0, 0.5)", self.cutoff)));
+            return Err(Error::setting("render cutoff", self.cutoff, "in (0, 0.5)"));
         }
         if let Background::Colour(c) = self.background {
             if c.iter().any(|v| !(0.0..=1.0).contains(v)) {
-                return Err(Error::Invalid(format!("render: background {c:?} is not RGB in [0, 1]")));
+                return Err(Error::setting("render background", format!("{c:?}"), "RGB in [0, 1]"));
             }
         }
         Ok(())
@@ -197,14 +194,14 @@ impl SoftRasterizer {
     /// Flattens `puppet` for rendering.
     ///
     /// # Errors
-    /// [`Error::Invalid`] naming the layer if a triangle indexes past its vertices, the UV count
+    /// [`Error::Geometry`] naming the layer if a triangle indexes past its vertices, the UV count
     /// differs from the vertex count, a UV is not finite, or the texture is empty.
     pub fn new(puppet: &Puppet) -> Result<Self> {
         let offsets = puppet.vertex_offsets();
         let (mut faces, mut face_layer, mut edges, mut textures, mut errors) = (Vec::new(), Vec::new(), Vec::new(), Vec::new(), Vec::new());
         for (l, layer) in puppet.layers.iter().enumerate() {
             let n = layer.mesh.vertices.len();
-            let bad = |problem: String| Error::Invalid(format!("render: layer {:?}: {problem}", layer.name));
+            let bad = |problem: String| Error::geometry(format!("layer {:?}", layer.name), problem);
             if layer.uvs.len() != n {
                 errors.push(bad(format!("{} UVs for {n} vertices", layer.uvs.len())));
                 continue;
@@ -274,20 +271,20 @@ impl SoftRasterizer {
     /// Checks a batch of poses: `vertices.len() == batch · V · 2`, all finite, and a non-empty image.
     ///
     /// # Errors
-    /// [`Error::Invalid`] saying what is wrong.
+    /// [`Error::Mismatch`] or [`Error::Geometry`] saying what is wrong.
     pub fn validate_input<T: Real>(&self, vertices: &[T], batch: usize, width: usize, height: usize) -> Result<()> {
         if vertices.len() != batch * self.vertex_count * 2 {
-            return Err(Error::Invalid(format!(
-                "render: {} vertex coordinates, expected {batch} poses × {} vertices × 2",
+            return Err(Error::mismatch(
+                "render: the vertex coordinates",
                 vertices.len(),
-                self.vertex_count
-            )));
+                format!("{batch} poses × {} vertices × 2", self.vertex_count),
+            ));
         }
         if let Some(i) = vertices.iter().position(|v| !v.is_finite()) {
-            return Err(Error::Invalid(format!("render: vertex coordinate {i} is not finite")));
+            return Err(Error::geometry(format!("render: vertex coordinate {i}"), "is not finite"));
         }
         if width == 0 || height == 0 {
-            return Err(Error::Invalid(format!("render: image size {width}×{height} is empty")));
+            return Err(Error::geometry(format!("render: image size {width}×{height}"), "is empty"));
         }
         Ok(())
     }

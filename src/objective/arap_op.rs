@@ -24,15 +24,16 @@ use crate::render::burn_op::host;
 /// squared). Differentiable w.r.t. `vertices` on an autodiff device.
 ///
 /// # Errors
-/// [`Error::Invalid`] if the shape is not `[B, V, 2]` for this mesh or the tensor is not on the
-/// compiled-in backend.
+/// [`Error::Mismatch`] if the shape is not `[B, V, 2]` for this mesh, [`Error::Backend`] if the
+/// tensor is not on the compiled-in backend.
 pub fn arap_loss(vertices: Tensor<3>, energy: &Arc<ArapEnergy<f32>>) -> Result<Tensor<1>> {
     let [batch, v, two] = vertices.dims();
     if v != energy.vertex_count() || two != 2 {
-        return Err(Error::Invalid(format!(
-            "arap: vertex tensor is [{batch}, {v}, {two}], expected [B, {}, 2]",
-            energy.vertex_count()
-        )));
+        return Err(Error::mismatch(
+            "arap: the vertex tensor",
+            format!("[{batch}, {v}, {two}]"),
+            format!("[B, {}, 2]", energy.vertex_count()),
+        ));
     }
     let evaluate = |values: Vec<f32>| -> Result<(Vec<f32>, Vec<f32>)> {
         let mut gradient = vec![0f32; values.len()];
@@ -56,8 +57,9 @@ pub fn arap_loss(vertices: Tensor<3>, energy: &Arc<ArapEnergy<f32>>) -> Result<T
         let (energies, _) = evaluate(host::<Inner>(plain))?;
         Ok(Tensor::from_primitive::<Inner>(energies_tensor(energies)))
     } else {
-        Err(Error::Invalid(
-            "arap: the vertex tensor is not on the compiled-in backend (crate::backend::device)".into(),
+        Err(Error::backend(
+            "arap",
+            "the vertex tensor is not on the compiled-in backend (crate::backend::device)",
         ))
     }
 }
@@ -98,7 +100,7 @@ mod tests {
     fn burn_gradient_matches_central_differences_of_the_energy() {
         let puppet = layered_puppet();
         let rest = puppet.rest_vertices();
-        let triangles = crate::train::loss::global_triangles(&puppet);
+        let triangles = crate::objective::global_triangles(&puppet);
         let energy = Arc::new(ArapEnergy::<f32>::new(&rest, &triangles).unwrap());
         let e64 = ArapEnergy::<f64>::new(&rest.iter().map(|p| [p[0] as f64, p[1] as f64]).collect::<Vec<_>>(), &triangles).unwrap();
         let nv = rest.len();

@@ -10,15 +10,12 @@
 
 use std::path::{Path, PathBuf};
 
-use super::correspond::correspond;
+use crate::edit::correspond::correspond;
 use crate::error::{Error, Result};
-use crate::eval::pck;
+use crate::metrics::{pck, PCK_ALPHAS};
 use crate::picture::Picture;
 use crate::puppet::Puppet;
 use crate::synth::Truth;
-
-/// The α thresholds of Table 2.
-pub const ALPHAS: [f64; 3] = [0.1, 0.05, 0.025];
 
 /// One ordered pair's keypoints and matches.
 #[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
@@ -64,21 +61,21 @@ pub struct Keypoint {
 /// The visible keypoints of frame `f` (module doc).
 ///
 /// # Errors
-/// [`Error::Invalid`] if a layer of `puppet` names no part of `truth`; label-map read errors
-/// name the file.
+/// [`Error::Mismatch`] if a layer of `puppet` names no part of `truth` or `f` is past its frames;
+/// label-map read errors name the file.
 pub fn visible_keypoints(truth: &Truth, sequence_dir: &Path, f: usize, puppet: &Puppet) -> Result<Vec<Keypoint>> {
     let frame = truth
         .frames
         .get(f)
-        .ok_or_else(|| Error::Invalid(format!("truth: no frame {f} (the sequence has {})", truth.frames.len())))?;
+        .ok_or_else(|| Error::mismatch("the truth's frame count", truth.frames.len(), format!("more than {f}")))?;
     let labels = Picture::load(&sequence_dir.join(&frame.labels))?;
     let mut out = Vec::new();
     for layer in &puppet.layers {
         let part = truth
             .part_index(&layer.name)
-            .ok_or_else(|| Error::Invalid(format!("truth: layer {:?} has no part of that name", layer.name)))?;
+            .ok_or_else(|| Error::mismatch(format!("layer {:?}", layer.name), "in the puppet", "a part of the truth"))?;
         let colour = crate::puppet::character::parse_color(&truth.parts[part].label)
-            .map_err(|e| Error::Invalid(format!("truth: part {:?}: {e}", layer.name)))?;
+            .map_err(|e| Error::setting(format!("the truth's part {:?} label", layer.name), &truth.parts[part].label, e))?;
         for &r in &layer.mesh.vertices {
             let p = truth.map_point(f, part, r);
             let (x, y) = (p[0].floor(), p[1].floor());
@@ -103,8 +100,8 @@ pub fn visible_keypoints(truth: &Truth, sequence_dir: &Path, f: usize, puppet: &
 /// frame files and our fitted poses of them, frame pixels).
 ///
 /// # Errors
-/// As [`visible_keypoints`]; [`Error::Invalid`] for an index out of range or a fit of the wrong
-/// size.
+/// As [`visible_keypoints`]; [`Error::Mismatch`] for an index out of range or a fit of the
+/// wrong size.
 pub fn pck_pairs(
     truth: &Truth,
     sequence_dir: &Path,
@@ -117,7 +114,11 @@ pub fn pck_pairs(
     let mut sums = [0.0f64; 3];
     for &(a, b) in pairs {
         if a >= files.len() || b >= files.len() || a >= fits.len() || b >= fits.len() {
-            return Err(Error::Invalid(format!("pck: pair ({a}, {b}) is past the {} frames", files.len())));
+            return Err(Error::mismatch(
+                format!("pck: pair ({a}, {b})"),
+                "past the frames",
+                format!("below {}", files.len()),
+            ));
         }
         let keypoints = visible_keypoints(truth, sequence_dir, a, puppet)?;
         let points_a: Vec<[f32; 2]> = keypoints.iter().map(|k| k.position).collect();
@@ -128,7 +129,7 @@ pub fn pck_pairs(
             .collect();
         // A miss is placed at infinity so it never counts as correct.
         let predicted: Vec<[f32; 2]> = ours_b.iter().map(|p| p.unwrap_or([f32::INFINITY; 2])).collect();
-        for (s, &alpha) in sums.iter_mut().zip(&ALPHAS) {
+        for (s, &alpha) in sums.iter_mut().zip(&PCK_ALPHAS) {
             *s += pck(&predicted, &truth_b, alpha, puppet.width, puppet.height);
         }
         out.push(PairKeypoints {
@@ -143,7 +144,7 @@ pub fn pck_pairs(
     Ok(PckPairs {
         width: puppet.width,
         height: puppet.height,
-        alphas: ALPHAS.to_vec(),
+        alphas: PCK_ALPHAS.to_vec(),
         pairs: out,
         ours: sums.iter().map(|s| s / n).collect(),
     })

@@ -1,8 +1,6 @@
 //! Shared helpers for integration tests: a temporary folder, tiny characters written as each
 //! artwork form, and a runner for the `puppet` binary.
 
-#![allow(dead_code)] // each test file uses a different subset
-
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
@@ -14,13 +12,18 @@ pub struct Run {
 }
 
 impl Run {
-    /// Asserts the run failed with exit code 1 and a stderr naming every `needle`, without a panic.
+    /// Asserts the run failed with exit code 1 and an error message (after any progress lines)
+    /// naming every `needle`, without a panic.
     pub fn assert_error(&self, needles: &[&str]) {
         assert_eq!(self.code, 1, "expected exit 1\nstdout: {}\nstderr: {}", self.stdout, self.stderr);
         assert!(!self.stderr.contains("panicked"), "panic instead of an error:\n{}", self.stderr);
-        assert!(self.stderr.starts_with("puppet: error: "), "stderr: {}", self.stderr);
+        let at = self
+            .stderr
+            .find("puppet: error: ")
+            .unwrap_or_else(|| panic!("no error message on stderr:\n{}", self.stderr));
+        let error = &self.stderr[at..];
         for n in needles {
-            assert!(self.stderr.contains(n), "stderr lacks {n:?}:\n{}", self.stderr);
+            assert!(error.contains(n), "the error lacks {n:?}:\n{}", self.stderr);
         }
     }
 

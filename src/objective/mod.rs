@@ -1,20 +1,59 @@
-//! The training losses of neural-puppet.md §3.2 and appendix (eq. 1–4, 10, 11) as Burn tensor
-//! functions, and [`Objective`], which holds what they need for one puppet and sums eq. 4.
+//! The objective of neural-puppet.md §3.2 and appendix (eq. 1–4, 10, 11): the losses as Burn
+//! tensor functions, the ARAP energy as a differentiable operation ([`arap_op`]), and
+//! [`Objective`], which renders predicted vertices with the soft rasterizer and sums eq. 4 —
+//! what training lowers over the network's weights and fitting over a frame's latent or
+//! vertices.
 //!
 //! Units (see [`LossWeights`]): images premultiplied RGBA in [0, 1], eq. 1 a sum over pixels as
 //! written; vertices in working pixels converted to NDC (÷ S/2) for ARAP and joints, so the
 //! paper's λ1 = 2500, λ2 = 1e4 apply.
 
+pub mod arap_op;
+
 use std::sync::Arc;
 
 use burn::tensor::{Device, Int, Tensor, TensorData};
+use serde::{Deserialize, Serialize};
 
-use super::arap_op::arap_loss;
-use super::config::LossWeights;
 use crate::error::Result;
 use crate::geom::arap::ArapEnergy;
 use crate::puppet::Puppet;
-use crate::render::burn_op::Rendered;
+use crate::render::burn_op::{soft_raster, Rendered};
+use crate::render::soft_raster::{Background, Params, SoftRasterizer};
+use arap_op::arap_loss;
+
+/// Weights of eq. 4 (and eq. 10–11 for masked training).
+///
+/// Units, so the paper's numbers mean what they meant there (NMR: images in [0, 1], vertices in
+/// normalised device coordinates where the image spans [−1, 1]): L_rec is eq. 1 as written, the
+/// squared norm of the premultiplied-RGBA difference summed over the pixels and channels of an
+/// image (eq. 10's masked variant is, as written, normalised by the silhouette's area); ARAP
+/// (eq. 2) and the joint term (eq. 3) are sums over edges / joints of squared lengths in NDC,
+/// i.e. working pixels divided by S/2; every term is averaged over the batch; the area term
+/// (eq. 11) compares mask sums as fractions of the image.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct LossWeights {
+    /// λ1, ARAP (paper: 2500).
+    pub arap: f64,
+    /// λ2, joints (paper: 1e4).
+    pub joints: f64,
+    /// Use the masked loss of eq. 10 and the area penalty of eq. 11 (frames over a background).
+    pub masked: bool,
+    /// Weight of eq. 11's area penalty (paper: 2e-3).
+    pub area: f64,
+}
+
+impl Default for LossWeights {
+    fn default() -> Self {
+        LossWeights {
+            arap: 2500.0,
+            joints: 1e4,
+            masked: false,
+            area: 2e-3,
+        }
+    }
+}
 
 /// Eq. 1, `‖x − R(V, F, I^uv)‖²`: the squared norm over channels and pixels of each image,
 /// averaged over the batch.
@@ -77,10 +116,13 @@ pub struct LossTerms {
     pub area: Tensor<1>,
 }
 
-/// Everything the losses need for one puppet at one working size.
+/// Everything the losses need for one puppet at one working size: the rasterizer, the ARAP
+/// energy of the rest pose, the joints, the rest silhouette's area, the weights.
 #[derive(Clone, Debug)]
 pub struct Objective {
     weights: LossWeights,
+    raster: Arc<SoftRasterizer>,
+    size: usize,
     arap: Arc<ArapEnergy<f32>>,
     joint_a: Vec<i64>,
     joint_b: Vec<i64>,
@@ -89,12 +131,15 @@ pub struct Objective {
 }
 
 impl Objective {
-    /// Prepares the ARAP energy on the rest vertices `rest` (working pixels of an S×S square), the
-    /// joint pairs, and the rest silhouette's area fraction (for eq. 11).
+    /// Prepares the rasterizer for `puppet`, the ARAP energy on the rest vertices `rest` (working
+    /// pixels of an S×S square, S = `size`), the joint pairs, and the rest silhouette's area
+    /// fraction (eq. 11).
     ///
     /// # Errors
-    /// [`crate::Error::Invalid`] if the mesh is degenerate (see [`ArapEnergy::new`]).
-    pub fn new(puppet: &Puppet, rest: &[[f32; 2]], size: usize, rest_area: f32, weights: LossWeights) -> Result<Self> {
+    /// [`crate::Error::Geometry`] if the mesh is degenerate (see [`ArapEnergy::new`]) or a layer
+    /// cannot be rasterized.
+    pub fn new(puppet: &Puppet, rest: &[[f32; 2]], size: usize, weights: LossWeights) -> Result<Self> {
+        let raster = Arc::new(SoftRasterizer::new(puppet)?);
         let half = size as f32 / 2.0;
         let ndc: Vec<[f32; 2]> = rest.iter().map(|p| [p[0] / half, p[1] / half]).collect();
         let arap = Arc::new(ArapEnergy::new(&ndc, &global_triangles(puppet))?);
@@ -103,8 +148,11 @@ impl Objective {
             .iter()
             .map(|j| (puppet.global_index(j.a) as i64, puppet.global_index(j.b) as i64))
             .unzip();
+        let rest_area = rest_coverage(&raster, rest, size)?;
         Ok(Objective {
             weights,
+            raster,
+            size,
             arap,
             joint_a,
             joint_b,
@@ -113,12 +161,45 @@ impl Objective {
         })
     }
 
-    /// Eq. 4 for predicted vertices `[B, V, 2]` (working pixels), their render, and the target:
+    /// The rasterizer the objective renders with.
+    pub fn raster(&self) -> &Arc<SoftRasterizer> {
+        &self.raster
+    }
+
+    /// The weights.
+    pub fn weights(&self) -> &LossWeights {
+        &self.weights
+    }
+
+    /// Renders vertices `[B, V, 2]` (working pixels) on transparency at soft-rasterizer `sigma`
+    /// (px² of the working square), differentiably.
+    ///
+    /// # Errors
+    /// As [`soft_raster`].
+    pub fn render(&self, vertices: Tensor<3>, sigma: f32) -> Result<Rendered> {
+        let params = Params {
+            sigma,
+            background: Background::Transparent,
+            ..Params::default()
+        };
+        soft_raster(vertices, &self.raster, self.size, self.size, params)
+    }
+
+    /// Eq. 4 of vertices `[B, V, 2]` (working pixels) rendered at `sigma` against `target`:
     /// premultiplied RGBA `[B, 4, S, S]` (or, masked, the opaque frame whose RGB is used).
     ///
     /// # Errors
+    /// As [`Objective::render`] and [`Objective::score`].
+    pub fn evaluate(&self, vertices: Tensor<3>, target: Tensor<4>, sigma: f32, device: &Device) -> Result<LossTerms> {
+        let rendered = self.render(vertices.clone(), sigma)?;
+        self.score(vertices, &rendered, target, device)
+    }
+
+    /// Eq. 4 for predicted vertices `[B, V, 2]` (working pixels), their render, and the target.
+    ///
+    /// # Errors
     /// Shape errors from the ARAP operation.
-    pub fn evaluate(&self, vertices: Tensor<3>, rendered: &Rendered, target: Tensor<4>, device: &Device) -> Result<LossTerms> {
+    pub fn score(&self, vertices: Tensor<3>, rendered: &Rendered, target: Tensor<4>, device: &Device) -> Result<LossTerms> {
         let ndc = vertices.mul_scalar(self.ndc_scale);
         let arap = arap_loss(ndc.clone(), &self.arap)?.mean();
         let joints = if self.joint_a.is_empty() {
@@ -149,6 +230,13 @@ impl Objective {
             area: area_term,
         })
     }
+}
+
+/// The rest pose's silhouette area as a fraction of the S×S square (eq. 11's Σ R(V_init)).
+fn rest_coverage(raster: &SoftRasterizer, rest: &[[f32; 2]], size: usize) -> Result<f32> {
+    let flat: Vec<f32> = rest.iter().flatten().copied().collect();
+    let f = raster.forward(&flat, 1, size, size, &Params::crisp(Background::Transparent))?;
+    Ok(f.mask.iter().sum::<f32>() / (size * size) as f32)
 }
 
 #[cfg(test)]

@@ -1,39 +1,48 @@
-//! Fit refinement: after the encoder's one-pass fit, a few Adam steps on each frame's latent z
-//! that lower the training objective (eq. 4: L_rec + λ1·ARAP + λ2·joints) for that frame alone —
-//! analysis by synthesis through the decoder and the soft rasterizer, the same machinery §4.2
-//! uses for dragged poses. The network's weights do not change; the result stays on the decoder's
-//! manifold. `--refine N` on `puppet fit`, `eval`, `inbetween`, `pose` and `correspond`, and the
-//! demo, use it.
+//! Fitting frames with a trained model (neural-puppet.md §3.2, §4): the encoder's one pass,
+//! `v = D(E(x))`, then optional stages that lower the training objective (eq. 4: L_rec +
+//! λ1·ARAP + λ2·joints) for each frame alone — analysis by synthesis through the decoder and the
+//! soft rasterizer, the machinery §4.2 uses for dragged poses:
+//!
+//! 1. latent steps: Adam on each frame's latent z; the weights do not change and the pose stays
+//!    on the decoder's manifold;
+//! 2. rounds of a limb search ([`limb_search`]: limbs turned about their joints, for limbs drawn
+//!    far from where the network put them) and vertex steps (Adam on the vertices themselves,
+//!    held only by the ARAP and joint terms).
+//!
+//! Frames are fitted in batches of [`BATCH`]. Reading a frame for a model: [`frame`].
+
+pub mod frame;
+pub mod limb_search;
 
 use std::path::Path;
 
 use burn::tensor::{Device, Tensor, TensorData};
 
-use super::config::LossWeights;
-use super::limb_search::LimbSearch;
-use super::loss::Objective;
-use super::trainer::{rest_coverage, CONFIG_FILE};
 use crate::error::{Error, Result};
 use crate::model::deformation::rest_tensor;
-use crate::model::Model;
+use crate::model::{Model, ModelFolder};
+use crate::objective::{LossWeights, Objective};
 use crate::picture::Picture;
-use crate::render::burn_op::soft_raster;
-use crate::render::soft_raster::{Background, Params, SoftRasterizer};
+use crate::progress::Progress;
+use limb_search::LimbSearch;
 
-/// Refinement steps unless asked otherwise: on the synthetic walker (README) 50 steps take the
+/// Frames fitted together (one rasterizer, objective and network input per batch).
+pub const BATCH: usize = 16;
+
+/// Latent steps unless asked otherwise: on the synthetic walker (README) 50 steps take the
 /// held-out L2 from 4947 to 3340 and 100 to 3253 (the true pose renders at 3213).
-pub const DEFAULT_STEPS: usize = 50;
+pub const DEFAULT_LATENT_STEPS: usize = 50;
 
-/// Vertex refinement steps per round after the latent ones unless asked otherwise (README): on
-/// the synthetic walker one round of 100 steps takes the held-out L2 from 3360 to 2793, three
-/// rounds with the limb search to 2758; on the Kenney robot's held-out frames 7040 → 4024 → 3065.
+/// Vertex steps per round after the latent ones unless asked otherwise (README): on the
+/// synthetic walker one round of 100 steps takes the held-out L2 from 3360 to 2793, three rounds
+/// with the limb search to 2758; on the Kenney robot's held-out frames 7040 → 4024 → 3065.
 pub const DEFAULT_VERTEX_STEPS: usize = 100;
 
-/// How to refine fits.
+/// How to fit frames.
 #[derive(Clone, Debug, PartialEq)]
-pub struct RefineOptions {
+pub struct FitOptions {
     /// Adam steps on the latents (0 = the encoder's fit unchanged).
-    pub steps: usize,
+    pub latent_steps: usize,
     /// Adam's step size in latent units.
     pub learning_rate: f32,
     /// Adam steps on the vertices after the latents, for fits (0 = stay on the decoder's
@@ -55,10 +64,10 @@ pub struct RefineOptions {
     pub weights: LossWeights,
 }
 
-impl Default for RefineOptions {
+impl Default for FitOptions {
     fn default() -> Self {
-        RefineOptions {
-            steps: DEFAULT_STEPS,
+        FitOptions {
+            latent_steps: DEFAULT_LATENT_STEPS,
             learning_rate: 0.02,
             vertex_steps: DEFAULT_VERTEX_STEPS,
             vertex_learning_rate: 0.3,
@@ -71,20 +80,20 @@ impl Default for RefineOptions {
     }
 }
 
-impl RefineOptions {
-    /// `steps` latent and `vertex_steps` vertex refinement steps with the loss weights and the
-    /// σ schedule the model in `dir` was trained with (its `train.toml`; a model trained on frames over a background must refine
-    /// with the masked loss too), or the defaults if the folder has no `train.toml`.
+impl FitOptions {
+    /// `latent_steps` latent and `vertex_steps` vertex steps with the loss weights and the σ
+    /// schedule the model in `dir` was trained with (its `train.toml`: a model trained on frames
+    /// over a background must fit with the masked loss too), or the defaults if it has none.
     ///
     /// # Errors
     /// [`Error::Format`] naming `train.toml` if it cannot be read or its `[loss]` or
     /// `train.sigma` do not parse.
-    pub fn for_model(dir: &Path, steps: usize, vertex_steps: usize) -> Result<Self> {
-        let path = dir.join(CONFIG_FILE);
-        let mut options = RefineOptions {
-            steps,
+    pub fn for_model(dir: &Path, latent_steps: usize, vertex_steps: usize) -> Result<Self> {
+        let path = ModelFolder::new(dir).config();
+        let mut options = FitOptions {
+            latent_steps,
             vertex_steps,
-            ..RefineOptions::default()
+            ..FitOptions::default()
         };
         if !path.is_file() {
             return Ok(options);
@@ -104,25 +113,47 @@ impl RefineOptions {
         Ok(options)
     }
 
-    /// No refinement: the encoder's one-pass fit, as the paper evaluates it.
-    pub fn encoder_only() -> Self {
-        RefineOptions {
-            steps: 0,
+    /// The encoder's one-pass fit, as the paper evaluates it.
+    pub fn one_pass() -> Self {
+        FitOptions {
+            latent_steps: 0,
             vertex_steps: 0,
-            ..RefineOptions::default()
+            ..FitOptions::default()
         }
+    }
+
+    /// Whether the options go past the decoder's manifold (vertex steps in some round).
+    pub fn moves_vertices(&self) -> bool {
+        self.vertex_steps > 0 && self.vertex_rounds > 0
     }
 }
 
-/// Fits `frames` (the puppet's size): encoder, then `options.steps` Adam steps per latent, then
+/// Fits `frames` (the puppet's size) in batches of [`BATCH`], advancing `progress` by each
+/// batch: encoder, then `options.latent_steps` Adam steps per latent, then
 /// `options.vertex_rounds` rounds of a limb search ([`LimbSearch`]) and `options.vertex_steps`
 /// Adam steps on the vertices themselves. Returns the template vertices of each frame in frame
 /// pixels.
 ///
 /// # Errors
 /// As [`fit_latents`].
-pub fn refined_fit(model: &Model, frames: &[&Picture], options: &RefineOptions, device: &Device) -> Result<Vec<Vec<[f32; 2]>>> {
-    if options.vertex_steps == 0 || options.vertex_rounds == 0 || frames.is_empty() {
+pub fn fit(
+    model: &Model,
+    frames: &[&Picture],
+    options: &FitOptions,
+    device: &Device,
+    progress: &dyn Progress,
+) -> Result<Vec<Vec<[f32; 2]>>> {
+    let mut out = Vec::with_capacity(frames.len());
+    for chunk in frames.chunks(BATCH) {
+        out.extend(fit_batch(model, chunk, options, device)?);
+        progress.advance(chunk.len() as u64);
+    }
+    Ok(out)
+}
+
+/// One batch of [`fit`].
+fn fit_batch(model: &Model, frames: &[&Picture], options: &FitOptions, device: &Device) -> Result<Vec<Vec<[f32; 2]>>> {
+    if !options.moves_vertices() || frames.is_empty() {
         let z = fit_latents(model, frames, options, device)?;
         return Ok(model.to_frame_vertices(model.decode(z, device)));
     }
@@ -133,7 +164,7 @@ pub fn refined_fit(model: &Model, frames: &[&Picture], options: &RefineOptions, 
     for _ in 0..options.vertex_rounds {
         if let Some(search) = &options.limb_search {
             for (pose, frame) in poses.iter_mut().zip(frames) {
-                search.improve(&analysis.raster, &model.puppet, frame, pose)?;
+                search.improve(analysis.objective.raster(), &model.puppet, frame, pose)?;
             }
         }
         let vertices = analysis.vertices(model.to_work_vertices(&poses, device))?;
@@ -142,12 +173,13 @@ pub fn refined_fit(model: &Model, frames: &[&Picture], options: &RefineOptions, 
     Ok(poses)
 }
 
-/// The latents `[B, Z]` of `frames`: the encoder's, then `options.steps` Adam steps each.
+/// The latents `[B, Z]` of `frames` (one batch): the encoder's, then `options.latent_steps`
+/// Adam steps each.
 ///
 /// # Errors
-/// As [`Model::input`]; [`Error::Invalid`] for a non-positive σ or step size.
-pub fn fit_latents(model: &Model, frames: &[&Picture], options: &RefineOptions, device: &Device) -> Result<Tensor<2>> {
-    if options.steps == 0 || frames.is_empty() {
+/// As [`Model::input`]; [`Error::Setting`] for a non-positive σ or step size.
+pub fn fit_latents(model: &Model, frames: &[&Picture], options: &FitOptions, device: &Device) -> Result<Tensor<2>> {
+    if options.latent_steps == 0 || frames.is_empty() {
         return model.encode(frames, device);
     }
     let analysis = Analysis::new(model, frames, options, device)?;
@@ -158,50 +190,43 @@ pub fn fit_latents(model: &Model, frames: &[&Picture], options: &RefineOptions, 
 /// rasterizer, lowered by Adam on the latents or on the vertices.
 struct Analysis<'a> {
     model: &'a Model,
-    options: &'a RefineOptions,
+    options: &'a FitOptions,
     device: &'a Device,
     images: Tensor<4>,
-    raster: std::sync::Arc<SoftRasterizer>,
     objective: Objective,
     rest: Tensor<2>,
-    params: Params,
 }
 
 impl<'a> Analysis<'a> {
-    fn new(model: &'a Model, frames: &[&Picture], options: &'a RefineOptions, device: &'a Device) -> Result<Self> {
-        let rates = [options.learning_rate, options.vertex_learning_rate];
-        if !(options.sigma > 0.0 && rates.iter().all(|&r| r > 0.0)) {
-            return Err(Error::Invalid(format!(
-                "refine: σ {} and step sizes {} (latent), {} (vertex) must be positive",
-                options.sigma, options.learning_rate, options.vertex_learning_rate
-            )));
-        }
+    fn new(model: &'a Model, frames: &[&Picture], options: &'a FitOptions, device: &'a Device) -> Result<Self> {
+        let positive = |name: &str, v: f32| {
+            if v > 0.0 && v.is_finite() {
+                Ok(())
+            } else {
+                Err(Error::setting(format!("fit {name}"), v, "positive"))
+            }
+        };
+        positive("sigma", options.sigma)?;
+        positive("latent learning rate", options.learning_rate)?;
+        positive("vertex learning rate", options.vertex_learning_rate)?;
         let size = model.letterbox.size as usize;
-        let raster = std::sync::Arc::new(SoftRasterizer::new(&model.puppet)?);
         let rest_points = model.rest_work_points();
-        let rest_area = rest_coverage(&raster, &rest_points, size)?;
         Ok(Analysis {
             model,
             options,
             device,
             images: model.input(frames, device)?,
-            objective: Objective::new(&model.puppet, &rest_points, size, rest_area, options.weights.clone())?,
-            raster,
+            objective: Objective::new(&model.puppet, &rest_points, size, options.weights.clone())?,
             rest: rest_tensor(&rest_points, device),
-            params: Params {
-                sigma: options.sigma,
-                background: Background::Transparent,
-                ..Params::default()
-            },
         })
     }
 
-    /// `options.steps` Adam steps on the latents `z0` through the decoder.
+    /// `options.latent_steps` Adam steps on the latents `z0` through the decoder.
     fn latents(&self, z0: Tensor<2>) -> Result<Tensor<2>> {
         let sigma = self.options.sigma;
         self.descend(
             z0,
-            self.options.steps,
+            self.options.latent_steps,
             self.options.learning_rate,
             |_| sigma,
             |z| self.model.net.vertices(z, &self.rest),
@@ -227,28 +252,19 @@ impl<'a> Analysis<'a> {
         sigma: impl Fn(usize) -> f32,
         to_vertices: impl Fn(Tensor<D>) -> Tensor<3>,
     ) -> Result<Tensor<D>> {
-        let size = self.model.letterbox.size as usize;
         let shape = x0.dims();
         let mut x = to_vec(x0);
         let mut adam = Adam::new(x.len());
         for k in 0..steps {
-            let params = Params {
-                sigma: sigma(k),
-                ..self.params
-            };
             let xt = Tensor::<D>::from_data(TensorData::new(x.clone(), shape), self.device)
                 .autodiff()
                 .require_grad();
             let vertices = to_vertices(xt.clone());
-            let rendered = soft_raster(vertices.clone(), &self.raster, size, size, params)?;
-            let total = self
-                .objective
-                .evaluate(vertices, &rendered, self.images.clone(), self.device)?
-                .total;
+            let total = self.objective.evaluate(vertices, self.images.clone(), sigma(k), self.device)?.total;
             let grads = total.backward();
             let g = xt
                 .grad(&grads)
-                .ok_or_else(|| Error::Invalid("refine: no gradient reached the unknowns".into()))?;
+                .ok_or_else(|| Error::backend("fit", "no gradient reached the unknowns"))?;
             adam.step(&mut x, &to_vec(g), learning_rate);
         }
         Ok(Tensor::<D>::from_data(TensorData::new(x, shape), self.device))
@@ -295,23 +311,24 @@ mod tests {
     #[test]
     fn options_follow_the_models_training_objective_and_name_a_bad_config() {
         let dir = tempfile::tempdir().unwrap();
-        let defaults = RefineOptions::for_model(dir.path(), 7, 3).unwrap();
+        let defaults = FitOptions::for_model(dir.path(), 7, 3).unwrap();
         assert_eq!(
             defaults,
-            RefineOptions {
-                steps: 7,
+            FitOptions {
+                latent_steps: 7,
                 vertex_steps: 3,
-                ..RefineOptions::default()
+                ..FitOptions::default()
             }
         );
         let config = "puppet = \"p\"\n[train]\nsigma = [2.0, 0.25]\n[loss]\narap = 10.0\nmasked = true\n";
-        std::fs::write(dir.path().join(CONFIG_FILE), config).unwrap();
-        let o = RefineOptions::for_model(dir.path(), 7, 3).unwrap();
-        assert_eq!((o.steps, o.vertex_sigma_start, o.sigma), (7, 2.0, 0.25));
+        let config_file = ModelFolder::new(dir.path()).config();
+        std::fs::write(&config_file, config).unwrap();
+        let o = FitOptions::for_model(dir.path(), 7, 3).unwrap();
+        assert_eq!((o.latent_steps, o.vertex_sigma_start, o.sigma), (7, 2.0, 0.25));
         assert_eq!((o.weights.arap, o.weights.masked), (10.0, true));
         assert_eq!(o.weights.joints, LossWeights::default().joints, "unset weights keep their defaults");
-        std::fs::write(dir.path().join(CONFIG_FILE), "[loss]\narap = \"strong\"\n").unwrap();
-        let err = RefineOptions::for_model(dir.path(), 7, 3).unwrap_err().to_string();
-        assert!(err.contains(CONFIG_FILE) && err.contains("[loss]"), "{err}");
+        std::fs::write(&config_file, "[loss]\narap = \"strong\"\n").unwrap();
+        let err = FitOptions::for_model(dir.path(), 7, 3).unwrap_err().to_string();
+        assert!(err.contains(ModelFolder::CONFIG) && err.contains("[loss]"), "{err}");
     }
 }

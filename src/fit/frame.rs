@@ -1,43 +1,44 @@
 //! Reading a frame for a trained model: the network was trained on cut-out characters over
 //! transparency at the puppet's frame size (neural-puppet.md §3.2), so a frame of another size
-//! or without any transparent pixel is refused up front, naming the file.
+//! (checked from its header, before decoding) or without any transparent pixel is refused,
+//! naming the file.
 
 use std::path::Path;
 
 use crate::error::{Error, Result};
 use crate::model::Model;
 use crate::picture::Picture;
+use crate::puppet::sequence::{self, FrameCheck};
 
-/// Loads the image at `path` and checks it suits `model`: the puppet's size, and an alpha
-/// channel that is not everywhere opaque.
+/// Loads the image at `path` and checks it suits `model`: the puppet's size, and some pixel
+/// that is not opaque.
 ///
 /// # Errors
-/// [`Error::Io`]/[`Error::Image`] if it cannot be read; [`Error::Image`] naming the file if its
-/// size differs from the puppet's or it has no transparency.
+/// [`Error::Io`]/[`Error::Image`] if it cannot be read; [`Error::Mismatch`] (about the file) if
+/// its size differs from the puppet's; [`Error::Image`] if it has no transparency.
 pub fn load_frame(path: &Path, model: &Model) -> Result<Picture> {
-    let bytes = std::fs::read(path).map_err(|e| Error::io(path, e))?;
-    let image = image::load_from_memory(&bytes).map_err(|e| Error::Image {
-        path: path.to_path_buf(),
-        problem: format!("cannot decode image: {e}"),
-    })?;
-    let picture = Picture::from_image(&image);
-    model.check_frame(&picture).map_err(|e| Error::Image {
-        path: path.to_path_buf(),
-        problem: e.to_string(),
-    })?;
-    if !image.color().has_alpha() {
-        return Err(Error::Image {
-            path: path.to_path_buf(),
-            problem: "has no alpha channel (frames are cut-out characters on transparency, RGBA PNG)".into(),
-        });
-    }
-    if picture.pixels.iter().all(|p| p[3] >= 1.0) {
-        return Err(Error::Image {
-            path: path.to_path_buf(),
-            problem: "is opaque everywhere (frames are cut-out characters on transparency)".into(),
-        });
-    }
+    let picture = sequence::load_frame(path, &frame_check(model))?;
+    check_cut_out(&picture, path)?;
     Ok(picture)
+}
+
+/// The checks a model's frames must pass before decoding: the puppet's size, default limits.
+pub fn frame_check(model: &Model) -> FrameCheck {
+    FrameCheck::of_size(model.puppet.width, model.puppet.height)
+}
+
+/// Checks `picture`, read from `path`, is a cut-out character (some pixel is not opaque).
+///
+/// # Errors
+/// [`Error::Image`] naming `path`.
+pub fn check_cut_out(picture: &Picture, path: &Path) -> Result<()> {
+    if picture.pixels.iter().all(|p| p[3] >= 1.0) {
+        return Err(Error::image(
+            path,
+            "is opaque everywhere (frames are cut-out characters on transparency, RGBA PNG)",
+        ));
+    }
+    Ok(())
 }
 
 #[cfg(test)]
@@ -64,7 +65,7 @@ mod tests {
         let rgb = dir.path().join("rgb.png");
         image::RgbImage::new(48, 40).save(&rgb).unwrap();
         let err = load_frame(&rgb, &model).unwrap_err().to_string();
-        assert!(err.contains("rgb.png") && err.contains("no alpha"), "{err}");
+        assert!(err.contains("rgb.png") && err.contains("opaque everywhere"), "{err}");
         let opaque = dir.path().join("opaque.png");
         image::RgbaImage::from_pixel(48, 40, image::Rgba([9, 9, 9, 255]))
             .save(&opaque)

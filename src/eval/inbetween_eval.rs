@@ -12,13 +12,14 @@
 
 use burn::tensor::Device;
 
-use super::inbetween::{nearest_frame, Interpolator};
+use crate::edit::inbetween::{nearest_frame, Interpolator};
 use crate::error::{Error, Result};
-use crate::eval::l2;
+use crate::fit::{fit, FitOptions};
+use crate::metrics::l2;
 use crate::model::Model;
 use crate::picture::Picture;
+use crate::progress::Silent;
 use crate::render::render_crisp;
-use crate::train::refine::{refined_fit, RefineOptions};
 
 /// Per held-out frame L2 of each method (module doc), frame index first.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -41,14 +42,14 @@ pub struct InbetweenScore {
 /// `frames`).
 ///
 /// # Errors
-/// [`Error::Invalid`] if no held-out frame has both neighbours among the training frames, or a
-/// frame is not the puppet's size.
+/// [`Error::Setting`] if no held-out frame has both neighbours among the training frames,
+/// [`Error::Mismatch`] if a frame is not the puppet's size.
 pub fn inbetween_scores(
     model: &Model,
     frames: &[Picture],
     training: &[usize],
     held_out: &[usize],
-    refine: &RefineOptions,
+    options: &FitOptions,
     device: &Device,
 ) -> Result<Vec<InbetweenScore>> {
     let train_pics: Vec<Picture> = training.iter().filter_map(|&i| frames.get(i).cloned()).collect();
@@ -58,11 +59,11 @@ pub fn inbetween_scores(
         if k == 0 || k + 1 >= frames.len() || !training.contains(&(k - 1)) || !training.contains(&(k + 1)) {
             continue;
         }
-        let interp = Interpolator::new(model, &frames[k - 1], &frames[k + 1], refine, device)?;
+        let interp = Interpolator::new(model, &frames[k - 1], &frames[k + 1], options, device)?;
         let latent_pose = interp.latent_poses(model, &[0.5], device).pop().unwrap_or_default();
         let latent = render_crisp(&model.puppet, &latent_pose, w, h)?;
         let vertex = render_crisp(&model.puppet, &interp.vertex_pose(0.5), w, h)?;
-        let fit_pose = refined_fit(model, &[&frames[k]], refine, device)?.pop().unwrap_or_default();
+        let fit_pose = fit(model, &[&frames[k]], options, device, &Silent)?.pop().unwrap_or_default();
         let fit = render_crisp(&model.puppet, &fit_pose, w, h)?;
         let nearest = nearest_frame(&latent, &train_pics).map_or(f64::NAN, |(i, _)| l2(&train_pics[i], &frames[k]));
         out.push(InbetweenScore {
@@ -75,8 +76,10 @@ pub fn inbetween_scores(
         });
     }
     if out.is_empty() {
-        return Err(Error::Invalid(
-            "in-between scores: no held-out frame has both neighbours among the training frames".into(),
+        return Err(Error::setting(
+            "in-between scores: held-out frames",
+            held_out.len(),
+            "some with both neighbours among the training frames",
         ));
     }
     Ok(out)
@@ -104,11 +107,11 @@ mod tests {
         let moved = render_crisp(&model.puppet, &shifted, 48, 40).unwrap();
         let frames = vec![rest.clone(), moved.clone(), rest.clone(), moved, rest.clone()];
         // Latent refinement only: vertex steps would fit the shifted frames whatever the model.
-        let refine = RefineOptions {
+        let options = FitOptions {
             vertex_steps: 0,
-            ..RefineOptions::default()
+            ..FitOptions::default()
         };
-        let scores = inbetween_scores(&model, &frames, &[0, 2, 4], &[1, 3], &refine, &device).unwrap();
+        let scores = inbetween_scores(&model, &frames, &[0, 2, 4], &[1, 3], &options, &device).unwrap();
         assert_eq!(scores.iter().map(|s| s.frame).collect::<Vec<_>>(), vec![1, 3]);
         for s in &scores {
             // An untrained model predicts the rest pose: every method renders the rest frame.
@@ -117,6 +120,6 @@ mod tests {
             assert!(same(s.latent) && same(s.vertex) && same(s.fit) && same(s.nearest), "{s:?}");
             assert!(s.hold > 1000.0, "the shifted frame differs from the rest frame: {s:?}");
         }
-        assert!(inbetween_scores(&model, &frames, &[0, 1], &[3], &refine, &device).is_err());
+        assert!(inbetween_scores(&model, &frames, &[0, 1], &[3], &options, &device).is_err());
     }
 }

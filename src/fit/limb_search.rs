@@ -6,7 +6,7 @@
 //! Rigid turns about a joint cost nothing in ARAP and keep the joint welded.
 
 use crate::error::Result;
-use crate::eval::l2;
+use crate::metrics::l2;
 use crate::picture::Picture;
 use crate::puppet::Puppet;
 use crate::render::soft_raster::{Background, Params, SoftRasterizer};
@@ -48,7 +48,8 @@ impl LimbSearch {
     /// L2 before and after.
     ///
     /// # Errors
-    /// [`crate::Error::Invalid`] if `pose` does not fit the puppet or is not finite.
+    /// [`crate::Error::Mismatch`] if `pose` does not fit the puppet, [`crate::Error::Geometry`] if
+    /// it is not finite.
     pub fn improve(&self, raster: &SoftRasterizer, puppet: &Puppet, frame: &Picture, pose: &mut [[f32; 2]]) -> Result<(f64, f64)> {
         let n = (self.max_degrees / self.step_degrees).floor().max(0.0) as i32;
         let angles: Vec<f32> = (-n..=n)

@@ -1,0 +1,143 @@
+//! Arguments several commands share, declared once and flattened into each (STYLE.md §1): the
+//! model folder, how frames are fitted, sizes, pins and colours.
+
+use std::path::{Path, PathBuf};
+
+use puppet::edit::pose::Pin;
+use puppet::fit::{limb_search::LimbSearch, FitOptions, DEFAULT_LATENT_STEPS, DEFAULT_VERTEX_STEPS};
+
+/// The trained model a command uses.
+#[derive(Debug, clap::Args)]
+pub struct ModelArgs {
+    /// The model folder written by `puppet train` (or `puppet demo`: out/demo/model).
+    #[arg(long, value_name = "DIR")]
+    pub model: PathBuf,
+}
+
+/// How an edit fits its frames: latent steps only, since in-betweens and drags move latents.
+#[derive(Debug, clap::Args)]
+pub struct LatentFitArgs {
+    /// After the encoder, this many Adam steps on each frame's latent lowering the training
+    /// objective for that frame (analysis by synthesis; the weights do not change). 0 = the
+    /// encoder's one-pass fit, as the paper evaluates; ~0.1 s per step for 16 frames at 128².
+    #[arg(long, default_value_t = DEFAULT_LATENT_STEPS, value_name = "N")]
+    pub latent_steps: usize,
+}
+
+impl LatentFitArgs {
+    /// Latent steps with the objective the model in `model_dir` was trained with.
+    pub fn options(&self, model_dir: &Path) -> puppet::Result<FitOptions> {
+        FitOptions::for_model(model_dir, self.latent_steps, 0)
+    }
+}
+
+/// How a command whose result is a fit (`fit`, `eval`, `correspond`) fits frames.
+#[derive(Debug, clap::Args)]
+pub struct FitArgs {
+    #[command(flatten)]
+    pub latent: LatentFitArgs,
+    /// Then this many Adam steps on the vertices themselves per round, σ falling from the
+    /// training's first to its last: off the decoder's manifold, held by the ARAP and joint
+    /// terms — a closer fit of poses the training frames never showed. 0 = stay on the manifold
+    /// (no limb search either); ~0.03 s per step for 16 frames at 128².
+    #[arg(long, default_value_t = DEFAULT_VERTEX_STEPS, value_name = "N")]
+    pub vertex_steps: usize,
+    /// Rounds of vertex steps, each after a search over limb turns about their joints (for
+    /// limbs drawn far from where the network put them).
+    #[arg(long, default_value_t = FitOptions::default().vertex_rounds, value_name = "N")]
+    pub vertex_rounds: usize,
+    /// Skip the limb search: vertex steps only.
+    #[arg(long)]
+    pub no_limb_search: bool,
+    /// The paper's one-pass fit: no latent or vertex steps (overrides the three above).
+    #[arg(long)]
+    pub one_pass: bool,
+}
+
+impl FitArgs {
+    /// The fit options, with the objective the model in `model_dir` was trained with.
+    pub fn options(&self, model_dir: &Path) -> puppet::Result<FitOptions> {
+        let (latent, vertex) = if self.one_pass {
+            (0, 0)
+        } else {
+            (self.latent.latent_steps, self.vertex_steps)
+        };
+        let options = FitOptions::for_model(model_dir, latent, vertex)?;
+        Ok(FitOptions {
+            vertex_rounds: self.vertex_rounds,
+            limb_search: (!self.no_limb_search).then(LimbSearch::default),
+            ..options
+        })
+    }
+}
+
+/// Parses `WIDTHxHEIGHT` (also `X` or `×`), each side 1 to 8192.
+pub fn parse_size(s: &str) -> Result<(u32, u32), String> {
+    let parsed = s
+        .split_once(['x', 'X', '×'])
+        .and_then(|(w, h)| Some((w.trim().parse::<u32>().ok()?, h.trim().parse::<u32>().ok()?)));
+    match parsed {
+        Some((w, h)) if (1..=8192).contains(&w) && (1..=8192).contains(&h) => Ok((w, h)),
+        _ => Err(format!("{s:?} is not a size WxH with sides from 1 to 8192 (e.g. 256x256)")),
+    }
+}
+
+/// Parses a pin `X,Y:TX,TY` (frame pixels, finite).
+pub fn parse_pin(s: &str) -> Result<Pin, String> {
+    let bad = || format!("{s:?} is not a pin X,Y:TX,TY (e.g. 40,60:52,48)");
+    let (a, b) = s.split_once(':').ok_or_else(bad)?;
+    let point = |t: &str| -> Result<[f32; 2], String> {
+        let (x, y) = t.split_once(',').ok_or_else(bad)?;
+        let (x, y) = (
+            x.trim().parse::<f32>().map_err(|_| bad())?,
+            y.trim().parse::<f32>().map_err(|_| bad())?,
+        );
+        if x.is_finite() && y.is_finite() {
+            Ok([x, y])
+        } else {
+            Err(bad())
+        }
+    };
+    Ok(Pin {
+        from: point(a)?,
+        to: point(b)?,
+    })
+}
+
+/// Parses `#rrggbb` into RGB in [0, 1].
+pub fn parse_colour(s: &str) -> Result<[f32; 3], String> {
+    puppet::puppet::character::parse_color(s)
+        .map(|rgb| rgb.map(|c| c as f32 / 255.0))
+        .map_err(|e| format!("{s:?}: {e}"))
+}
+
+/// Parses a positive, finite number.
+pub fn positive_f32(s: &str) -> Result<f32, String> {
+    match s.parse::<f32>() {
+        Ok(v) if v > 0.0 && v.is_finite() => Ok(v),
+        _ => Err(format!("{s:?} is not a positive number")),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn sizes_pins_and_colours_parse_and_bad_ones_are_explained() {
+        assert_eq!(parse_size("256x128"), Ok((256, 128)));
+        assert_eq!(parse_size("64X64"), Ok((64, 64)));
+        assert_eq!(parse_size("64×32"), Ok((64, 32)));
+        for bad in ["0x5", "12", "ax3", "9000x10"] {
+            assert!(parse_size(bad).unwrap_err().contains("is not a size WxH"), "{bad}");
+        }
+        let p = parse_pin("40,60:52.5,48").unwrap();
+        assert_eq!((p.from, p.to), ([40.0, 60.0], [52.5, 48.0]));
+        for bad in ["40,60", "40:60", "a,b:c,d", "1,2:3", "nan,1:2,3"] {
+            assert!(parse_pin(bad).unwrap_err().contains("is not a pin"), "{bad}");
+        }
+        assert_eq!(parse_colour("#ff0000"), Ok([1.0, 0.0, 0.0]));
+        assert!(parse_colour("red").is_err());
+        assert!(positive_f32("0").is_err() && positive_f32("inf").is_err() && positive_f32("2.5") == Ok(2.5));
+    }
+}

@@ -1,0 +1,183 @@
+//! The demo's `index.html`: every picture the demo wrote, with the numbers behind it. Names that
+//! come from the artwork (layers, frames) are HTML-escaped.
+
+use std::fmt::Write as _;
+
+use crate::edit::pose::Pin;
+use crate::fit::FitOptions;
+
+/// One in-between of the demo: its files' stem and its two end frames.
+#[derive(Clone, Debug)]
+pub struct Inbetween {
+    /// The stem of its files (`<stem>.gif`, `<stem>_sheet.png`, `<stem>_sprites.png`).
+    pub stem: String,
+    /// The first frame's name.
+    pub from: String,
+    /// The last frame's name.
+    pub to: String,
+}
+
+/// Everything the page shows.
+#[derive(Clone, Debug)]
+pub struct PageData {
+    /// The puppet's layers, back to front.
+    pub layer_names: Vec<String>,
+    /// Its vertex count.
+    pub vertices: usize,
+    /// Its joint count.
+    pub joints: usize,
+    /// Training steps done.
+    pub steps: u64,
+    /// Training speed.
+    pub images_per_second: f64,
+    /// Frames trained on and held out.
+    pub split: (usize, usize),
+    /// Per frame: name, L2 of its fit, whether it was held out.
+    pub l2_rows: Vec<(String, f64, bool)>,
+    /// How the frames were fitted.
+    pub fit: FitOptions,
+    /// The in-betweens.
+    pub inbetweens: Vec<Inbetween>,
+    /// The dragged pin.
+    pub pin: Pin,
+    /// Its distance to its target after the drag, pixels.
+    pub pin_error: f32,
+    /// The drag's time, milliseconds.
+    pub drag_ms: f64,
+    /// Gradient steps of the drag.
+    pub pose_steps: usize,
+    /// The layer the pin is on.
+    pub layer: String,
+    /// Wall time of each stage, seconds.
+    pub timings: Vec<(String, f64)>,
+    /// Wall time of the whole run, seconds.
+    pub total: f64,
+}
+
+/// `text` safe inside HTML text and attribute values.
+pub fn escape(text: &str) -> String {
+    let mut out = String::with_capacity(text.len());
+    for c in text.chars() {
+        match c {
+            '&' => out.push_str("&amp;"),
+            '<' => out.push_str("&lt;"),
+            '>' => out.push_str("&gt;"),
+            '"' => out.push_str("&quot;"),
+            '\'' => out.push_str("&#39;"),
+            c => out.push(c),
+        }
+    }
+    out
+}
+
+/// The page.
+pub fn render(d: &PageData) -> String {
+    let mut s = String::new();
+    let _ = writeln!(
+        s,
+        "<!doctype html>\n<html><head><meta charset=\"utf-8\"><title>puppet demo — Kenney robot</title>\n<style>\
+         body{{font-family:sans-serif;max-width:1100px;margin:1em auto;color:#222}} img{{image-rendering:pixelated;border:1px solid #ccc;margin:4px}}\
+         table{{border-collapse:collapse}} td,th{{padding:2px 10px;border-bottom:1px solid #eee;text-align:right}} th{{text-align:left}}\
+         .row{{display:flex;flex-wrap:wrap;align-items:flex-start;gap:8px}} figcaption{{font-size:90%;color:#555}}</style></head><body>\n\
+         <h1>puppet demo: the Kenney robot</h1>\n<p>Neural Puppet (§3–4) end to end on the bundled CC0 robot: a layered puppet built from one labelled frame, \
+         a deformation network trained for {} steps ({:.1} images/s) on {} frames with {} held out, then fits, in-betweens and a dragged pose. \
+         Whole run: <b>{:.0} s</b>.</p>",
+        d.steps, d.images_per_second, d.split.0, d.split.1, d.total
+    );
+    let layers: Vec<String> = d.layer_names.iter().map(|n| escape(n)).collect();
+    let _ = writeln!(
+        s,
+        "<h2>1. The puppet</h2><div class=\"row\"><figure><img src=\"puppet.png\" width=\"288\"><figcaption>{} layers ({}), {} vertices, {} joints (rings), rest pose</figcaption></figure>\
+         <figure><img src=\"fit_idle.png\" width=\"288\"><figcaption>the mesh fitted to the idle frame by the trained network</figcaption></figure></div>",
+        layers.len(),
+        layers.join(", "),
+        d.vertices,
+        d.joints
+    );
+    let _ = write!(
+        s,
+        "<h2>2. Fits</h2><p>Each frame beside the puppet rendered at its fit — the network's prediction, then {} latent steps, then {} rounds of a limb search and {} steps on the vertices (pairs: frame, render). \
+         L2 as in DESIGN.md (RGB on white, 0–255).</p><img src=\"fits.png\" width=\"1000\"><table><tr><th>frame</th><th>L2</th><th></th></tr>",
+        d.fit.latent_steps, d.fit.vertex_rounds, d.fit.vertex_steps
+    );
+    for (name, l2, held_out) in &d.l2_rows {
+        let _ = write!(
+            s,
+            "<tr><th>{}</th><td>{l2:.0}</td><td>{}</td></tr>",
+            escape(name),
+            if *held_out { "held out" } else { "" }
+        );
+    }
+    s.push_str("</table>\n<h2>3. In-betweens (§4.1)</h2>");
+    for ib in &d.inbetweens {
+        let stem = escape(&ib.stem);
+        let _ = writeln!(
+            s,
+            "<h3>{} → {}</h3><div class=\"row\"><figure><img src=\"{stem}.gif\" width=\"192\"><figcaption>latent interpolation, there and back</figcaption></figure>\
+             <figure><img src=\"{stem}_sheet.png\" width=\"800\"><figcaption>rows: latent interpolation (ours), vertex-space interpolation, nearest frame of the sequence</figcaption></figure></div>",
+            escape(&ib.from),
+            escape(&ib.to)
+        );
+    }
+    let _ = writeln!(
+        s,
+        "<h2>4. A dragged pose (§4.2)</h2><p>The point ({:.0}, {:.0}) on layer “{}” is pinned and dragged to ({:.0}, {:.0}); \
+         {} gradient steps on the latent (eq. 7–9, α1 = 25, α2 = 50) took {:.1} ms and leave the pin {:.1} px from its target.</p>\
+         <div class=\"row\"><figure><img src=\"pose_sheet.png\" width=\"800\"><figcaption>input | fit | ours (latent) | direct vertex-space ARAP</figcaption></figure>\
+         <figure><img src=\"drag.gif\" width=\"192\"><figcaption>the drag as an editor would run it: 12 updates, each continuing from the last</figcaption></figure></div>",
+        d.pin.from[0],
+        d.pin.from[1],
+        escape(&d.layer),
+        d.pin.to[0],
+        d.pin.to[1],
+        d.pose_steps,
+        d.drag_ms,
+        d.pin_error
+    );
+    s.push_str("<h2>Time</h2><table>");
+    for (what, secs) in &d.timings {
+        let _ = write!(s, "<tr><th>{}</th><td>{secs:.1} s</td></tr>", escape(what));
+    }
+    let _ = writeln!(s, "<tr><th>total</th><td>{:.1} s</td></tr></table>\n</body></html>", d.total);
+    s
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn names_from_the_artwork_are_escaped() {
+        assert_eq!(
+            escape("<b>\"arm\" & 'leg'</b>"),
+            "&lt;b&gt;&quot;arm&quot; &amp; &#39;leg&#39;&lt;/b&gt;"
+        );
+        let page = render(&PageData {
+            layer_names: vec!["<script>".into()],
+            vertices: 10,
+            joints: 1,
+            steps: 5,
+            images_per_second: 1.0,
+            split: (3, 1),
+            l2_rows: vec![("a<b.png".into(), 12.0, true)],
+            fit: FitOptions::default(),
+            inbetweens: vec![Inbetween {
+                stem: "inbetween_walk".into(),
+                from: "walk0".into(),
+                to: "walk4".into(),
+            }],
+            pin: Pin {
+                from: [1.0, 2.0],
+                to: [3.0, 4.0],
+            },
+            pin_error: 0.5,
+            drag_ms: 14.0,
+            pose_steps: 5,
+            layer: "hand".into(),
+            timings: vec![("train".into(), 1.0)],
+            total: 2.0,
+        });
+        assert!(!page.contains("<script>") && page.contains("&lt;script&gt;") && page.contains("a&lt;b.png"));
+        assert!(page.contains("inbetween_walk_sheet.png") && page.contains("held out"));
+    }
+}

@@ -1,0 +1,16 @@
+//! The integration tests, as one binary so the suite links Burn once: the CLI end to end on
+//! `data/`, file formats, bad input, training, editing, and the regressions of closed issues.
+
+// An unwrap here is the test failing and a print is the test reporting, helpers included
+// (clippy.toml covers only #[test] bodies).
+#![allow(clippy::unwrap_used, clippy::print_stdout, clippy::print_stderr)]
+
+mod bad_input;
+mod cli;
+mod edit;
+mod formats;
+mod regression;
+mod render;
+mod synth;
+mod train;
+mod util;
