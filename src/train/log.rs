@@ -7,6 +7,7 @@ use std::io::Write;
 use std::path::{Path, PathBuf};
 
 use crate::error::{Error, Result};
+use crate::picture::draw::{line, text};
 use crate::picture::Picture;
 
 /// The CSV header; [`LogRow`] writes the same columns.
@@ -187,64 +188,6 @@ pub fn plot(rows: &[LogRow], weights: [f64; 3]) -> Picture {
         legend_x += 14 + 4 * name.len() as i64 + 16;
     }
     pic
-}
-
-fn put(pic: &mut Picture, x: i64, y: i64, c: [f32; 3]) {
-    if x >= 0 && y >= 0 && x < pic.width as i64 && y < pic.height as i64 {
-        pic.pixels[(y * pic.width as i64 + x) as usize] = [c[0], c[1], c[2], 1.0];
-    }
-}
-
-fn line(pic: &mut Picture, a: [i64; 2], b: [i64; 2], c: [f32; 3]) {
-    let n = (b[0] - a[0]).abs().max((b[1] - a[1]).abs()).max(1);
-    for i in 0..=n {
-        put(pic, a[0] + (b[0] - a[0]) * i / n, a[1] + (b[1] - a[1]) * i / n, c);
-    }
-}
-
-/// Draws `s` with a 3×5 font (4 px advance); characters without a glyph are skipped.
-fn text(pic: &mut Picture, s: &str, at: [i64; 2], c: [f32; 3]) {
-    for (i, ch) in s.chars().enumerate() {
-        let Some(rows) = glyph(ch) else { continue };
-        for (y, row) in rows.iter().enumerate() {
-            for x in 0..3 {
-                if row & (4 >> x) != 0 {
-                    put(pic, at[0] + 4 * i as i64 + x, at[1] + y as i64, c);
-                }
-            }
-        }
-    }
-}
-
-/// Rows of a 3×5 glyph, most significant of the 3 bits on the left.
-fn glyph(ch: char) -> Option<[u8; 5]> {
-    Some(match ch {
-        '0' => [7, 5, 5, 5, 7],
-        '1' => [2, 6, 2, 2, 7],
-        '2' => [7, 1, 7, 4, 7],
-        '3' => [7, 1, 3, 1, 7],
-        '4' => [5, 5, 7, 1, 1],
-        '5' => [7, 4, 7, 1, 7],
-        '6' => [7, 4, 7, 5, 7],
-        '7' => [7, 1, 1, 2, 2],
-        '8' => [7, 5, 7, 5, 7],
-        '9' => [7, 5, 7, 1, 7],
-        '-' => [0, 0, 7, 0, 0],
-        '.' => [0, 0, 0, 0, 2],
-        'a' => [0, 6, 3, 5, 7],
-        'c' => [0, 7, 4, 4, 7],
-        'e' => [2, 5, 7, 4, 3],
-        'i' => [2, 0, 2, 2, 2],
-        'j' => [1, 0, 1, 5, 7],
-        'l' => [6, 2, 2, 2, 7],
-        'n' => [0, 6, 5, 5, 5],
-        'o' => [0, 7, 5, 5, 7],
-        'p' => [0, 7, 5, 7, 4],
-        'r' => [0, 7, 4, 4, 4],
-        's' => [0, 7, 6, 1, 7],
-        't' => [2, 7, 2, 2, 3],
-        _ => return None,
-    })
 }
 
 #[cfg(test)]

@@ -1,6 +1,8 @@
 //! `Picture`: a straight-alpha RGBA image in memory, f32 in [0, 1], row-major, origin top-left
 //! (DESIGN.md "Coordinates"), with PNG load/save that name the file on error.
 
+pub mod draw;
+
 use std::path::Path;
 
 use crate::error::{Error, Result};
