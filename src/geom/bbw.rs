@@ -1602,7 +1602,10 @@ mod tests {
              (expected at least one handle in every connected component)"
         );
         let err = bbw(&p, &t, &[], &BbwOptions::default()).unwrap_err().to_string();
-        assert!(err.starts_with("bbw: 3 connected components have no handle: component 0 ("), "{err}");
+        assert!(
+            err.starts_with("bbw: 3 connected components have no handle: component 0 ("),
+            "{err}"
+        );
     }
 
     #[test]
