@@ -146,7 +146,7 @@ def oracle(V, F, H):
     b = np.concatenate([np.ones(m), np.zeros(m)])
     settings = clarabel.DefaultSettings()
     settings.verbose = False
-    settings.tol_gap_abs = settings.tol_gap_rel = settings.tol_feas = 1e-10
+    settings.tol_gap_abs = settings.tol_gap_rel = settings.tol_feas = 1e-12
     W = np.zeros((len(V), len(H)))
     for k, h in enumerate(H):
         q = Q[free][:, [h]].toarray().ravel()
