@@ -1,7 +1,8 @@
 //! Geometry kernels on 2D triangle meshes: the cotangent Laplacian, a sparse constrained
-//! quadratic solver, and as-rigid-as-possible (ARAP) energy, rotations and deformation
+//! quadratic solver, as-rigid-as-possible (ARAP) energy, rotations and deformation
 //! (Sorkine & Alexa 2007; neural-puppet.md §3.2 eq. 2 as the training regulariser,
-//! apes-part-extraction.md appendix B for handle-driven deformation).
+//! apes-part-extraction.md appendix B for handle-driven deformation), and bounded biharmonic
+//! weights (Jacobson et al. 2011; accessory-rigs.md §3.5).
 //!
 //! Conventions (shared with `crate::puppet`): geometry is flat slices — positions `&[[T; 2]]` in
 //! pixels (origin top-left, y down), triangles `&[[u32; 3]]` counter-clockwise as seen on screen
@@ -16,12 +17,15 @@
 //!   Q factorised once (sparse Cholesky, faer).
 //! - [`arap::ArapEnergy`]: energy (eq. 2) and its gradient, batched, f32 or f64.
 //! - [`arap::ArapSolver`]: local/global ARAP deformation with positional handles.
+//! - [`bbw::bbw`]: bounded biharmonic skinning weights of point handles, rows summing to one.
 
 pub mod arap;
+pub mod bbw;
 pub mod cotan_laplacian;
 pub mod min_quad_with_fixed;
 pub mod triangle;
 
 pub use arap::{arap_energy, best_fit_rotations, ArapEnergy, ArapSolver};
+pub use bbw::{bbw, lumped_mass, BbwError, BbwOptions, BbwWeights, MassMatrix, MeshComponent};
 pub use cotan_laplacian::{cotan_laplacian, cotan_weights, CotanEdge};
 pub use min_quad_with_fixed::MinQuadWithFixed;
