@@ -115,6 +115,7 @@ fn character() -> Puppet {
         layers,
         root: 2,
         joints: vec![],
+        rig: None,
     }
 }
 

@@ -167,6 +167,14 @@ pub enum Error {
         /// The checkpoint's step.
         step: u64,
     },
+    /// A numeric solver of a higher layer failed; its own typed error is kept (downcast it).
+    #[error("{what}: {err}")]
+    Solver {
+        /// What was being solved, and for which layer.
+        what: String,
+        /// The solver's error.
+        err: Box<dyn std::error::Error + Send + Sync>,
+    },
     /// The tensor backend could not do an operation.
     #[error("{op}: {problem}")]
     Backend {

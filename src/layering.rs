@@ -38,6 +38,7 @@ const SAME_LAYER: &[(&str, &str)] = &[
     ("atomic_file", "error"),
     ("picture", "error"),
     ("picture", "atomic_file"),
+    ("rig", "render"),
     ("objective", "model"),
     ("train", "model"),
     ("train", "objective"),

@@ -22,6 +22,7 @@ pub mod metrics;
 pub mod puppet;
 // Layer 3, the geometry of a character.
 pub mod render;
+pub mod rig;
 // Layer 4, learning.
 pub mod model;
 pub mod objective;

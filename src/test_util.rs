@@ -127,6 +127,7 @@ pub fn layered_puppet() -> Puppet {
         layers,
         root: 1,
         joints: Vec::new(),
+        rig: None,
     }
 }
 

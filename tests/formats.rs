@@ -106,6 +106,7 @@ fn hand_made_puppet() -> Puppet {
             a: VertexRef { layer: 0, vertex: 2 },
             b: VertexRef { layer: 1, vertex: 0 },
         }],
+        rig: None,
     }
 }
 

@@ -99,6 +99,7 @@ fn point_puppet(seq: &Sequence, points: &[Vec<[f32; 2]>]) -> Puppet {
         layers,
         root: 0,
         joints: Vec::new(),
+        rig: None,
     }
 }
 

@@ -5,6 +5,7 @@ use std::path::PathBuf;
 use puppet::atomic_file::record;
 use puppet::puppet::{artwork, build, format};
 use puppet::render::preview::wireframe_preview;
+use puppet::rig::{build_rigged, RigOptions};
 
 use super::args::positive_f32;
 use super::Session;
@@ -62,7 +63,7 @@ pub fn run(args: BuildArgs, s: &Session) -> anyhow::Result<()> {
     s.outputs.claim(&preview_path)?;
 
     let art = artwork::load(&args.artwork, &import)?;
-    let (puppet, _) = build::build(&art, &opts, &s.ui)?;
+    let puppet = build_rigged(&art, &opts, &RigOptions::default(), &s.ui)?;
     s.ui.finish();
     format::save(&puppet, &args.output)?;
     record(&std::path::absolute(&args.output)?)?;
@@ -72,8 +73,12 @@ pub fn run(args: BuildArgs, s: &Session) -> anyhow::Result<()> {
     preview.save_png(&preview_path)?;
 
     let triangles: usize = puppet.layers.iter().map(|l| l.mesh.triangles.len()).sum();
+    let rig = puppet.rig.as_ref().map_or_else(String::new, |r| {
+        let pins: usize = r.accessories.iter().map(|a| a.pins.len()).sum();
+        format!(", {} accessories rigged with {pins} pins", r.accessories.len())
+    });
     s.ui.say(format!(
-        "{}: {} layers, {} vertices, {} triangles, {} joints → {}",
+        "{}: {} layers, {} vertices, {} triangles, {} joints{rig} → {}",
         art.name,
         puppet.layers.len(),
         puppet.vertex_count(),

@@ -61,6 +61,10 @@ pub fn run(args: FitArgs, s: &Session) -> anyhow::Result<()> {
             }
         }
     }
+    if pictures.is_empty() {
+        // Nothing to fit: the reasons are the whole answer.
+        puppet::Error::collect(std::mem::take(&mut problems))?;
+    }
     let stems = unique_stems(&files);
     let out = &args.output;
     let paths = |stem: &str| ["render.png", "overlay.png", "vertices.json"].map(|end| out.join(format!("{stem}_{end}")));

@@ -11,11 +11,13 @@ mod build;
 mod correspond;
 mod demo;
 mod eval;
+mod eval_rig;
 mod fit;
 mod inbetween;
 mod info;
 mod pose;
 mod render;
+mod rig;
 mod synth;
 mod train;
 mod ui;
@@ -69,11 +71,13 @@ enum Command {
     Correspond(correspond::CorrespondArgs),
     Demo(demo::DemoArgs),
     Eval(eval::EvalArgs),
+    EvalRig(eval_rig::EvalRigArgs),
     Fit(fit::FitArgs),
     Inbetween(inbetween::InbetweenArgs),
     Info(info::InfoArgs),
     Pose(pose::PoseArgs),
     Render(render::RenderArgs),
+    Rig(rig::RigArgs),
     Synth(synth::SynthArgs),
     Train(train::TrainArgs),
 }
@@ -93,11 +97,13 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
         Command::Correspond(args) => correspond::run(args, s),
         Command::Demo(args) => demo::run(args, s),
         Command::Eval(args) => eval::run(args, s),
+        Command::EvalRig(args) => eval_rig::run(args, s),
         Command::Fit(args) => fit::run(args, s),
         Command::Inbetween(args) => inbetween::run(args, s),
         Command::Info(args) => info::run(args, s),
         Command::Pose(args) => pose::run(args, s),
         Command::Render(args) => render::run(args, s),
+        Command::Rig(args) => rig::run(args, s),
         Command::Synth(args) => synth::run(args, s),
         Command::Train(args) => train::run(args, s),
     };
@@ -165,11 +171,13 @@ mod tests {
             "correspond",
             "demo",
             "eval",
+            "eval-rig",
             "fit",
             "inbetween",
             "info",
             "pose",
             "render",
+            "rig",
             "synth",
             "train",
         ] {

@@ -12,7 +12,7 @@
 
 use super::bind::Binding;
 use crate::error::{Error, Result};
-use crate::geom::ArapSolver;
+use crate::geom::{component_labels, triangle_edges, ArapSolver};
 use crate::puppet::Puppet;
 
 /// Local/global iterations of the ARAP solve (libigl's default is 10).
@@ -37,34 +37,11 @@ pub fn arap_drag(puppet: &Puppet, fitted: &[[f32; 2]], pins: &[(Binding, [f32; 2
     if pins.iter().any(|(_, t)| !t[0].is_finite() || !t[1].is_finite()) {
         return Err(Error::geometry("arap drag: a pin target", "is not finite"));
     }
-    // Weld joint vertices (union-find over the global numbering).
-    let mut parent: Vec<usize> = (0..n).collect();
-    fn find(parent: &mut [usize], mut i: usize) -> usize {
-        while parent[i] != i {
-            parent[i] = parent[parent[i]];
-            i = parent[i];
-        }
-        i
-    }
-    for j in &puppet.joints {
-        let (a, b) = (
-            find(&mut parent, puppet.global_index(j.a)),
-            find(&mut parent, puppet.global_index(j.b)),
-        );
-        if a != b {
-            parent[a.max(b)] = a.min(b);
-        }
-    }
-    let mut welded_id = vec![usize::MAX; n];
-    let mut count = 0;
-    for i in 0..n {
-        let r = find(&mut parent, i);
-        if welded_id[r] == usize::MAX {
-            welded_id[r] = count;
-            count += 1;
-        }
-        welded_id[i] = welded_id[r];
-    }
+    // Weld joint vertices (components of the joints over the global numbering).
+    let (welded_id, count) = component_labels(
+        n,
+        puppet.joints.iter().map(|j| (puppet.global_index(j.a), puppet.global_index(j.b))),
+    );
     let average = |pos: &[[f32; 2]]| {
         let mut sum = vec![[0.0f64; 3]; count];
         for (i, p) in pos.iter().enumerate() {
@@ -105,7 +82,7 @@ pub fn arap_drag(puppet: &Puppet, fitted: &[[f32; 2]], pins: &[(Binding, [f32; 2
         }
     }
     // … then anchors: the root layer unless pinned, and every component without a handle.
-    let component = components(count, &triangles);
+    let (component, _) = component_labels(count, triangle_edges(&triangles));
     let pinned_layers: Vec<usize> = pins.iter().map(|(b, _)| b.layer).collect();
     let anchor = |members: &mut dyn Iterator<Item = usize>, handles: &mut Vec<u32>, targets: &mut Vec<[f64; 3]>| {
         let members: Vec<usize> = members.collect();
@@ -137,38 +114,6 @@ pub fn arap_drag(puppet: &Puppet, fitted: &[[f32; 2]], pins: &[(Binding, [f32; 2
     let mut solver = ArapSolver::new(&rest, &triangles, &handles)?;
     let solved = solver.solve(&targets, ARAP_ITERATIONS, &initial);
     Ok((0..n).map(|i| solved[welded_id[i]].map(|c| c as f32)).collect())
-}
-
-/// Connected component of every vertex (isolated vertices are their own component).
-fn components(n: usize, triangles: &[[u32; 3]]) -> Vec<usize> {
-    let mut parent: Vec<usize> = (0..n).collect();
-    fn find(parent: &mut [usize], mut i: usize) -> usize {
-        while parent[i] != i {
-            parent[i] = parent[parent[i]];
-            i = parent[i];
-        }
-        i
-    }
-    for t in triangles {
-        for k in 1..3 {
-            let (a, b) = (find(&mut parent, t[0] as usize), find(&mut parent, t[k] as usize));
-            if a != b {
-                parent[a.max(b)] = a.min(b);
-            }
-        }
-    }
-    let mut label = vec![usize::MAX; n];
-    let mut next = 0;
-    (0..n)
-        .map(|i| {
-            let r = find(&mut parent, i);
-            if label[r] == usize::MAX {
-                label[r] = next;
-                next += 1;
-            }
-            label[r]
-        })
-        .collect()
 }
 
 #[cfg(test)]

@@ -8,15 +8,7 @@ use crate::picture::Picture;
 /// `picture` composited on white with each pin drawn as a grey line from `from` to `to`, a ring
 /// at `from` and a red dot at `to` (frame pixels; anti-aliased by distance).
 pub fn pin_overlay(picture: &Picture, pins: &[Pin]) -> Picture {
-    let mut out = Picture {
-        width: picture.width,
-        height: picture.height,
-        pixels: picture
-            .pixels
-            .iter()
-            .map(|&[r, g, b, a]| [r * a + 1.0 - a, g * a + 1.0 - a, b * a + 1.0 - a, 1.0])
-            .collect(),
-    };
+    let mut out = picture.mapped(|[r, g, b, a]| [r * a + 1.0 - a, g * a + 1.0 - a, b * a + 1.0 - a, 1.0]);
     let radius = (picture.width.max(picture.height) as f32 / 64.0).max(1.5);
     for pin in pins {
         paint(

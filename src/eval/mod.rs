@@ -5,4 +5,5 @@
 pub mod inbetween_eval;
 pub mod pck_pairs;
 pub mod report;
+pub mod rig;
 pub mod visibility;

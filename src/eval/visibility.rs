@@ -69,6 +69,7 @@ mod tests {
             ],
             root: 0,
             joints: Vec::new(),
+            rig: None,
         }
     }
 

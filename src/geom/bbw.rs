@@ -162,7 +162,7 @@ pub struct BbwWeights {
     /// δ_k.
     pub weights: Vec<f64>,
     /// `#V` row sums Σ_k w_vk before the rows were normalised: `row(v)[k] * row_sums[v]` is the
-    /// bounded weight itself (what libigl's `bbw` returns), and |row_sums[v] − 1| how far vertex v
+    /// bounded weight itself (what libigl's `bbw` returns), and `|row_sums[v] − 1|` how far vertex v
     /// was from a partition of unity.
     pub row_sums: Vec<f64>,
     /// Most active-set iterations any handle needed.

@@ -42,6 +42,15 @@ impl Picture {
         self.pixels[(y * self.width + x) as usize]
     }
 
+    /// The picture with `f` applied to every pixel.
+    pub fn mapped(&self, f: impl Fn([f32; 4]) -> [f32; 4]) -> Picture {
+        Picture {
+            width: self.width,
+            height: self.height,
+            pixels: self.pixels.iter().map(|&c| f(c)).collect(),
+        }
+    }
+
     /// The alpha channel, row-major.
     pub fn alpha(&self) -> Vec<f32> {
         self.pixels.iter().map(|p| p[3]).collect()

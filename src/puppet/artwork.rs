@@ -10,6 +10,7 @@
 use std::path::{Path, PathBuf};
 
 use super::character::{parse_color, Character};
+use super::rig_data::RigOverrides;
 use super::LayerKind;
 use crate::error::{Context, Error, Result};
 use crate::picture::{ImageLimits, Picture};
@@ -38,6 +39,8 @@ pub struct Artwork {
     pub root: usize,
     /// Pairs of layer indices to join; `None` joins every overlapping pair.
     pub joint_pairs: Option<Vec<[usize; 2]>>,
+    /// Overrides of the accessory rig (`character.toml`'s `[rig]`).
+    pub rig: RigOverrides,
 }
 
 /// How artwork is read: how the label-map form cuts parts, and how large an import may be.
@@ -176,6 +179,7 @@ pub fn load(path: &Path, opts: &ImportOptions) -> Result<Artwork> {
         layers,
         root: character.root_index(),
         joint_pairs,
+        rig: character.rig,
     })
 }
 

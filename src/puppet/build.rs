@@ -21,8 +21,11 @@ pub struct BuildOptions {
     pub min_angle: f32,
     /// Rounds of midpoint subdivision after refinement (the paper's finer meshes).
     pub subdivide: u32,
-    /// Largest distance in pixels a simplified boundary may stray from the traced contour.
-    pub simplify_tolerance: f32,
+    /// Largest distance in pixels a simplified boundary may stray from the traced contour;
+    /// `None` picks `max(width, height) / 256`, at least 0.5 px, so outlines keep as many
+    /// vertices at 640² as at 128² (a pixel-exact outline of big artwork makes tens of thousands
+    /// of tiny boundary triangles).
+    pub simplify_tolerance: Option<f32>,
     /// How joints are found.
     pub joints: JointOptions,
 }
@@ -33,7 +36,7 @@ impl Default for BuildOptions {
             max_area: None,
             min_angle: 30.0,
             subdivide: 0,
-            simplify_tolerance: 0.5,
+            simplify_tolerance: None,
             joints: JointOptions::default(),
         }
     }
@@ -42,10 +45,11 @@ impl Default for BuildOptions {
 impl BuildOptions {
     /// The mesh options for artwork of the given size.
     pub fn mesh_options(&self, width: u32, height: u32) -> MeshOptions {
-        let auto = (width.max(height) as f32 / 32.0).powi(2);
+        let side = width.max(height) as f32;
+        let auto = (side / 32.0).powi(2);
         MeshOptions {
             alpha_threshold: self.joints.alpha_threshold,
-            simplify_tolerance: self.simplify_tolerance,
+            simplify_tolerance: self.simplify_tolerance.unwrap_or((side / 256.0).max(0.5)),
             max_area: self.max_area.unwrap_or(auto),
             min_angle: self.min_angle,
             subdivide: self.subdivide,
@@ -159,6 +163,7 @@ pub fn build(artwork: &Artwork, opts: &BuildOptions, progress: &dyn Progress) ->
         layers,
         root: artwork.root,
         joints,
+        rig: None,
     };
     Ok((puppet, BuildReport { sites, unconnected }))
 }

@@ -14,6 +14,8 @@
 //! kind = "body"                   # or "accessory"; default "body"
 //! file = "leg_l.png"              # layer-PNG form: the layer's image
 //! color = "#ff0000"               # label-map form: the part's colour in the map
+//!
+//! [rig]                           # optional: overrides of the accessory rig (see `RigOverrides`)
 //! ```
 //!
 //! Unknown keys are errors, so a misspelt key is never silently ignored.
@@ -23,6 +25,7 @@ use std::path::{Path, PathBuf};
 
 use serde::Deserialize;
 
+use super::rig_data::RigOverrides;
 use super::LayerKind;
 use crate::error::{Error, Result};
 
@@ -41,6 +44,9 @@ pub struct Character {
     /// Layers back → front.
     #[serde(rename = "layer", default)]
     pub layers: Vec<LayerSpec>,
+    /// Overrides of the automatic accessory rig.
+    #[serde(default)]
+    pub rig: RigOverrides,
 }
 
 /// The label-map form's two images.

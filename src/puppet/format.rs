@@ -1,17 +1,20 @@
 //! `puppet.json`: the puppet on disk (DESIGN.md "Formats"), versioned, beside one PNG texture per
 //! layer in `textures/`. Saving then loading gives back an identical [`Puppet`]: positions are
 //! f32 written in shortest round-trip form, textures are 8-bit like the artwork they came from.
+//! Schema 2 adds the optional `rig` section (its own version inside), layers named as in joints;
+//! schema 1 files (no rig) still load.
 
 use std::path::{Path, PathBuf};
 
 use serde::{Deserialize, Serialize};
 
+use super::rig_data::{AccessoryRig, Constraint, Origin, RigData, RigEdge, RigPin};
 use super::{Joint, Layer, LayerKind, Mesh, Puppet, VertexRef};
 use crate::error::{Error, Result};
 use crate::picture::Picture;
 
 /// The schema version this build writes and the newest it reads.
-pub const SCHEMA_VERSION: u32 = 1;
+pub const SCHEMA_VERSION: u32 = 2;
 
 /// The file name of a puppet inside its folder.
 pub const PUPPET_FILE: &str = "puppet.json";
@@ -25,6 +28,45 @@ struct PuppetFile {
     root: String,
     layers: Vec<LayerFile>,
     joints: Vec<JointFile>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    rig: Option<RigFile>,
+}
+
+/// The rig section, layers by name.
+#[derive(Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RigFile {
+    version: u32,
+    edges: Vec<EdgeFile>,
+    accessories: Vec<AccessoryFile>,
+}
+
+#[derive(Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct EdgeFile {
+    parent: String,
+    child: String,
+    constraints: Vec<Constraint>,
+    origin: Origin,
+}
+
+#[derive(Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct AccessoryFile {
+    layer: String,
+    pins: Vec<PinFile>,
+    /// Per vertex, `[pin, weight]` pairs.
+    weights: Vec<Vec<(u32, f32)>>,
+}
+
+#[derive(Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct PinFile {
+    vertex: u32,
+    parent: String,
+    triangle: u32,
+    weights: [f32; 3],
+    constraint: Constraint,
 }
 
 #[derive(Serialize, Deserialize)]
@@ -88,6 +130,7 @@ pub fn save(puppet: &Puppet, dir: &Path) -> Result<()> {
         root: puppet.layers[puppet.root].name.clone(),
         layers,
         joints: puppet.joints.iter().map(|j| JointFile { a: end(j.a), b: end(j.b) }).collect(),
+        rig: puppet.rig.as_ref().map(|rig| rig_file(puppet, rig)),
     };
     let json = serde_json::to_vec_pretty(&file).expect("puppet file serialises: plain data, string keys");
     crate::atomic_file::write_atomic(&dir.join(PUPPET_FILE), &json)
@@ -188,12 +231,102 @@ pub fn load(path: &Path) -> Result<Puppet> {
             b: resolve(&j.b)?,
         });
     }
-    Ok(Puppet {
+    let mut puppet = Puppet {
         width: file.width,
         height: file.height,
         layers,
         root,
         joints,
+        rig: None,
+    };
+    if let Some(rig) = file.rig {
+        let data = rig_data(&puppet, rig).map_err(|problem| Error::format(&json_path, format!("rig: {problem}")))?;
+        data.check(&puppet)
+            .map_err(|problem| Error::format(&json_path, format!("rig: {problem}")))?;
+        puppet.rig = Some(data);
+    }
+    Ok(puppet)
+}
+
+fn rig_file(puppet: &Puppet, rig: &RigData) -> RigFile {
+    let name = |l: usize| puppet.layers[l].name.clone();
+    RigFile {
+        version: rig.version,
+        edges: rig
+            .edges
+            .iter()
+            .map(|e| EdgeFile {
+                parent: name(e.parent),
+                child: name(e.child),
+                constraints: e.constraints.clone(),
+                origin: e.origin,
+            })
+            .collect(),
+        accessories: rig
+            .accessories
+            .iter()
+            .map(|a| AccessoryFile {
+                layer: name(a.layer),
+                pins: a
+                    .pins
+                    .iter()
+                    .map(|p| PinFile {
+                        vertex: p.vertex,
+                        parent: name(p.parent),
+                        triangle: p.triangle,
+                        weights: p.weights,
+                        constraint: p.constraint,
+                    })
+                    .collect(),
+                weights: a.weights.clone(),
+            })
+            .collect(),
+    }
+}
+
+/// The rig section with layer names resolved (the indices are checked by [`RigData::check`]).
+fn rig_data(puppet: &Puppet, rig: RigFile) -> std::result::Result<RigData, String> {
+    let find = |n: &str| puppet.layer_index(n).ok_or_else(|| format!("no layer {n:?}"));
+    let edges = rig
+        .edges
+        .into_iter()
+        .map(|e| {
+            Ok(RigEdge {
+                parent: find(&e.parent)?,
+                child: find(&e.child)?,
+                constraints: e.constraints,
+                origin: e.origin,
+            })
+        })
+        .collect::<std::result::Result<_, String>>()?;
+    let accessories = rig
+        .accessories
+        .into_iter()
+        .map(|a| {
+            let pins = a
+                .pins
+                .into_iter()
+                .map(|p| {
+                    Ok(RigPin {
+                        vertex: p.vertex,
+                        parent: find(&p.parent)?,
+                        triangle: p.triangle,
+                        weights: p.weights,
+                        constraint: p.constraint,
+                    })
+                })
+                .collect::<std::result::Result<_, String>>()?;
+            Ok(AccessoryRig {
+                layer: find(&a.layer)?,
+                pins,
+                weights: a.weights,
+            })
+        })
+        .collect::<std::result::Result<_, String>>()?;
+    Ok(RigData {
+        version: rig.version,
+        edges,
+        accessories,
     })
 }
 

@@ -14,6 +14,7 @@ pub mod joints;
 pub mod mesh;
 pub mod ora;
 pub mod pose_file;
+pub mod rig_data;
 pub mod sequence;
 
 use crate::picture::Picture;
@@ -140,6 +141,9 @@ pub struct Puppet {
     pub root: usize,
     /// Hinge joints between layers.
     pub joints: Vec<Joint>,
+    /// How the accessory layers follow the body (accessory-rigs.md); `None` without accessories
+    /// or for a puppet built before rigs existed.
+    pub rig: Option<rig_data::RigData>,
 }
 
 impl Puppet {

@@ -110,6 +110,7 @@ pub fn load(path: &Path, opts: &ImportOptions) -> Result<Artwork> {
         layers,
         root,
         joint_pairs: None,
+        rig: Default::default(),
     })
 }
 

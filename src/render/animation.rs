@@ -23,23 +23,15 @@ use crate::render::straight_picture;
 
 /// `p` composited over the opaque colour `background` (RGB in [0, 1]).
 fn flatten(p: &Picture, background: [f32; 3]) -> Picture {
-    Picture {
-        width: p.width,
-        height: p.height,
-        pixels: p
-            .pixels
-            .iter()
-            .map(|&[r, g, b, a]| {
-                let a = a.clamp(0.0, 1.0);
-                [
-                    r * a + background[0] * (1.0 - a),
-                    g * a + background[1] * (1.0 - a),
-                    b * a + background[2] * (1.0 - a),
-                    1.0,
-                ]
-            })
-            .collect(),
-    }
+    p.mapped(|[r, g, b, a]| {
+        let a = a.clamp(0.0, 1.0);
+        [
+            r * a + background[0] * (1.0 - a),
+            g * a + background[1] * (1.0 - a),
+            b * a + background[2] * (1.0 - a),
+            1.0,
+        ]
+    })
 }
 
 /// The largest side of a sprite-sheet page: frames past it go on further pages (4096 px is the

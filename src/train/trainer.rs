@@ -31,6 +31,7 @@ use crate::picture::{ImageLimits, Picture};
 use crate::progress::Progress;
 use crate::puppet::sequence::Frames;
 use crate::puppet::{artwork, build, format, Puppet};
+use crate::rig::{build_rigged, RigOptions};
 use crate::rng::Rng;
 
 /// How to run (as opposed to what to train, which is the config).
@@ -95,8 +96,8 @@ pub struct TrainSummary {
     pub batch: usize,
 }
 
-/// Loads a puppet folder, or builds a puppet from character artwork with default options
-/// (images within `limits`); build warnings go to `progress`.
+/// Loads a puppet folder, or builds (and rigs, if it has accessories) a puppet from character
+/// artwork with default options (images within `limits`); build warnings go to `progress`.
 ///
 /// # Errors
 /// Whatever loading or building reports, naming the file.
@@ -109,7 +110,7 @@ pub fn load_or_build_puppet(path: &Path, limits: &ImageLimits, progress: &dyn Pr
             ..artwork::ImportOptions::default()
         };
         let art = artwork::load(path, &options)?;
-        Ok(build::build(&art, &build::BuildOptions::default(), progress)?.0)
+        build_rigged(&art, &build::BuildOptions::default(), &RigOptions::default(), progress)
     }
 }
 

@@ -390,21 +390,7 @@ mod tests {
 
     /// Number of connected components of the triangle adjacency (through shared vertices).
     fn components(mesh: &Mesh) -> usize {
-        let mut parent: Vec<usize> = (0..mesh.vertices.len()).collect();
-        fn find(parent: &mut [usize], mut i: usize) -> usize {
-            while parent[i] != i {
-                parent[i] = parent[parent[i]];
-                i = parent[i];
-            }
-            i
-        }
-        for t in &mesh.triangles {
-            for k in 1..3 {
-                let (a, b) = (find(&mut parent, t[0] as usize), find(&mut parent, t[k] as usize));
-                parent[a] = b;
-            }
-        }
-        (0..parent.len()).filter(|&i| find(&mut parent, i) == i).count()
+        crate::geom::component_labels(mesh.vertices.len(), crate::geom::triangle_edges(&mesh.triangles)).1
     }
 
     #[test]

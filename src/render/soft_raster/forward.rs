@@ -528,6 +528,7 @@ mod tests {
             layers: vec![layer.clone(), layer],
             root: 0,
             joints: vec![],
+            rig: None,
         }
     }
 

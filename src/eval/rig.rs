@@ -1,0 +1,958 @@
+//! `puppet eval-rig`: accessory rigs scored on a set of layered characters (DESIGN.md "Rig
+//! metrics"), under a committed suite of body edits, beside two baselines.
+//!
+//! Each edit moves the body's vertices; the accessories then come from
+//! - **rig**: the accessory rig ([`crate::rig::deform::deform`] with its default options: the
+//!   linear map, then ARAP polish of a folded accessory);
+//! - **unchanged**: left at rest;
+//! - **sticker**: each accessory vertex bound to the body point under it at rest (the front-most
+//!   body layer holding it, else the nearest), moving with that point.
+//!
+//! The metrics, per edit:
+//! - **occlusion kept**: the body outline hidden under accessories' rest meshes, sampled every
+//!   pixel and carried by the edit, still covered by an accessory in front of it — the share of
+//!   samples, the deepest exposure (pixels from an uncovered sample to the nearest cover), and
+//!   leak blobs (runs of more than 4 consecutive uncovered samples along an outline);
+//! - **stays attached**: each accessory's overlap area with its parent after / before (overlap
+//!   retention, median over accessories), and the drift of 16 fixed anchors of the overlap
+//!   bound to both layers (mean pixels between the two places an anchor goes);
+//! - **no tearing**: accessory triangles that turn over, enclosed holes in an accessory's
+//!   coverage that were not there at rest, the change of distance between coincident
+//!   boundaries (95th percentile, pixels), and the largest stretch of an accessory triangle
+//!   (95th percentile of the deformation gradient's larger singular value).
+//!
+//! DAG correctness against `rig_truth.json` (`{"attach_to": {"<layer>": "<parent>"}}`): strict
+//! (the parent is the truth) and lenient (the parent is the truth or hangs from it).
+
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
+
+use serde::{Deserialize, Serialize};
+
+use crate::edit::arap_drag::arap_drag;
+use crate::edit::bind::Binding;
+use crate::error::{Error, Result};
+use crate::progress::Progress;
+use crate::puppet::rig_data::{Constraint, RigData};
+use crate::puppet::{LayerKind, Puppet};
+use crate::rig::deform::{bind_point, deform, DeformOptions};
+use crate::rig::mask::Mask;
+use crate::rng::Rng;
+
+/// The truth file of a character of a rig evaluation set.
+pub const TRUTH_FILE: &str = "rig_truth.json";
+
+/// `rig_truth.json`.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct RigTruth {
+    /// Each accessory's true parent, by name.
+    pub attach_to: BTreeMap<String, String>,
+}
+
+/// A body layer an edit acts on, found by geometry, not by name.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Role {
+    /// The body layer highest in the frame other than the root (the root if it is alone).
+    Head,
+    /// The root body layer.
+    Torso,
+}
+
+/// One body edit of the suite.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(tag = "kind", rename_all = "lowercase", deny_unknown_fields)]
+pub enum Edit {
+    /// Scale a layer (and the body layers hanging from it) horizontally about its centroid.
+    Widen {
+        /// Which layer.
+        layer: Role,
+        /// The factor.
+        factor: f32,
+    },
+    /// Turn a layer (and the body layers hanging from it) about its joint with its parent.
+    Tilt {
+        /// Which layer.
+        layer: Role,
+        /// Degrees, counter-clockwise on screen.
+        degrees: f32,
+    },
+    /// Scale every body vertex vertically about the root's centroid.
+    Squash {
+        /// The factor.
+        factor: f32,
+    },
+    /// Drag the centres of two random body layers other than the root by ARAP (the root
+    /// anchored, joints welded).
+    Drag {
+        /// The seed of the points and their targets.
+        seed: u64,
+        /// How far, as a fraction of the larger frame side.
+        reach: f32,
+    },
+}
+
+/// A named edit.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct NamedEdit {
+    /// Its name in the report.
+    pub name: String,
+    /// What it does.
+    #[serde(flatten)]
+    pub edit: Edit,
+}
+
+/// The committed suite (issue 13): widen the head 10 % and 20 %, tilt it ±12°, squash the body
+/// to 0.8 of its height, widen the torso 15 %, five seeded ARAP drags.
+pub fn default_edits() -> Vec<NamedEdit> {
+    let named = |name: &str, edit| NamedEdit { name: name.into(), edit };
+    let mut edits = vec![
+        named(
+            "head wider 10%",
+            Edit::Widen {
+                layer: Role::Head,
+                factor: 1.1,
+            },
+        ),
+        named(
+            "head wider 20%",
+            Edit::Widen {
+                layer: Role::Head,
+                factor: 1.2,
+            },
+        ),
+        named(
+            "head tilt +12°",
+            Edit::Tilt {
+                layer: Role::Head,
+                degrees: 12.0,
+            },
+        ),
+        named(
+            "head tilt -12°",
+            Edit::Tilt {
+                layer: Role::Head,
+                degrees: -12.0,
+            },
+        ),
+        named("body squash 0.8", Edit::Squash { factor: 0.8 }),
+        named(
+            "torso wider 15%",
+            Edit::Widen {
+                layer: Role::Torso,
+                factor: 1.15,
+            },
+        ),
+    ];
+    for seed in 1..=5 {
+        edits.push(named(&format!("drag {seed}"), Edit::Drag { seed, reach: 0.06 }));
+    }
+    edits
+}
+
+/// An edits file (`--edits`): `[[edit]]` tables of [`NamedEdit`].
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct EditsFile {
+    /// The edits.
+    #[serde(rename = "edit")]
+    pub edits: Vec<NamedEdit>,
+}
+
+impl EditsFile {
+    /// Reads an edits file.
+    ///
+    /// # Errors
+    /// [`Error::Io`]/[`Error::Format`] naming the file.
+    pub fn load(path: &Path) -> Result<Vec<NamedEdit>> {
+        let text = std::fs::read_to_string(path).map_err(|e| Error::io(path, e))?;
+        let file: EditsFile = toml::from_str(&text).map_err(|e| Error::format(path, format!("invalid edits file: {e}")))?;
+        if file.edits.is_empty() {
+            return Err(Error::format(path, "no [[edit]] entries"));
+        }
+        Ok(file.edits)
+    }
+}
+
+/// The scores of one way of moving the accessories under one edit.
+#[derive(Clone, Debug, Default, PartialEq, Serialize)]
+pub struct Scores {
+    /// Share of the hidden body outline still covered.
+    pub occlusion_kept: f64,
+    /// Deepest exposure of the hidden outline, pixels.
+    pub deepest_exposure: f64,
+    /// Runs of more than 4 px of exposed outline.
+    pub leak_blobs: usize,
+    /// Median over accessories of overlap area after / before.
+    pub overlap_retention: f64,
+    /// Mean distance between the two places each overlap anchor goes, pixels.
+    pub anchor_drift: f64,
+    /// Accessory triangles turned over.
+    pub inverted: usize,
+    /// Enclosed holes in accessories' coverage not there at rest.
+    pub new_holes: usize,
+    /// 95th percentile of the change of distance between coincident boundaries, pixels (`None`
+    /// without coincident constraints).
+    pub seam_change_p95: Option<f64>,
+    /// 95th percentile of the accessory triangles' larger stretch.
+    pub stretch_p95: f64,
+}
+
+/// One edit of one character: the rig and the two baselines.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct EditReport {
+    /// The edit's name.
+    pub edit: String,
+    /// The accessory rig.
+    pub rig: Scores,
+    /// Accessories left at rest.
+    pub unchanged: Scores,
+    /// Accessories stuck to the body under them.
+    pub sticker: Scores,
+}
+
+/// DAG correctness of one character.
+#[derive(Clone, Debug, Default, PartialEq, Serialize)]
+pub struct DagScore {
+    /// Accessories with a true parent.
+    pub judged: usize,
+    /// Whose parent is the truth.
+    pub strict: usize,
+    /// Whose parent is the truth or hangs from it.
+    pub lenient: usize,
+    /// Accessories whose parent differs from the truth: (layer, chosen, true).
+    pub wrong: Vec<(String, String, String)>,
+}
+
+/// One character's report.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct CharacterReport {
+    /// The character's folder name.
+    pub name: String,
+    /// Its layers and accessories.
+    pub layers: usize,
+    /// Its accessories.
+    pub accessories: usize,
+    /// DAG correctness, if the character has a truth file.
+    pub dag: Option<DagScore>,
+    /// Per edit.
+    pub edits: Vec<EditReport>,
+}
+
+/// The whole set's report.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct RigReport {
+    /// Per character.
+    pub characters: Vec<CharacterReport>,
+}
+
+/// The characters of a set: every subfolder holding `character.toml`, in name order.
+///
+/// # Errors
+/// [`Error::Io`] if `dir` cannot be read; [`Error::Format`] if it holds no character.
+pub fn set_members(dir: &Path) -> Result<Vec<PathBuf>> {
+    let mut out: Vec<PathBuf> = std::fs::read_dir(dir)
+        .map_err(|e| Error::io(dir, e))?
+        .filter_map(|e| e.ok().map(|e| e.path()))
+        .filter(|p| p.join("character.toml").is_file())
+        .collect();
+    out.sort();
+    if out.is_empty() {
+        return Err(Error::format(dir, "no character folders (subfolders with character.toml)"));
+    }
+    Ok(out)
+}
+
+/// Scores the rig of `puppet` (rigged, at rest) under `edits`; `truth` judges the DAG.
+///
+/// # Errors
+/// [`Error::Setting`] if the puppet has no rig; errors of an ARAP drag that cannot be set up.
+pub fn evaluate_character(
+    name: &str,
+    puppet: &Puppet,
+    truth: Option<&RigTruth>,
+    edits: &[NamedEdit],
+    progress: &dyn Progress,
+) -> Result<CharacterReport> {
+    let rig = puppet
+        .rig
+        .as_ref()
+        .ok_or_else(|| Error::setting(format!("character {name:?}"), "no rig", "a character with accessory layers"))?;
+    let scene = Scene::new(puppet, rig);
+    let sticker = Sticker::new(puppet);
+    let rest = puppet.rest_vertices();
+    let mut reports = Vec::with_capacity(edits.len());
+    for edit in edits {
+        let body = apply_edit(puppet, &edit.edit)?;
+        let rigged = deform(puppet, rig, &body, &DeformOptions::default());
+        let mut unchanged = body.clone();
+        for k in scene.accessory_vertices() {
+            unchanged[k] = rest[k];
+        }
+        let stuck = sticker.apply(&body);
+        reports.push(EditReport {
+            edit: edit.name.clone(),
+            rig: scene.score(&rigged),
+            unchanged: scene.score(&unchanged),
+            sticker: scene.score(&stuck),
+        });
+        progress.advance(1);
+    }
+    Ok(CharacterReport {
+        name: name.to_string(),
+        layers: puppet.layers.len(),
+        accessories: rig.accessories.len(),
+        dag: truth.map(|t| dag_score(puppet, rig, t)),
+        edits: reports,
+    })
+}
+
+/// The DAG's parents against the truth.
+fn dag_score(puppet: &Puppet, rig: &RigData, truth: &RigTruth) -> DagScore {
+    let parent_of = |child: usize| rig.edges.iter().find(|e| e.child == child).map(|e| e.parent);
+    let mut score = DagScore::default();
+    for (child, want) in &truth.attach_to {
+        let (Some(c), Some(w)) = (puppet.layer_index(child), puppet.layer_index(want)) else {
+            continue;
+        };
+        score.judged += 1;
+        let Some(got) = parent_of(c) else { continue };
+        if got == w {
+            score.strict += 1;
+            score.lenient += 1;
+            continue;
+        }
+        // Lenient: the chosen parent hangs (through its own parents) from the true one.
+        let mut at = got;
+        let mut hangs = false;
+        for _ in 0..puppet.layers.len() {
+            match parent_of(at) {
+                Some(p) if p == w => {
+                    hangs = true;
+                    break;
+                }
+                Some(p) => at = p,
+                None => break,
+            }
+        }
+        score.lenient += usize::from(hangs);
+        score.wrong.push((child.clone(), puppet.layers[got].name.clone(), want.clone()));
+    }
+    score
+}
+
+/// The body vertices of `puppet` after `edit` (accessory vertices at rest).
+///
+/// # Errors
+/// As [`arap_drag`] for a drag.
+pub fn apply_edit(puppet: &Puppet, edit: &Edit) -> Result<Vec<[f32; 2]>> {
+    let mut pose = puppet.rest_vertices();
+    let offsets = puppet.vertex_offsets();
+    let centroid = |l: usize| {
+        let pts = &puppet.layers[l].mesh.vertices;
+        let n = pts.len().max(1) as f32;
+        pts.iter().fold([0.0, 0.0], |s, p| [s[0] + p[0] / n, s[1] + p[1] / n])
+    };
+    match *edit {
+        Edit::Widen { layer, factor } => {
+            let layers = hanging(puppet, role(puppet, layer));
+            let c = centroid(layers[0]);
+            for &l in &layers {
+                for p in &mut pose[offsets[l]..offsets[l + 1]] {
+                    p[0] = c[0] + factor * (p[0] - c[0]);
+                }
+            }
+        }
+        Edit::Tilt { layer, degrees } => {
+            let l = role(puppet, layer);
+            let layers = hanging(puppet, l);
+            let pivot = joint_with_parent(puppet, l).map_or_else(|| centroid(l), |v| pose[v]);
+            let (s, c) = degrees.to_radians().sin_cos();
+            for &l in &layers {
+                for p in &mut pose[offsets[l]..offsets[l + 1]] {
+                    let d = [p[0] - pivot[0], p[1] - pivot[1]];
+                    // Counter-clockwise on screen (y down): a negative angle in maths coordinates.
+                    *p = [pivot[0] + c * d[0] + s * d[1], pivot[1] - s * d[0] + c * d[1]];
+                }
+            }
+        }
+        Edit::Squash { factor } => {
+            let c = centroid(puppet.root);
+            for l in body_layers(puppet) {
+                for p in &mut pose[offsets[l]..offsets[l + 1]] {
+                    p[1] = c[1] + factor * (p[1] - c[1]);
+                }
+            }
+        }
+        Edit::Drag { seed, reach } => {
+            let mut rng = Rng::new(seed ^ 0xD4A6);
+            let movable: Vec<usize> = body_layers(puppet).filter(|&l| l != puppet.root).collect();
+            let movable = if movable.is_empty() { vec![puppet.root] } else { movable };
+            let size = puppet.width.max(puppet.height) as f32;
+            let pins: Vec<(Binding, [f32; 2])> = (0..2)
+                .map(|_| {
+                    // A layer's vertex nearest its centroid: pulling an interior point moves the
+                    // layer smoothly where a boundary vertex would fold it.
+                    let l = movable[rng.below(movable.len())];
+                    let c = centroid(l);
+                    let mesh = &puppet.layers[l].mesh;
+                    let v = offsets[l]
+                        + (0..mesh.vertices.len())
+                            .min_by(|&a, &b| dist(mesh.vertices[a], c).total_cmp(&dist(mesh.vertices[b], c)))
+                            .unwrap_or(0);
+                    let angle = rng.range(0.0, std::f32::consts::TAU);
+                    let to = [pose[v][0] + reach * size * angle.cos(), pose[v][1] + reach * size * angle.sin()];
+                    // The vertex itself, as a binding with all its weight on it.
+                    let binding = Binding {
+                        layer: l,
+                        vertices: [v as u32; 3],
+                        weights: [1.0, 0.0, 0.0],
+                    };
+                    (binding, to)
+                })
+                .collect();
+            let dragged = arap_drag(puppet, &pose, &pins)?;
+            for l in body_layers(puppet) {
+                pose[offsets[l]..offsets[l + 1]].copy_from_slice(&dragged[offsets[l]..offsets[l + 1]]);
+            }
+        }
+    }
+    Ok(pose)
+}
+
+fn body_layers(puppet: &Puppet) -> impl Iterator<Item = usize> + '_ {
+    (0..puppet.layers.len()).filter(|&l| puppet.layers[l].kind == LayerKind::Body)
+}
+
+/// The body layer playing `role` (module doc of [`Role`]).
+fn role(puppet: &Puppet, role: Role) -> usize {
+    match role {
+        Role::Torso => puppet.root,
+        Role::Head => body_layers(puppet)
+            .filter(|&l| l != puppet.root)
+            .min_by(|&a, &b| top(puppet, a).total_cmp(&top(puppet, b)))
+            .unwrap_or(puppet.root),
+    }
+}
+
+/// The mean y of a layer's rest vertices.
+fn top(puppet: &Puppet, l: usize) -> f32 {
+    let v = &puppet.layers[l].mesh.vertices;
+    v.iter().map(|p| p[1]).sum::<f32>() / v.len().max(1) as f32
+}
+
+/// `layer` and the body layers hanging from it (through joints, away from the root).
+fn hanging(puppet: &Puppet, layer: usize) -> Vec<usize> {
+    let tree = body_tree(puppet);
+    let mut out = vec![layer];
+    let mut k = 0;
+    while k < out.len() {
+        let l = out[k];
+        out.extend((0..puppet.layers.len()).filter(|&c| tree[c] == Some(l)));
+        k += 1;
+    }
+    out
+}
+
+/// Each body layer's parent in the joint tree rooted at the root (breadth first).
+fn body_tree(puppet: &Puppet) -> Vec<Option<usize>> {
+    let n = puppet.layers.len();
+    let mut parent = vec![None; n];
+    let mut seen = vec![false; n];
+    seen[puppet.root] = true;
+    let mut queue = vec![puppet.root];
+    let mut k = 0;
+    while k < queue.len() {
+        let l = queue[k];
+        for j in &puppet.joints {
+            for (a, b) in [(j.a.layer, j.b.layer), (j.b.layer, j.a.layer)] {
+                if a == l && !seen[b] && puppet.layers[b].kind == LayerKind::Body {
+                    seen[b] = true;
+                    parent[b] = Some(l);
+                    queue.push(b);
+                }
+            }
+        }
+        k += 1;
+    }
+    parent
+}
+
+/// The global index of `layer`'s vertex at its joint with its parent in the body tree.
+fn joint_with_parent(puppet: &Puppet, layer: usize) -> Option<usize> {
+    let parent = body_tree(puppet)[layer]?;
+    puppet.joints.iter().find_map(|j| {
+        if j.a.layer == layer && j.b.layer == parent {
+            Some(puppet.global_index(j.a))
+        } else if j.b.layer == layer && j.a.layer == parent {
+            Some(puppet.global_index(j.b))
+        } else {
+            None
+        }
+    })
+}
+
+/// The sticker baseline's bindings: each accessory vertex in the front-most body layer under it.
+struct Sticker {
+    /// (global accessory vertex, global body triangle corners, barycentric weights).
+    bound: Vec<(usize, [usize; 3], [f32; 3])>,
+}
+
+impl Sticker {
+    fn new(puppet: &Puppet) -> Self {
+        let offsets = puppet.vertex_offsets();
+        let bodies: Vec<usize> = body_layers(puppet).collect();
+        let mut bound = Vec::new();
+        for (l, layer) in puppet.layers.iter().enumerate() {
+            if layer.kind == LayerKind::Body {
+                continue;
+            }
+            for (v, &p) in layer.mesh.vertices.iter().enumerate() {
+                let holding = bodies.iter().rev().find(|&&b| {
+                    let m = &puppet.layers[b].mesh;
+                    m.triangles
+                        .iter()
+                        .any(|t| crate::geom::triangle::contains(t.map(|i| m.vertices[i as usize]), p, 0.0))
+                });
+                let b = holding.copied().unwrap_or_else(|| {
+                    *bodies
+                        .iter()
+                        .min_by(|&&x, &&y| nearest(puppet, x, p).total_cmp(&nearest(puppet, y, p)))
+                        .expect("a puppet has a body layer")
+                });
+                let (t, w) = bind_point(&puppet.layers[b].mesh, p);
+                let tri = puppet.layers[b].mesh.triangles[t as usize].map(|i| offsets[b] + i as usize);
+                bound.push((offsets[l] + v, tri, w));
+            }
+        }
+        Sticker { bound }
+    }
+
+    fn apply(&self, body: &[[f32; 2]]) -> Vec<[f32; 2]> {
+        let mut out = body.to_vec();
+        for &(v, tri, w) in &self.bound {
+            out[v] = [0, 1].map(|c| w[0] * body[tri[0]][c] + w[1] * body[tri[1]][c] + w[2] * body[tri[2]][c]);
+        }
+        out
+    }
+}
+
+/// The distance from `p` to the nearest vertex of layer `l`.
+fn nearest(puppet: &Puppet, l: usize, p: [f32; 2]) -> f32 {
+    puppet.layers[l]
+        .mesh
+        .vertices
+        .iter()
+        .map(|q| (q[0] - p[0]).hypot(q[1] - p[1]))
+        .fold(f32::INFINITY, f32::min)
+}
+
+/// A point bound to a layer's rest mesh: its triangle's corners (global numbering), barycentric
+/// weights.
+type Bound = ([usize; 3], [f32; 3]);
+
+/// An accessory's attachment to its parent at rest.
+struct Attachment {
+    child: usize,
+    parent: usize,
+    /// Pixels the two share at rest.
+    overlap: usize,
+    /// Up to 16 points of the shared region, bound to the child and to the parent.
+    anchors: Vec<(Bound, Bound)>,
+}
+
+/// What the metrics measure against, prepared once per character at rest.
+struct Scene<'a> {
+    puppet: &'a Puppet,
+    offsets: Vec<usize>,
+    accessories: Vec<usize>,
+    /// Per body layer, its runs of hidden outline samples (in outline order), each sample bound
+    /// to the layer's rest mesh as (triangle corners, global numbering; weights).
+    hidden: Vec<(usize, Vec<Vec<Bound>>)>,
+    hidden_count: usize,
+    /// Per accessory, its attachment to its first parent.
+    attachments: Vec<Attachment>,
+    /// Coincident seams: a child point, the parent point nearest it, their rest distance.
+    seams: Vec<(Bound, Bound, f32)>,
+    /// Per accessory, the holes of its coverage at rest.
+    rest_holes: Vec<usize>,
+}
+
+impl<'a> Scene<'a> {
+    fn new(puppet: &'a Puppet, rig: &RigData) -> Self {
+        let offsets = puppet.vertex_offsets();
+        let masks: Vec<Mask> = puppet.layers.iter().map(|l| Mask::of_layer(l, 0.5)).collect();
+        let accessories: Vec<usize> = (0..puppet.layers.len())
+            .filter(|&l| puppet.layers[l].kind == LayerKind::Accessory)
+            .collect();
+        let bind = |l: usize, p: [f32; 2]| {
+            let (t, w) = bind_point(&puppet.layers[l].mesh, p);
+            (puppet.layers[l].mesh.triangles[t as usize].map(|i| offsets[l] + i as usize), w)
+        };
+        // What covers at rest is what the meshes cover (within the mesher's tolerance of the
+        // artwork), so an unedited pose keeps every sample.
+        let covering: Vec<(usize, Mask)> = accessories
+            .iter()
+            .map(|&a| {
+                let m = &puppet.layers[a].mesh;
+                (a, Mask::of_triangles(&m.vertices, &m.triangles, puppet.width, puppet.height))
+            })
+            .collect();
+        let mut hidden = Vec::new();
+        let mut hidden_count = 0;
+        for b in body_layers(puppet) {
+            let front: Vec<&Mask> = covering.iter().filter(|(a, _)| *a > b).map(|(_, m)| m).collect();
+            let samples = masks[b].outline(1.0);
+            let mut ring = Vec::new();
+            let mut rings = Vec::new();
+            for &s in &samples {
+                if front.iter().any(|m| m.covers(s)) {
+                    ring.push(bind(b, s));
+                    hidden_count += 1;
+                } else if !ring.is_empty() {
+                    rings.push(std::mem::take(&mut ring));
+                }
+            }
+            if !ring.is_empty() {
+                rings.push(ring);
+            }
+            if !rings.is_empty() {
+                hidden.push((b, rings));
+            }
+        }
+        let mut attachments = Vec::new();
+        let mut seams = Vec::new();
+        for e in &rig.edges {
+            let (c, p) = (e.child, e.parent);
+            if !attachments.iter().any(|a: &Attachment| a.child == c) {
+                let shared = masks[c].and(&masks[p]);
+                let pixels: Vec<usize> = (0..shared.inside.len()).filter(|&i| shared.inside[i]).collect();
+                let anchors = (0..16.min(pixels.len()))
+                    .map(|k| {
+                        let q = shared.centre(pixels[k * pixels.len() / 16.min(pixels.len())]);
+                        (bind(c, q), bind(p, q))
+                    })
+                    .collect();
+                attachments.push(Attachment {
+                    child: c,
+                    parent: p,
+                    overlap: pixels.len(),
+                    anchors,
+                });
+            }
+            if e.constraints.contains(&Constraint::Coincident) {
+                let parent_edge = masks[p].outline(1.0);
+                for q in masks[c].outline(2.0) {
+                    if let Some(r) = parent_edge
+                        .iter()
+                        .copied()
+                        .min_by(|a, b| dist(*a, q).total_cmp(&dist(*b, q)))
+                        .filter(|r| dist(*r, q) <= 1.0)
+                    {
+                        seams.push((bind(c, q), bind(p, r), dist(q, r)));
+                    }
+                }
+            }
+        }
+        let rest_holes = covering.iter().map(|(_, m)| holes(m)).collect();
+        Scene {
+            puppet,
+            offsets,
+            accessories,
+            hidden,
+            hidden_count,
+            attachments,
+            seams,
+            rest_holes,
+        }
+    }
+
+    fn accessory_vertices(&self) -> impl Iterator<Item = usize> + '_ {
+        self.accessories.iter().flat_map(|&l| self.offsets[l]..self.offsets[l + 1])
+    }
+
+    fn layer_mask(&self, l: usize, pose: &[[f32; 2]]) -> Mask {
+        let p = self.puppet;
+        Mask::of_triangles(
+            &pose[self.offsets[l]..self.offsets[l + 1]],
+            &p.layers[l].mesh.triangles,
+            p.width,
+            p.height,
+        )
+    }
+
+    fn score(&self, pose: &[[f32; 2]]) -> Scores {
+        let at = |(tri, w): &Bound| [0, 1].map(|c| w[0] * pose[tri[0]][c] + w[1] * pose[tri[1]][c] + w[2] * pose[tri[2]][c]);
+        let masks: BTreeMap<usize, Mask> = self.accessories.iter().map(|&a| (a, self.layer_mask(a, pose))).collect();
+        let (mut kept, mut deepest, mut blobs) = (0usize, 0.0f64, 0usize);
+        for (b, rings) in &self.hidden {
+            let cover = masks
+                .iter()
+                .filter(|(&a, _)| a > *b)
+                .map(|(_, m)| m)
+                .fold(None::<Mask>, |acc, m| Some(acc.map_or_else(|| m.clone(), |u| u.or(m))));
+            let Some(cover) = cover else { continue };
+            let distance = cover.distance();
+            for ring in rings {
+                let mut run = 0usize;
+                for bound in ring {
+                    let q = at(bound);
+                    if cover.covers(q) {
+                        kept += 1;
+                        blobs += usize::from(run > 4);
+                        run = 0;
+                    } else {
+                        run += 1;
+                        let (x, y) = (q[0].floor() as i64, q[1].floor() as i64);
+                        let d = if x >= 0 && y >= 0 && x < i64::from(cover.width) && y < i64::from(cover.height) {
+                            f64::from(distance[(y as usize) * cover.width as usize + x as usize])
+                        } else {
+                            f64::INFINITY
+                        };
+                        deepest = deepest.max(d);
+                    }
+                }
+                blobs += usize::from(run > 4);
+            }
+        }
+        let mut retention = Vec::new();
+        let mut drift = Vec::new();
+        for a in &self.attachments {
+            if a.overlap > 0 {
+                let parent = masks.get(&a.parent).cloned().unwrap_or_else(|| self.layer_mask(a.parent, pose));
+                retention.push(masks[&a.child].and(&parent).count() as f64 / a.overlap as f64);
+            }
+            drift.extend(a.anchors.iter().map(|(x, y)| f64::from(dist(at(x), at(y)))));
+        }
+        let (mut inverted, mut stretch) = (0usize, Vec::new());
+        for &l in &self.accessories {
+            let mesh = &self.puppet.layers[l].mesh;
+            for t in &mesh.triangles {
+                let r = t.map(|i| mesh.vertices[i as usize]);
+                let d = t.map(|i| pose[self.offsets[l] + i as usize]);
+                let area = |c: [[f32; 2]; 3]| (c[1][0] - c[0][0]) * (c[2][1] - c[0][1]) - (c[2][0] - c[0][0]) * (c[1][1] - c[0][1]);
+                if area(d) * area(r).signum() <= 0.0 {
+                    inverted += 1;
+                }
+                stretch.push(largest_stretch(r, d));
+            }
+        }
+        let seam_change: Vec<f64> = self
+            .seams
+            .iter()
+            .map(|(a, b, rest)| f64::from((dist(at(a), at(b)) - rest).abs()))
+            .collect();
+        Scores {
+            occlusion_kept: if self.hidden_count == 0 {
+                1.0
+            } else {
+                kept as f64 / self.hidden_count as f64
+            },
+            deepest_exposure: deepest,
+            leak_blobs: blobs,
+            overlap_retention: median(&mut retention),
+            anchor_drift: if drift.is_empty() {
+                0.0
+            } else {
+                drift.iter().sum::<f64>() / drift.len() as f64
+            },
+            inverted,
+            new_holes: self
+                .accessories
+                .iter()
+                .zip(&self.rest_holes)
+                .map(|(a, &before)| holes(&masks[a]).saturating_sub(before))
+                .sum(),
+            seam_change_p95: (!seam_change.is_empty()).then(|| percentile(&mut seam_change.clone(), 0.95)),
+            stretch_p95: percentile(&mut stretch, 0.95),
+        }
+    }
+}
+
+/// Enclosed holes of a coverage mask: pieces of its complement that do not touch the canvas edge.
+fn holes(silhouette: &Mask) -> usize {
+    let complement = Mask {
+        width: silhouette.width,
+        height: silhouette.height,
+        inside: silhouette.inside.iter().map(|&i| !i).collect(),
+    };
+    let (w, h) = (silhouette.width as usize, silhouette.height as usize);
+    complement
+        .pieces()
+        .iter()
+        .filter(|piece| piece.iter().all(|&i| i % w != 0 && i % w != w - 1 && i / w != 0 && i / w != h - 1))
+        .count()
+}
+
+/// The larger singular value of the affine map taking triangle `r` to `d`.
+fn largest_stretch(r: [[f32; 2]; 3], d: [[f32; 2]; 3]) -> f64 {
+    let e = |t: [[f32; 2]; 3]| [[t[1][0] - t[0][0], t[2][0] - t[0][0]], [t[1][1] - t[0][1], t[2][1] - t[0][1]]];
+    let (a, b) = (e(r), e(d));
+    let det = f64::from(a[0][0] * a[1][1] - a[0][1] * a[1][0]);
+    if det.abs() < 1e-12 {
+        return 1.0;
+    }
+    // F = B A⁻¹.
+    let inv = [
+        [f64::from(a[1][1]) / det, -f64::from(a[0][1]) / det],
+        [-f64::from(a[1][0]) / det, f64::from(a[0][0]) / det],
+    ];
+    let f = [0, 1].map(|i| [0, 1].map(|j| f64::from(b[i][0]) * inv[0][j] + f64::from(b[i][1]) * inv[1][j]));
+    let (p, q, r2, s) = (f[0][0], f[0][1], f[1][0], f[1][1]);
+    let sum = p * p + q * q + r2 * r2 + s * s;
+    let det_f = p * s - q * r2;
+    ((sum + (sum * sum - 4.0 * det_f * det_f).max(0.0).sqrt()) / 2.0).sqrt()
+}
+
+fn median(values: &mut [f64]) -> f64 {
+    if values.is_empty() {
+        return 1.0;
+    }
+    percentile(values, 0.5)
+}
+
+/// The `q` quantile (nearest rank) of `values` (0 for none).
+fn percentile(values: &mut [f64], q: f64) -> f64 {
+    if values.is_empty() {
+        return 0.0;
+    }
+    values.sort_by(f64::total_cmp);
+    let k = ((q * values.len() as f64).ceil() as usize).clamp(1, values.len()) - 1;
+    values[k]
+}
+
+fn dist(a: [f32; 2], b: [f32; 2]) -> f32 {
+    (a[0] - b[0]).hypot(a[1] - b[1])
+}
+
+impl Scores {
+    /// The worst of `scores`, score by score: the lowest shares, the largest distances and
+    /// stretches, and the counts summed — how one way of moving accessories did over a
+    /// character's edits, or over the set.
+    pub fn worst<'a>(scores: impl IntoIterator<Item = &'a Scores>) -> Self {
+        let mut s = Scores {
+            occlusion_kept: 1.0,
+            overlap_retention: f64::INFINITY,
+            ..Scores::default()
+        };
+        for x in scores {
+            s.occlusion_kept = s.occlusion_kept.min(x.occlusion_kept);
+            s.deepest_exposure = s.deepest_exposure.max(x.deepest_exposure);
+            s.leak_blobs += x.leak_blobs;
+            s.overlap_retention = s.overlap_retention.min(x.overlap_retention);
+            s.anchor_drift = s.anchor_drift.max(x.anchor_drift);
+            s.inverted += x.inverted;
+            s.new_holes += x.new_holes;
+            s.seam_change_p95 = match (s.seam_change_p95, x.seam_change_p95) {
+                (Some(a), Some(b)) => Some(a.max(b)),
+                (a, b) => a.or(b),
+            };
+            s.stretch_p95 = s.stretch_p95.max(x.stretch_p95);
+        }
+        if s.overlap_retention.is_infinite() {
+            s.overlap_retention = 1.0;
+        }
+        s
+    }
+
+    /// One row of the report table.
+    pub fn row(&self) -> String {
+        format!(
+            "{:>8.2}% {:>7.2} {:>5} {:>7.3} {:>6.2} {:>5} {:>5} {:>7} {:>7.2}",
+            100.0 * self.occlusion_kept,
+            self.deepest_exposure,
+            self.leak_blobs,
+            self.overlap_retention,
+            self.anchor_drift,
+            self.inverted,
+            self.new_holes,
+            self.seam_change_p95.map_or("-".into(), |v| format!("{v:.2}")),
+            self.stretch_p95
+        )
+    }
+}
+
+impl RigReport {
+    /// DAG correctness over the set: (judged, strict, lenient).
+    pub fn dag(&self) -> (usize, usize, usize) {
+        self.characters
+            .iter()
+            .filter_map(|c| c.dag.as_ref())
+            .fold((0, 0, 0), |(j, s, l), d| (j + d.judged, s + d.strict, l + d.lenient))
+    }
+
+    /// The report as a table: per character and over the set, each way of moving accessories.
+    pub fn table(&self) -> String {
+        let header = format!(
+            "{:<22} {:>9} | {:<9} {:>9} {:>7} {:>5} {:>7} {:>6} {:>5} {:>5} {:>7} {:>7}\n",
+            "character", "DAG s/l", "method", "occl.kept", "deepest", "leaks", "overlap", "drift", "inv", "holes", "seam95", "stretch"
+        );
+        let mut out = header;
+        fn method(report: &EditReport, k: usize) -> &Scores {
+            match k {
+                0 => &report.rig,
+                1 => &report.sticker,
+                _ => &report.unchanged,
+            }
+        }
+        let names = ["rig", "sticker", "unchanged"];
+        for c in &self.characters {
+            let dag = c
+                .dag
+                .as_ref()
+                .map_or("-".to_string(), |d| format!("{}/{}/{}", d.strict, d.lenient, d.judged));
+            for (k, name) in names.iter().enumerate() {
+                let summary = Scores::worst(c.edits.iter().map(|e| method(e, k)));
+                let label = if k == 0 { c.name.as_str() } else { "" };
+                let dag = if k == 0 { dag.as_str() } else { "" };
+                out.push_str(&format!("{label:<22} {dag:>9} | {name:<9} {}\n", summary.row()));
+            }
+        }
+        let (judged, strict, lenient) = self.dag();
+        for (k, name) in names.iter().enumerate() {
+            let summary = Scores::worst(self.characters.iter().flat_map(|c| c.edits.iter().map(move |e| method(e, k))));
+            let label = if k == 0 { "all" } else { "" };
+            let dag = if k == 0 {
+                format!("{strict}/{lenient}/{judged}")
+            } else {
+                String::new()
+            };
+            out.push_str(&format!("{label:<22} {dag:>9} | {name:<9} {}\n", summary.row()));
+        }
+        out
+    }
+}
+
+/// A picture of `puppet` under the first `rows` of `edits`: per row, the edit with the rig |
+/// with the sticker baseline | with the accessories unchanged.
+///
+/// # Errors
+/// As [`apply_edit`]; render errors.
+pub fn edit_sheet(puppet: &Puppet, edits: &[NamedEdit], rows: usize) -> Result<crate::picture::Picture> {
+    let rig = puppet
+        .rig
+        .as_ref()
+        .ok_or_else(|| Error::setting("edit sheet", "a puppet without a rig", "a rigged puppet"))?;
+    let sticker = Sticker::new(puppet);
+    let offsets = puppet.vertex_offsets();
+    let rest = puppet.rest_vertices();
+    let accessory_vertices: Vec<usize> = (0..puppet.layers.len())
+        .filter(|&l| puppet.layers[l].kind == LayerKind::Accessory)
+        .flat_map(|l| offsets[l]..offsets[l + 1])
+        .collect();
+    let scale = (256 / puppet.width.max(puppet.height)).clamp(1, 4);
+    let mut cells = Vec::new();
+    for edit in edits.iter().take(rows) {
+        let body = apply_edit(puppet, &edit.edit)?;
+        let rigged = deform(puppet, rig, &body, &DeformOptions::default());
+        let mut unchanged = body.clone();
+        accessory_vertices.iter().for_each(|&k| unchanged[k] = rest[k]);
+        for pose in [rigged, sticker.apply(&body), unchanged] {
+            cells.push(crate::render::render_crisp(puppet, &pose, puppet.width, puppet.height)?.upscaled_on_white(scale));
+        }
+    }
+    let refs: Vec<&crate::picture::Picture> = cells.iter().collect();
+    Ok(crate::picture::contact_sheet(&refs, 3))
+}
