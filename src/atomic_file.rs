@@ -70,9 +70,8 @@ impl Outputs {
     /// Claims `path` for this command.
     ///
     /// # Errors
-    /// [`Error::WouldOverwrite`] if `path` was claimed before in this run, or exists and is not in
-    /// its folder's manifest (unless forced), or is a folder; [`Error::Io`] if the manifest
-    /// cannot be read.
+    /// [`Error::WouldOverwrite`] if `path` was claimed before in this run, or as
+    /// [`Outputs::check`].
     pub fn claim(&self, path: &Path) -> Result<()> {
         let key = absolute(path);
         let mut claimed = self.claimed.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
@@ -82,6 +81,18 @@ impl Outputs {
                 reason: "two outputs of this command have this name".into(),
             });
         }
+        self.check(path)?;
+        claimed.insert(key);
+        Ok(())
+    }
+
+    /// Checks that this command may write `path`, without claiming it: for a command that looks
+    /// at everything it will write before it starts, while the parts that write claim their own.
+    ///
+    /// # Errors
+    /// [`Error::WouldOverwrite`] if `path` exists and is not in its folder's manifest (unless
+    /// forced), or is a folder; [`Error::Io`] if the manifest cannot be read.
+    pub fn check(&self, path: &Path) -> Result<()> {
         if path.is_dir() {
             return Err(Error::WouldOverwrite {
                 path: path.to_path_buf(),
@@ -94,7 +105,6 @@ impl Outputs {
                 reason: "exists and was not written by puppet".into(),
             });
         }
-        claimed.insert(key);
         Ok(())
     }
 

@@ -153,6 +153,16 @@ pub fn hinged_puppet() -> Puppet {
     puppet
 }
 
+/// [`layered_puppet`] with its front arm made an accessory (a sleeve, say) and rigged with the
+/// default options: the torso is its parent.
+pub fn dressed_puppet() -> Puppet {
+    let mut p = layered_puppet();
+    let arm = p.layer_index("arm_front").unwrap();
+    p.layers[arm].kind = LayerKind::Accessory;
+    let mesh = crate::puppet::build::BuildOptions::default().mesh_options(p.width, p.height);
+    crate::rig::rig_puppet(&p, &Default::default(), &mesh, &Default::default(), &crate::progress::Silent).unwrap()
+}
+
 /// `vertices` flattened to `[x0, y0, x1, y1, …]` with each coordinate moved by a uniform amount
 /// in `[-amount, amount)` (seeded), so that no pixel centre lies exactly on an edge.
 pub fn jittered(vertices: &[[f32; 2]], seed: u64, amount: f64) -> Vec<f64> {

@@ -1,6 +1,6 @@
 //! Every subcommand end to end on `data/` and on tiny characters written by the test.
 
-use crate::util::{puppet, repo, write_label_character, write_layer_character};
+use crate::util::{puppet, repo, write_hatted_character, write_label_character, write_layer_character};
 use puppet::puppet::format;
 
 /// Builds `artwork` into `tmp/out` and checks the puppet and its preview.
@@ -174,4 +174,61 @@ fn render_rest_pose_reproduces_the_artwork_and_rejects_a_foreign_pose() {
     std::fs::write(tmp.path().join("pose.json"), r#"{"vertices": [[1.0, 2.0]]}"#).unwrap();
     puppet(tmp.path(), &["render", "out", "--pose", "pose.json", "-o", "x.png"])
         .assert_error(&["pose.json", "1 vertices, but the puppet has"]);
+}
+
+/// The tiny character with a hat: an accessory band over the top of the head disc.
+#[test]
+fn rig_previews_applies_a_pose_and_eval_rig_scores_a_set() {
+    let tmp = tempfile::tempdir().unwrap();
+    let set = tmp.path().join("set");
+    let art = write_hatted_character(&set.join("hatted"));
+    std::fs::write(art.join("rig_truth.json"), r#"{"attach_to": {"hat": "head"}}"#).unwrap();
+    let p = build_and_check(tmp.path(), &art, 4);
+    let rig = p.rig.as_ref().expect("an accessory makes a rig");
+    assert_eq!(rig.accessories.len(), 1);
+
+    let preview = puppet(tmp.path(), &["rig", "out", "-o", "rig.png"]);
+    preview.assert_ok();
+    assert!(preview.stdout.contains("1 accessories"), "{}", preview.stdout);
+    assert!(tmp.path().join("rig.png").is_file());
+
+    // The head moved 4 px right: with the rig the hat goes with it, without it stays.
+    let head = p.layers.iter().position(|l| l.name == "head").unwrap();
+    let offsets = p.vertex_offsets();
+    let mut pose = p.rest_vertices();
+    for v in &mut pose[offsets[head]..offsets[head + 1]] {
+        v[0] += 4.0;
+    }
+    let json = serde_json::to_string(&serde_json::json!({ "vertices": pose })).unwrap();
+    std::fs::write(tmp.path().join("pose.json"), json).unwrap();
+    puppet(tmp.path(), &["rig", "apply", "out", "--pose", "pose.json", "-o", "apply.png"]).assert_ok();
+    let sheet = puppet::picture::Picture::load(&tmp.path().join("apply.png")).unwrap();
+    let half = sheet.width / 2;
+    let scale = half / 64;
+    // The hat's right edge (x = 42 at rest) is dark in the rigged half at x = 44 only.
+    let dark = |x0: u32, x: f32| {
+        let px = sheet.get(x0 + (x * scale as f32) as u32, 8 * scale);
+        px[0] < 0.3
+    };
+    assert!(!dark(0, 44.0) && dark(half, 44.0), "the hat does not follow the head");
+
+    let report = tmp.path().join("report.json");
+    let eval = puppet(
+        tmp.path(),
+        &["eval-rig", "set", "-o", report.to_str().unwrap(), "--pictures", "pics"],
+    );
+    eval.assert_ok();
+    assert!(eval.stdout.contains("hatted"), "{}", eval.stdout);
+    let json: serde_json::Value = serde_json::from_slice(&std::fs::read(&report).unwrap()).unwrap();
+    let dag = &json["characters"][0]["dag"];
+    assert_eq!((dag["judged"].as_u64(), dag["strict"].as_u64()), (Some(1), Some(1)), "{dag}");
+    assert!(tmp.path().join("pics/hatted.png").is_file());
+
+    // A puppet without accessories has no rig to draw; a pose of another puppet is refused.
+    let plain = write_layer_character(&tmp.path().join("plain"), "");
+    puppet(tmp.path(), &["build", plain.to_str().unwrap(), "-o", "plain_out"]).assert_ok();
+    puppet(tmp.path(), &["rig", "plain_out", "-o", "p.png"]).assert_error(&["plain_out", "no accessory rig"]);
+    assert!(!tmp.path().join("p.png").exists());
+    std::fs::write(tmp.path().join("short.json"), r#"{"vertices": [[1.0, 2.0]]}"#).unwrap();
+    puppet(tmp.path(), &["rig", "apply", "out", "--pose", "short.json", "-o", "b.png"]).assert_error(&["short.json", "1 vertices"]);
 }

@@ -5,7 +5,7 @@
 
 use std::path::{Path, PathBuf};
 
-use crate::util::{puppet, write_layer_character};
+use crate::util::{puppet, write_hatted_character, write_layer_character};
 use puppet::model::deformation::DeformationNetConfig;
 use puppet::model::Model;
 use puppet::puppet::format;
@@ -13,12 +13,16 @@ use puppet::puppet::format;
 /// Builds the tiny character, saves a small untrained model for it, and writes two frames (the
 /// rest render and a copy shifted 2 px right). Returns (model dir, frame a, frame b).
 fn setup(tmp: &Path) -> (PathBuf, PathBuf, PathBuf) {
-    let art = write_layer_character(&tmp.join("art"), "");
+    setup_with(tmp, write_layer_character(&tmp.join("art"), ""))
+}
+
+/// As [`setup`] for the character whose artwork is in `art` (rigged if it has accessories).
+fn setup_with(tmp: &Path, art: PathBuf) -> (PathBuf, PathBuf, PathBuf) {
     let built = tmp.join("built");
     puppet(tmp, &["build", art.to_str().unwrap(), "-o", built.to_str().unwrap()]).assert_ok();
     let device = puppet::backend::device();
     let p = format::load(&built).unwrap();
-    let config = DeformationNetConfig::new(p.vertex_count())
+    let config = DeformationNetConfig::new(p.free_vertices().len())
         .with_input_size(64)
         .with_encoder_hidden([32, 16])
         .with_latent(16)
@@ -124,6 +128,193 @@ fn pose_writes_the_posed_frame_the_arap_comparison_and_the_drag_gif() {
     let arap = puppet::picture::Picture::load(&tmp.path().join("posed_arap.png")).unwrap();
     let input = puppet::picture::Picture::load(&a).unwrap();
     assert!(puppet::metrics::l2(&arap, &input) > 500.0, "the ARAP drag should lift the arm");
+}
+
+/// The vertex count of the pose file at `path`.
+fn pose_len(path: &Path) -> usize {
+    let json: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(path).unwrap()).unwrap();
+    json["vertices"].as_array().unwrap().len()
+}
+
+/// Whether the hat's dark grey is at (x, y) of the PNG at `path`.
+fn hat_at(path: &Path, x: u32, y: u32) -> bool {
+    let p = puppet::picture::Picture::load(path).unwrap().get(x, y);
+    p[3] > 0.5 && p[0] < 0.2
+}
+
+#[test]
+fn outfits_dress_inbetweens_fits_and_drags_of_a_bare_model() {
+    let tmp = tempfile::tempdir().unwrap();
+    let (model, a, b) = setup(tmp.path());
+    let outfit = write_hatted_character(&tmp.path().join("outfit"));
+    let bare = format::load(&tmp.path().join("built")).unwrap().vertex_count();
+
+    let ib = tmp.path().join("ib");
+    let run = puppet(
+        tmp.path(),
+        &[
+            "inbetween",
+            "--model",
+            s(&model),
+            s(&a),
+            s(&b),
+            "--steps",
+            "1",
+            "-o",
+            s(&ib),
+            "--dress",
+            s(&outfit),
+        ],
+    );
+    run.assert_ok();
+    assert!(run.stdout.contains("outfit: 1 accessories"), "{}", run.stdout);
+    assert!(
+        pose_len(&ib.join("latent/step_001.json")) > bare,
+        "the poses are of the dressed puppet"
+    );
+    // Above the head, where only the hat is.
+    assert!(hat_at(&ib.join("latent/step_000.png"), 32, 5) && !hat_at(&a, 32, 5));
+
+    let fit = tmp.path().join("fit");
+    puppet(
+        tmp.path(),
+        &[
+            "fit",
+            "--model",
+            s(&model),
+            s(&a),
+            "-o",
+            s(&fit),
+            "--one-pass",
+            "--dress",
+            s(&outfit),
+        ],
+    )
+    .assert_ok();
+    assert!(hat_at(&fit.join("a_render.png"), 32, 5));
+
+    let posed = tmp.path().join("posed.png");
+    let run = puppet(
+        tmp.path(),
+        &[
+            "pose",
+            "--model",
+            s(&model),
+            s(&a),
+            "--pin",
+            "50,30:50,20",
+            "-o",
+            s(&posed),
+            "--dress",
+            s(&outfit),
+        ],
+    );
+    run.assert_ok();
+    assert!(hat_at(&posed, 32, 5) && hat_at(&tmp.path().join("posed_arap.png"), 32, 5));
+    assert!(pose_len(&tmp.path().join("posed.json")) > bare);
+
+    // What cannot be worn is refused, naming it; nothing is written.
+    let out = tmp.path().join("refused");
+    puppet(tmp.path(), &["fit", "--model", s(&model), s(&a), "-o", s(&out), "--undress", "hat"]).assert_error(&[
+        "--undress",
+        "\"hat\"",
+        "has none",
+    ]);
+    puppet(
+        tmp.path(),
+        &["fit", "--model", s(&model), s(&a), "-o", s(&out), "--undress", "torso"],
+    )
+    .assert_error(&["--undress", "\"torso\" (a body layer)"]);
+    let other = write_layer_character(&tmp.path().join("other"), "");
+    std::fs::remove_file(other.join("arm.png")).unwrap();
+    let toml = std::fs::read_to_string(other.join("character.toml")).unwrap();
+    std::fs::write(
+        other.join("character.toml"),
+        toml.replace("[[layer]]\nname = \"arm\"\nfile = \"arm.png\"\n", ""),
+    )
+    .unwrap();
+    puppet(
+        tmp.path(),
+        &["fit", "--model", s(&model), s(&a), "-o", s(&out), "--dress", s(&other)],
+    )
+    .assert_error(&["--dress", "other", "arm", "does not draw"]);
+    assert!(!out.exists(), "a refused outfit wrote {}", out.display());
+}
+
+#[test]
+fn a_rigged_model_drags_the_body_by_its_hat_and_takes_the_hat_off() {
+    let tmp = tempfile::tempdir().unwrap();
+    let (model, a, _) = setup_with(tmp.path(), write_hatted_character(&tmp.path().join("art")));
+    assert!(hat_at(&a, 32, 5), "the frames show the hat");
+    // A pin on the hat, above the head, pulled right: the ARAP comparison moves the head under it.
+    let posed = tmp.path().join("posed.png");
+    puppet(
+        tmp.path(),
+        &["pose", "--model", s(&model), s(&a), "--pin", "32,5:38,5", "-o", s(&posed)],
+    )
+    .assert_ok();
+    let arap = tmp.path().join("posed_arap.png");
+    assert!(hat_at(&arap, 37, 5) && !hat_at(&arap, 24, 5), "the hat moved right");
+    let head = |path: &Path| puppet::picture::Picture::load(path).unwrap().get(23, 16);
+    assert!(head(&a)[3] > 0.5 && head(&arap)[3] < 0.5, "the head moved with its hat");
+
+    // eval scores the rig-placed hat on the fits too.
+    let seq = tmp.path().join("seq");
+    std::fs::create_dir_all(&seq).unwrap();
+    std::fs::copy(&a, seq.join("a.png")).unwrap();
+    let run = puppet(tmp.path(), &["eval", "--model", s(&model), s(&seq), "--one-pass"]);
+    run.assert_ok();
+    assert!(run.stdout.contains("accessories on the fits"), "{}", run.stdout);
+
+    let ib = tmp.path().join("ib");
+    let run = puppet(
+        tmp.path(),
+        &[
+            "inbetween",
+            "--model",
+            s(&model),
+            s(&a),
+            s(&a),
+            "--steps",
+            "1",
+            "-o",
+            s(&ib),
+            "--undress",
+            "hat",
+        ],
+    );
+    run.assert_ok();
+    assert!(!hat_at(&ib.join("latent/step_001.png"), 32, 5), "the hat is off");
+    let built = format::load(&tmp.path().join("built")).unwrap();
+    assert_eq!(pose_len(&ib.join("latent/step_001.json")), built.free_vertices().len());
+}
+
+#[test]
+fn a_model_trained_without_the_rig_cannot_change_its_accessories() {
+    let tmp = tempfile::tempdir().unwrap();
+    let art = write_hatted_character(&tmp.path().join("art"));
+    let artwork = puppet::puppet::artwork::load(&art, &Default::default()).unwrap();
+    let (p, _) = puppet::puppet::build::build(&artwork, &Default::default(), &puppet::progress::Silent).unwrap();
+    assert!(p.rig.is_none());
+    let config = DeformationNetConfig::new(p.free_vertices().len())
+        .with_input_size(64)
+        .with_encoder_hidden([32, 16])
+        .with_latent(16)
+        .with_decoder_hidden([16, 32]);
+    let device = puppet::backend::device();
+    let model = Model::new(config, p, &device).unwrap();
+    let dir = tmp.path().join("model");
+    model.save(&dir).unwrap();
+    let a = tmp.path().join("a.png");
+    puppet::render::render_crisp(&model.puppet, &model.puppet.rest_vertices(), 64, 64)
+        .unwrap()
+        .save_png(&a)
+        .unwrap();
+    puppet(tmp.path(), &["fit", "--model", s(&dir), s(&a), "-o", "out", "--undress", "hat"]).assert_error(&[
+        "--undress",
+        "model.rig",
+        "trained without the rig",
+    ]);
 }
 
 #[test]

@@ -129,6 +129,28 @@ fn issue_12_demo_refuses_a_model_folder_it_did_not_write() {
 }
 
 #[test]
+fn issue_14_the_demo_runs_end_to_end_and_a_rerun_replaces_its_own_files() {
+    let tmp = tempfile::tempdir().unwrap();
+    let out = tmp.path().join("demo");
+    for _ in 0..2 {
+        let run = puppet(tmp.path(), &["demo", "-o", s(&out), "--steps", "2"]);
+        run.assert_ok();
+        assert!(run.stdout.contains("demo done"), "{}", run.stdout);
+    }
+    let page = std::fs::read_to_string(out.join("index.html")).unwrap();
+    for shown in ["inbetween_walk.gif", "inbetween_walk_dressed.gif", "drag.gif", "fits.png", "hair"] {
+        assert!(page.contains(shown), "the page lacks {shown}");
+    }
+    for file in [
+        "inbetween_walk_dressed.gif",
+        "inbetween_walk_dressed_sheet.png",
+        "model/weights.bpk",
+    ] {
+        assert!(out.join(file).is_file(), "{file} missing");
+    }
+}
+
+#[test]
 fn issue_12_outputs_never_replace_a_users_file_or_each_other() {
     let tmp = tempfile::tempdir().unwrap();
     let (seq, config, model) = tiny_run(tmp.path(), 2);

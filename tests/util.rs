@@ -115,3 +115,20 @@ pub fn write_label_character(dir: &Path) -> PathBuf {
     std::fs::write(dir.join("character.toml"), toml).unwrap();
     dir.to_path_buf()
 }
+
+/// The tiny character wearing a hat (an accessory layer over the top of the head), in the
+/// layer-PNG form in `dir`; returns `dir`.
+pub fn write_hatted_character(dir: &std::path::Path) -> std::path::PathBuf {
+    let art = write_layer_character(dir, "");
+    let hat = shape(64, 64, [30, 30, 30, 255], |x, y| {
+        (22.0..42.0).contains(&x) && (4.0..12.0).contains(&y)
+    });
+    hat.save(art.join("hat.png")).unwrap();
+    let toml = std::fs::read_to_string(art.join("character.toml")).unwrap();
+    std::fs::write(
+        art.join("character.toml"),
+        format!("{toml}[[layer]]\nname = \"hat\"\nfile = \"hat.png\"\nkind = \"accessory\"\n"),
+    )
+    .unwrap();
+    art
+}

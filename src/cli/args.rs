@@ -3,7 +3,14 @@
 
 use std::path::{Path, PathBuf};
 
+use anyhow::Context as _;
 use puppet::edit::pose::Pin;
+use puppet::model::Model;
+use puppet::puppet::{artwork, build::BuildOptions, LayerKind};
+use puppet::rig::outfit::{dress, undress};
+use puppet::rig::RigOptions;
+
+use super::ui::Ui;
 use puppet::fit::{limb_search::LimbSearch, FitOptions, DEFAULT_LATENT_STEPS, DEFAULT_VERTEX_STEPS};
 
 /// The trained model a command uses.
@@ -68,6 +75,48 @@ impl FitArgs {
             limb_search: (!self.no_limb_search).then(LimbSearch::default),
             ..options
         })
+    }
+}
+
+/// Another outfit for what a command draws (the frames it reads show the model's own).
+#[derive(Debug, Default, clap::Args)]
+pub struct OutfitArgs {
+    /// Draw the results in the accessories of this artwork instead (PNG layers + character.toml,
+    /// or .ora): the same body in another outfit, rigged against the model's body on the spot.
+    /// Needs a model trained with the rig (or one without accessories).
+    #[arg(long, value_name = "ARTWORK")]
+    pub dress: Option<PathBuf>,
+    /// Draw the results without these accessories (comma-separated layer names), and without
+    /// whatever follows them.
+    #[arg(long, value_name = "NAMES", value_delimiter = ',')]
+    pub undress: Vec<String>,
+}
+
+impl OutfitArgs {
+    /// The model drawing the outfit asked for, or `None` to draw the model's own. Vertex files
+    /// written from it are poses of its puppet.
+    pub fn model(&self, model: &Model, ui: &Ui) -> anyhow::Result<Option<Model>> {
+        if self.dress.is_none() && self.undress.is_empty() {
+            return Ok(None);
+        }
+        let started = std::time::Instant::now();
+        let mut puppet = model.puppet.clone();
+        if let Some(path) = &self.dress {
+            let art = artwork::load(path, &artwork::ImportOptions::default())?;
+            puppet = dress(&puppet, &art, &BuildOptions::default(), &RigOptions::default(), ui).context("--dress")?;
+        }
+        if !self.undress.is_empty() {
+            puppet = undress(&puppet, &self.undress, ui).context("--undress")?;
+        }
+        let worn = model
+            .wearing(puppet)
+            .context(if self.dress.is_some() { "--dress" } else { "--undress" })?;
+        ui.say(format!(
+            "outfit: {} accessories, rigged in {:.0} ms",
+            worn.puppet.layers.iter().filter(|l| l.kind == LayerKind::Accessory).count(),
+            started.elapsed().as_secs_f64() * 1e3
+        ))?;
+        Ok(Some(worn))
     }
 }
 

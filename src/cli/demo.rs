@@ -1,4 +1,4 @@
-//! `puppet demo`: the whole pipeline on the bundled Kenney robot, no arguments (see
+//! `puppet demo`: the whole pipeline on a bundled Kenney character, no arguments (see
 //! [`puppet::demo`]).
 
 use std::path::PathBuf;
@@ -7,12 +7,14 @@ use puppet::demo::{run as run_demo, DemoOptions};
 
 use super::Session;
 
-/// Run the whole pipeline on the bundled Kenney robot and write out/demo/index.html.
+/// Run the whole pipeline on a bundled Kenney character and write out/demo/index.html.
 ///
-/// Builds the robot's puppet from its label map, trains the deformation network for a short
-/// run (OUTPUT/train.toml, a few minutes on two cores), fits every frame, makes in-betweens
-/// (GIF) and a dragged pose with the ARAP comparison, and writes an HTML page showing each
-/// result. A rerun replaces what an earlier demo wrote in OUTPUT and nothing else.
+/// Builds the character's puppet from its label map (the male adventurer's hair is an accessory
+/// the rig carries), trains the deformation network for a short run (OUTPUT/train.toml, a few
+/// minutes on two cores), fits every frame, makes in-betweens (GIF), a dragged pose with the
+/// ARAP comparison and, if the character has an outfits/ folder, the walk in-between in its
+/// first outfit, and writes an HTML page showing each result. A rerun replaces what an earlier
+/// demo wrote in OUTPUT and nothing else.
 #[derive(Debug, clap::Args)]
 pub struct DemoArgs {
     /// Output folder.
@@ -21,14 +23,20 @@ pub struct DemoArgs {
     /// Training steps of the short run.
     #[arg(long, default_value_t = 300)]
     pub steps: u64,
+    /// The character: artwork with a frames/ folder of drawn frames (default: the bundled male
+    /// adventurer; data/kenney/robot is the other one with frames and a label map).
+    #[arg(long, value_name = "DIR")]
+    pub character: Option<PathBuf>,
 }
 
 /// Runs `puppet demo`.
 pub fn run(args: DemoArgs, s: &Session) -> anyhow::Result<()> {
+    let defaults = DemoOptions::new(args.output);
     let options = DemoOptions {
         steps: args.steps,
         force: s.outputs.forced(),
-        ..DemoOptions::new(args.output)
+        character: args.character.unwrap_or(defaults.character.clone()),
+        ..defaults
     };
     let summary = run_demo(&options, &s.ui)?;
     s.ui.finish();
@@ -42,6 +50,6 @@ mod tests {
     #[test]
     fn parses_output_and_steps() {
         parses(&["demo"]);
-        parses(&["demo", "-o", "x", "--steps", "5"]);
+        parses(&["demo", "-o", "x", "--steps", "5", "--character", "data/kenney/robot"]);
     }
 }

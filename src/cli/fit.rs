@@ -12,7 +12,7 @@ use puppet::puppet::sequence::Frames;
 use puppet::render::preview::wireframe_preview;
 use puppet::render::render_crisp;
 
-use super::args::{FitArgs as FitOptionArgs, ModelArgs};
+use super::args::{FitArgs as FitOptionArgs, ModelArgs, OutfitArgs};
 use super::Session;
 
 /// The most frames sheet.png shows (evenly sampled when more are fitted).
@@ -35,6 +35,8 @@ pub struct FitArgs {
     pub output: PathBuf,
     #[command(flatten)]
     pub fit: FitOptionArgs,
+    #[command(flatten)]
+    pub outfit: OutfitArgs,
 }
 
 /// Runs `puppet fit`.
@@ -43,6 +45,8 @@ pub fn run(args: FitArgs, s: &Session) -> anyhow::Result<()> {
     let dir = &args.model.model;
     let model = Model::load(dir, &device)?;
     let options = args.fit.options(dir)?;
+    let worn = args.outfit.model(&model, &s.ui)?;
+    let drawn = worn.as_ref().unwrap_or(&model);
     let check = frame::frame_check(&model);
     let (mut files, mut pictures, mut problems) = (Vec::new(), Vec::new(), Vec::new());
     for path in &args.frames {
@@ -88,8 +92,9 @@ pub fn run(args: FitArgs, s: &Session) -> anyhow::Result<()> {
     let mut rows: Vec<Picture> = Vec::new();
     for (k, ((stem, picture), pose)) in stems.iter().zip(&pictures).zip(fits).enumerate() {
         let [render_path, overlay_path, vertices_path] = paths(stem);
-        let render = render_crisp(&model.puppet, &pose, w, h)?;
-        let overlay = wireframe_preview(&model.puppet, &pose, picture, scale);
+        let pose = drawn.pose_from(&model, &pose);
+        let render = render_crisp(&drawn.puppet, &pose, w, h)?;
+        let overlay = wireframe_preview(&drawn.puppet, &pose, picture, scale);
         s.save_png(&render_path, &render)?;
         s.save_png(&overlay_path, &overlay)?;
         s.outputs.write(&vertices_path, &PoseFile { vertices: pose }.to_json())?;

@@ -15,7 +15,7 @@ use puppet::progress::Progress;
 use puppet::puppet::sequence::Frames;
 use puppet::render::animation::{AnimationFiles, GifSettings};
 
-use super::args::{parse_colour, LatentFitArgs, ModelArgs};
+use super::args::{parse_colour, LatentFitArgs, ModelArgs, OutfitArgs};
 use super::Session;
 
 /// Make in-between frames of two frames by interpolating their latent codes.
@@ -68,6 +68,8 @@ pub struct InbetweenArgs {
     pub columns: usize,
     #[command(flatten)]
     pub fit: LatentFitArgs,
+    #[command(flatten)]
+    pub outfit: OutfitArgs,
 }
 
 /// Runs `puppet inbetween`.
@@ -83,6 +85,7 @@ pub fn run(args: InbetweenArgs, s: &Session) -> anyhow::Result<()> {
     let (Some(a_path), Some(b_path), Some(out)) = (&args.a, &args.b, &args.output) else {
         anyhow::bail!("give two frames A and B and an output folder (or --score SEQUENCE)");
     };
+    let worn = args.outfit.model(&model, &s.ui)?;
     let a = load_frame(a_path, &model)?;
     let b = load_frame(b_path, &model)?;
     let training = match &args.training {
@@ -93,9 +96,15 @@ pub fn run(args: InbetweenArgs, s: &Session) -> anyhow::Result<()> {
     let sheet_path = out.join("sheet.png");
     s.outputs.claim(&sheet_path)?;
     s.ui.stage("inbetween", 0);
-    let ib = inbetween(&model, &a, &b, &t, &options, &device)?;
-    write_inbetweens(&model, &ib, &training, &files, &s.outputs, &s.ui)?;
-    s.save_png(&sheet_path, &comparison_sheet(&model, &ib, &training)?)?;
+    let mut ib = inbetween(&model, &a, &b, &t, &options, &device)?;
+    if let Some(worn) = &worn {
+        for pose in ib.latent.iter_mut().chain(&mut ib.vertex) {
+            *pose = worn.pose_from(&model, pose);
+        }
+    }
+    let drawn = worn.as_ref().unwrap_or(&model);
+    write_inbetweens(drawn, &ib, &training, &files, &s.outputs, &s.ui)?;
+    s.save_png(&sheet_path, &comparison_sheet(drawn, &ib, &training)?)?;
     s.ui.finish();
     if let Some(gif) = &args.gif {
         s.ui.say(format!("wrote {}", gif.display()))?;

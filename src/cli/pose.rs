@@ -18,7 +18,7 @@ use puppet::puppet::pose_file::PoseFile;
 use puppet::render::animation::{AnimationFiles, AnimationWriter, GifSettings};
 use puppet::render::render_crisp;
 
-use super::args::{parse_pin, LatentFitArgs, ModelArgs};
+use super::args::{parse_pin, LatentFitArgs, ModelArgs, OutfitArgs};
 use super::Session;
 
 /// Drag points of a frame to new places: the frame is fitted, each pin's point is bound to the
@@ -59,6 +59,8 @@ pub struct PoseArgs {
     pub gif_frames: usize,
     #[command(flatten)]
     pub fit: LatentFitArgs,
+    #[command(flatten)]
+    pub outfit: OutfitArgs,
 }
 
 /// `output` with `suffix` in place of its extension (`out.png` → `out_arap.png`).
@@ -100,6 +102,8 @@ pub fn run(args: PoseArgs, s: &Session) -> anyhow::Result<()> {
     let device = puppet::backend::device();
     let dir = &args.model.model;
     let model = Model::load(dir, &device)?;
+    let worn = args.outfit.model(&model, &s.ui)?;
+    let drawn = worn.as_ref().unwrap_or(&model);
     let frame = load_frame(&args.image, &model)?;
     let (w, h) = (model.puppet.width, model.puppet.height);
     let mut editor = PoseEditor::new(&model, &frame, &args.fit.options(dir)?, &device)?;
@@ -126,27 +130,22 @@ pub fn run(args: PoseArgs, s: &Session) -> anyhow::Result<()> {
     let dragged = editor.drag(&targets, &options)?;
     let took = started.elapsed();
     let pins: Vec<_> = editor.bindings().iter().copied().zip(targets.iter().copied()).collect();
-    let arap = arap_drag(&model.puppet, editor.fitted(), &pins)?;
-    let ours = render_crisp(&model.puppet, &dragged.vertices, w, h)?;
-    let fit = render_crisp(&model.puppet, editor.fitted(), w, h)?;
-    let arap_pic = render_crisp(&model.puppet, &arap, w, h)?;
+    let arap = drawn.pose_from(&model, &arap_drag(&model.puppet, editor.fitted(), &pins)?);
+    let posed = drawn.pose_from(&model, &dragged.vertices);
+    let ours = render_crisp(&drawn.puppet, &posed, w, h)?;
+    let fit = render_crisp(&drawn.puppet, &drawn.pose_from(&model, editor.fitted()), w, h)?;
+    let arap_pic = render_crisp(&drawn.puppet, &arap, w, h)?;
     s.save_png(&args.output, &ours)?;
     s.save_png(&arap_path, &arap_pic)?;
-    s.outputs.write(
-        &json_path,
-        &PoseFile {
-            vertices: dragged.vertices.clone(),
-        }
-        .to_json(),
-    )?;
-    let drawn: Vec<Picture> = [&frame, &fit, &ours, &arap_pic]
+    s.outputs.write(&json_path, &PoseFile { vertices: posed }.to_json())?;
+    let cells: Vec<Picture> = [&frame, &fit, &ours, &arap_pic]
         .iter()
         .map(|p| pin_overlay(p, &args.pins))
         .collect();
-    s.save_png(&sheet_path, &contact_sheet(&drawn.iter().collect::<Vec<_>>(), 4))?;
+    s.save_png(&sheet_path, &contact_sheet(&cells.iter().collect::<Vec<_>>(), 4))?;
     if let (Some(mut writer), Some(path)) = (gif, &args.gif) {
         s.ui.stage("drag", args.gif_frames as u64);
-        editor.write_drag(&args.pins, args.gif_frames, &options, &mut writer, &s.ui)?;
+        editor.write_drag(drawn, &args.pins, args.gif_frames, &options, &mut writer, &s.ui)?;
         writer.finish()?;
         s.ui.say(format!("wrote {}", path.display()))?;
     }

@@ -1,6 +1,8 @@
-//! The demo (`puppet demo`): the whole Neural Puppet pipeline on the bundled Kenney robot — build
-//! the puppet from its label map, train a short run, fit every frame, make two in-betweens and a
-//! dragged pose with the ARAP comparison — written with an `index.html` ([`page`]) showing it all.
+//! The demo (`puppet demo`): the whole pipeline on a bundled Kenney character (the male
+//! adventurer, whose hair is an accessory the rig carries) — build the puppet from its label map,
+//! train a short run, fit every frame, make two in-betweens and a dragged pose with the ARAP
+//! comparison, and draw the first in-between in the character's other outfit (`outfits/`) —
+//! written with an `index.html` ([`page`]) showing it all.
 //!
 //! Everything goes into one output folder; a rerun replaces what an earlier demo wrote there (its
 //! model folder included) and refuses to touch anything else.
@@ -12,7 +14,7 @@ use std::time::Instant;
 
 use crate::atomic_file::{record, written_by_puppet, Outputs};
 use crate::edit::arap_drag::arap_drag;
-use crate::edit::inbetween::{comparison_sheet, inbetween, steps_t, write_inbetweens, InbetweenFiles, MAX_STEPS};
+use crate::edit::inbetween::{comparison_sheet, inbetween, steps_t, write_inbetweens, InbetweenFiles, Inbetweens, MAX_STEPS};
 use crate::edit::pin_overlay::pin_overlay;
 use crate::edit::pose::{Pin, PoseEditor, PoseOptions};
 use crate::error::{Error, FolderKind, Result};
@@ -21,10 +23,14 @@ use crate::metrics::l2;
 use crate::model::Model;
 use crate::picture::{contact_sheet, Picture};
 use crate::progress::Progress;
+use crate::puppet::build::BuildOptions;
 use crate::puppet::sequence::Frames;
+use crate::puppet::{artwork, LayerKind};
 use crate::render::animation::{AnimationFiles, AnimationWriter, GifSettings};
 use crate::render::preview::wireframe_preview;
 use crate::render::render_crisp;
+use crate::rig::outfit::dress;
+use crate::rig::RigOptions;
 use crate::train::config::{canonical, TrainConfig};
 use crate::train::{self, TrainOptions};
 use page::{Inbetween, PageData};
@@ -43,27 +49,29 @@ pub struct DemoOptions {
 }
 
 impl DemoOptions {
-    /// The demo on the bundled robot into `output`, 300 training steps.
+    /// The demo on the bundled male adventurer into `output`, 300 training steps.
     pub fn new(output: impl Into<PathBuf>) -> Self {
         DemoOptions {
             output: output.into(),
             steps: 300,
-            character: bundled_robot(),
+            character: bundled_character(),
             force: false,
         }
     }
 }
 
-/// The bundled Kenney robot: `data/kenney/robot` in the working directory, or beside the crate's
-/// sources.
-pub fn bundled_robot() -> PathBuf {
-    let local = PathBuf::from("data/kenney/robot");
+/// The bundled Kenney male adventurer: `data/kenney/male_adventurer` in the working directory,
+/// or beside the crate's sources.
+pub fn bundled_character() -> PathBuf {
+    let local = PathBuf::from(BUNDLED);
     if local.join("character.toml").is_file() {
         local
     } else {
-        Path::new(env!("CARGO_MANIFEST_DIR")).join("data/kenney/robot")
+        Path::new(env!("CARGO_MANIFEST_DIR")).join(BUNDLED)
     }
 }
+
+const BUNDLED: &str = "data/kenney/male_adventurer";
 
 /// What the demo did.
 #[derive(Clone, Debug)]
@@ -86,6 +94,8 @@ const FILES: &[&str] = &[
     "inbetween_jump.gif",
     "inbetween_jump_sheet.png",
     "inbetween_jump_sprites.png",
+    "inbetween_walk_dressed.gif",
+    "inbetween_walk_dressed_sheet.png",
     "pose_sheet.png",
     "drag.gif",
     "index.html",
@@ -106,8 +116,9 @@ pub fn run(options: &DemoOptions, progress: &dyn Progress) -> Result<DemoSummary
     let started = Instant::now();
     let out = &options.output;
     let outputs = Outputs::new(options.force);
+    // Everything is looked at before anything is written; each writer claims its own files.
     for file in FILES {
-        outputs.claim(&out.join(file))?;
+        outputs.check(&out.join(file))?;
     }
     let model_dir = out.join("model");
     if model_dir.exists() {
@@ -188,8 +199,10 @@ pub fn run(options: &DemoOptions, progress: &dyn Progress) -> Result<DemoSummary
     )?;
     lap("fit every frame", &mut timings);
 
-    // 4. In-betweens: walk0 → walk4 (half a cycle apart) and idle → jump.
+    // 4. In-betweens: walk0 → walk4 (half a cycle apart) and idle → jump; the first also in the
+    // character's other outfit, if it has one.
     let mut inbetweens = Vec::new();
+    let mut outfit = None;
     for (a, b, stem) in [
         (pick("walk0", 0), pick("walk4", 1), "inbetween_walk"),
         (idle, pick("jump", 2), "inbetween_jump"),
@@ -215,6 +228,11 @@ pub fn run(options: &DemoOptions, progress: &dyn Progress) -> Result<DemoSummary
             from: names[a].clone(),
             to: names[b].clone(),
         });
+        if outfit.is_none() {
+            if let Some(dir) = first_outfit(&options.character)? {
+                outfit = Some(redress(&model, &dir, &ib, &frames.frames, (out, stem), &outputs, progress)?);
+            }
+        }
     }
     lap("in-betweens (2 × 10 frames)", &mut timings);
 
@@ -247,13 +265,19 @@ pub fn run(options: &DemoOptions, progress: &dyn Progress) -> Result<DemoSummary
         ..AnimationFiles::default()
     };
     let mut writer = AnimationWriter::new(&gif, DRAG_FRAMES, w, h, &outputs)?;
-    editor.write_drag(&[pin], DRAG_FRAMES, &pose_options, &mut writer, progress)?;
+    editor.write_drag(&model, &[pin], DRAG_FRAMES, &pose_options, &mut writer, progress)?;
     writer.finish()?;
     lap("dragged pose + ARAP comparison", &mut timings);
 
     // 6. The page.
     let seconds = started.elapsed().as_secs_f64();
     let html = page::render(&PageData {
+        character: options
+            .character
+            .file_name()
+            .map_or_else(String::new, |n| n.to_string_lossy().into_owned()),
+        outfit,
+        accessories: accessory_names(&model.puppet),
         layer_names: model.puppet.layers.iter().map(|l| l.name.clone()).collect(),
         vertices: model.puppet.vertex_count(),
         joints: model.puppet.joints.len(),
@@ -274,6 +298,76 @@ pub fn run(options: &DemoOptions, progress: &dyn Progress) -> Result<DemoSummary
     let index = out.join("index.html");
     outputs.write(&index, html.as_bytes())?;
     Ok(DemoSummary { index, seconds })
+}
+
+/// The names of `puppet`'s accessory layers.
+fn accessory_names(puppet: &crate::puppet::Puppet) -> Vec<String> {
+    puppet
+        .layers
+        .iter()
+        .filter(|l| l.kind == LayerKind::Accessory)
+        .map(|l| l.name.clone())
+        .collect()
+}
+
+/// The first folder (by name) under `character/outfits/`, if any.
+fn first_outfit(character: &Path) -> Result<Option<PathBuf>> {
+    let dir = character.join("outfits");
+    if !dir.is_dir() {
+        return Ok(None);
+    }
+    let mut found: Vec<PathBuf> = std::fs::read_dir(&dir)
+        .map_err(|e| Error::io(&dir, e))?
+        .filter_map(|entry| entry.ok().map(|e| e.path()))
+        .filter(|p| p.is_dir())
+        .collect();
+    found.sort();
+    Ok(found.into_iter().next())
+}
+
+/// The in-between `ib` of `model` (its files in `out` named after `stem`) drawn in the outfit in
+/// `dir`: `<stem>_dressed.gif` and `<stem>_dressed_sheet.png`.
+fn redress(
+    model: &Model,
+    dir: &Path,
+    ib: &Inbetweens,
+    frames: &[Picture],
+    (out, stem): (&Path, &str),
+    outputs: &Outputs,
+    progress: &dyn Progress,
+) -> Result<page::Outfit> {
+    let started = Instant::now();
+    let art = artwork::load(dir, &artwork::ImportOptions::default())?;
+    let puppet = dress(&model.puppet, &art, &BuildOptions::default(), &RigOptions::default(), progress)?;
+    let worn = model.wearing(puppet)?;
+    let rig_ms = started.elapsed().as_secs_f64() * 1e3;
+    let dressed = Inbetweens {
+        t: ib.t.clone(),
+        latent: ib.latent.iter().map(|p| worn.pose_from(model, p)).collect(),
+        vertex: ib.vertex.iter().map(|p| worn.pose_from(model, p)).collect(),
+    };
+    let gif = out.join(format!("{stem}_dressed.gif"));
+    let files = InbetweenFiles {
+        latent: AnimationFiles {
+            gif: Some(GifSettings {
+                path: gif,
+                delay_ms: 90,
+                background: [1.0; 3],
+            }),
+            ..AnimationFiles::default()
+        },
+        ..InbetweenFiles::default()
+    };
+    write_inbetweens(&worn, &dressed, &[], &files, outputs, progress)?;
+    let sheet = out.join(format!("{stem}_dressed_sheet.png"));
+    comparison_sheet(&worn, &dressed, frames)?.save_png(&sheet)?;
+    record(&sheet)?;
+    Ok(page::Outfit {
+        name: dir.file_name().map_or_else(String::new, |n| n.to_string_lossy().into_owned()),
+        accessories: accessory_names(&worn.puppet),
+        stem: stem.to_string(),
+        rig_ms,
+    })
 }
 
 /// The short training run: the robot at 64×64 working pixels, batch 8, cosine decay.

@@ -17,9 +17,24 @@ pub struct Inbetween {
     pub to: String,
 }
 
+/// The demo's in-between drawn in another outfit (issue 14: mix and match).
+#[derive(Clone, Debug)]
+pub struct Outfit {
+    /// The outfit's name (its folder).
+    pub name: String,
+    /// Its accessories, back to front.
+    pub accessories: Vec<String>,
+    /// The stem of the in-between it re-draws.
+    pub stem: String,
+    /// Time to rig it on the model's body, milliseconds.
+    pub rig_ms: f64,
+}
+
 /// Everything the page shows.
 #[derive(Clone, Debug)]
 pub struct PageData {
+    /// The character's name.
+    pub character: String,
     /// The puppet's layers, back to front.
     pub layer_names: Vec<String>,
     /// Its vertex count.
@@ -38,6 +53,10 @@ pub struct PageData {
     pub fit: FitOptions,
     /// The in-betweens.
     pub inbetweens: Vec<Inbetween>,
+    /// The first in-between in another outfit, if the character has one (`outfits/`).
+    pub outfit: Option<Outfit>,
+    /// The puppet's accessory layers (placed by the rig).
+    pub accessories: Vec<String>,
     /// The dragged pin.
     pub pin: Pin,
     /// Its distance to its target after the drag, pixels.
@@ -75,14 +94,28 @@ pub fn render(d: &PageData) -> String {
     let mut s = String::new();
     let _ = writeln!(
         s,
-        "<!doctype html>\n<html><head><meta charset=\"utf-8\"><title>puppet demo — Kenney robot</title>\n<style>\
+        "<!doctype html>\n<html><head><meta charset=\"utf-8\"><title>puppet demo — {}</title>\n<style>\
          body{{font-family:sans-serif;max-width:1100px;margin:1em auto;color:#222}} img{{image-rendering:pixelated;border:1px solid #ccc;margin:4px}}\
          table{{border-collapse:collapse}} td,th{{padding:2px 10px;border-bottom:1px solid #eee;text-align:right}} th{{text-align:left}}\
          .row{{display:flex;flex-wrap:wrap;align-items:flex-start;gap:8px}} figcaption{{font-size:90%;color:#555}}</style></head><body>\n\
-         <h1>puppet demo: the Kenney robot</h1>\n<p>Neural Puppet (§3–4) end to end on the bundled CC0 robot: a layered puppet built from one labelled frame, \
-         a deformation network trained for {} steps ({:.1} images/s) on {} frames with {} held out, then fits, in-betweens and a dragged pose. \
+         <h1>puppet demo: {}</h1>\n<p>Neural Puppet (§3–4) end to end on a bundled CC0 Kenney character: a layered puppet built from one labelled frame, \
+         a deformation network trained for {} steps ({:.1} images/s) on {} frames with {} held out, then fits, in-betweens and a dragged pose. {} \
          Whole run: <b>{:.0} s</b>.</p>",
-        d.steps, d.images_per_second, d.split.0, d.split.1, d.total
+        escape(&d.character),
+        escape(&d.character),
+        d.steps,
+        d.images_per_second,
+        d.split.0,
+        d.split.1,
+        if d.accessories.is_empty() {
+            String::new()
+        } else {
+            format!(
+                "The network poses the body; the accessory rig (accessory-rigs.md) carries the accessories ({}) along, inside training and every edit.",
+                d.accessories.iter().map(|a| escape(a)).collect::<Vec<_>>().join(", ")
+            )
+        },
+        d.total
     );
     let layers: Vec<String> = d.layer_names.iter().map(|n| escape(n)).collect();
     let _ = writeln!(
@@ -119,6 +152,18 @@ pub fn render(d: &PageData) -> String {
             escape(&ib.to)
         );
     }
+    if let Some(o) = &d.outfit {
+        let stem = escape(&o.stem);
+        let _ = writeln!(
+            s,
+            "<h3>The same in-between in another outfit</h3><p>Outfit “{}” ({}), drawn for the same rest body, rigged against the trained model's body in {:.0} ms and \
+             put on the poses above — no retraining (accessory-rigs.md Fig. 1 F–H).</p><div class=\"row\"><figure><img src=\"{stem}_dressed.gif\" width=\"192\">\
+             <figcaption>latent interpolation, re-dressed</figcaption></figure><figure><img src=\"{stem}_dressed_sheet.png\" width=\"800\"><figcaption>rows: latent, vertex-space, nearest frame</figcaption></figure></div>",
+            escape(&o.name),
+            o.accessories.iter().map(|a| escape(a)).collect::<Vec<_>>().join(", "),
+            o.rig_ms
+        );
+    }
     let _ = writeln!(
         s,
         "<h2>4. A dragged pose (§4.2)</h2><p>The point ({:.0}, {:.0}) on layer “{}” is pinned and dragged to ({:.0}, {:.0}); \
@@ -153,6 +198,7 @@ mod tests {
             "&lt;b&gt;&quot;arm&quot; &amp; &#39;leg&#39;&lt;/b&gt;"
         );
         let page = render(&PageData {
+            character: "robot & co".into(),
             layer_names: vec!["<script>".into()],
             vertices: 10,
             joints: 1,
@@ -166,6 +212,13 @@ mod tests {
                 from: "walk0".into(),
                 to: "walk4".into(),
             }],
+            outfit: Some(Outfit {
+                name: "cap".into(),
+                accessories: vec!["<hat>".into()],
+                stem: "inbetween_walk".into(),
+                rig_ms: 12.0,
+            }),
+            accessories: vec!["hair".into()],
             pin: Pin {
                 from: [1.0, 2.0],
                 to: [3.0, 4.0],
@@ -179,5 +232,6 @@ mod tests {
         });
         assert!(!page.contains("<script>") && page.contains("&lt;script&gt;") && page.contains("a&lt;b.png"));
         assert!(page.contains("inbetween_walk_sheet.png") && page.contains("held out"));
+        assert!(page.contains("inbetween_walk_dressed.gif") && page.contains("&lt;hat&gt;") && page.contains("robot &amp; co"));
     }
 }

@@ -38,9 +38,10 @@ use super::pin_overlay::pin_overlay;
 use crate::error::{Error, Result};
 use crate::fit::{fit_latents, FitOptions};
 use crate::geom::ArapEnergy;
+use crate::model::decoder::Decoder;
 use crate::model::Model;
 use crate::objective::arap_op::arap_loss;
-use crate::objective::{global_triangles, joint_loss};
+use crate::objective::{joint_loss, regularised_triangles};
 use crate::picture::Picture;
 use crate::progress::Progress;
 use crate::render::animation::{write_poses, AnimationWriter};
@@ -139,7 +140,7 @@ pub struct PoseEditor<'m> {
     device: Device,
     z0: Tensor<2>,
     z: Tensor<2>,
-    rest: Tensor<2>,
+    decoder: Decoder,
     fitted: Vec<[f32; 2]>,
     bindings: Vec<Binding>,
     /// Barycentric weights as a `[P, V]` matrix (p = W·v).
@@ -167,7 +168,7 @@ impl<'m> PoseEditor<'m> {
             .into_iter()
             .map(|p| model.letterbox.to_work(p).map(|c| c / half))
             .collect();
-        let arap = Arc::new(ArapEnergy::new(&rest_ndc, &global_triangles(puppet))?);
+        let arap = Arc::new(ArapEnergy::new(&rest_ndc, &regularised_triangles(puppet))?);
         let index = |side: fn(&crate::puppet::Joint) -> crate::puppet::VertexRef| {
             let v: Vec<i64> = puppet.joints.iter().map(|j| puppet.global_index(side(j)) as i64).collect();
             Tensor::<1, Int>::from_data(TensorData::new(v.clone(), [v.len()]), device)
@@ -178,7 +179,7 @@ impl<'m> PoseEditor<'m> {
             device: device.clone(),
             z: z0.clone(),
             z0,
-            rest: model.rest_work(device),
+            decoder: model.decoder(device),
             fitted,
             bindings: Vec::new(),
             weights: None,
@@ -254,12 +255,14 @@ impl<'m> PoseEditor<'m> {
             .collect()
     }
 
-    /// [`PoseEditor::drag_along`] rendered into `writer`, the pins drawn over each update.
+    /// [`PoseEditor::drag_along`] rendered into `writer` by `drawn` (the editor's model, or the
+    /// same body in another outfit: [`Model::wearing`]), the pins drawn over each update.
     ///
     /// # Errors
     /// As [`PoseEditor::drag_along`] and [`write_poses`].
     pub fn write_drag(
         &mut self,
+        drawn: &Model,
         pins: &[Pin],
         frames: usize,
         options: &PoseOptions,
@@ -267,15 +270,8 @@ impl<'m> PoseEditor<'m> {
         progress: &dyn Progress,
     ) -> Result<()> {
         let steps = self.drag_along(pins, frames, options)?;
-        let poses: Vec<Vec<[f32; 2]>> = steps.iter().map(|(d, _)| d.vertices.clone()).collect();
-        write_poses(
-            &self.model.puppet,
-            &poses,
-            writer,
-            false,
-            |k, p| pin_overlay(&p, &steps[k].1),
-            progress,
-        )
+        let poses: Vec<Vec<[f32; 2]>> = steps.iter().map(|(d, _)| drawn.pose_from(self.model, &d.vertices)).collect();
+        write_poses(&drawn.puppet, &poses, writer, false, |k, p| pin_overlay(&p, &steps[k].1), progress)
     }
 
     /// Returns to the fitted latent (and forgets the adapted step size).
@@ -367,7 +363,7 @@ impl<'m> PoseEditor<'m> {
 
     /// L_deform (eq. 8) at latent `z` `[1, Z]`, NDC²; `target` `[P, 2]` in NDC.
     fn deform_loss(&self, z: Tensor<2>, weights: &Tensor<2>, target: &Tensor<2>, options: &PoseOptions) -> Result<Tensor<1>> {
-        let v: Tensor<3> = self.model.net.vertices(z, &self.rest).mul_scalar(self.ndc_scale);
+        let v: Tensor<3> = self.decoder.vertices(&self.model.net, z).mul_scalar(self.ndc_scale);
         let [_, n, _] = v.dims();
         let points = weights.clone().matmul(v.clone().reshape([n, 2]));
         // Eq. 7 in working pixels (module doc): NDC² × (S/2)².

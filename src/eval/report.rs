@@ -5,6 +5,7 @@
 use burn::tensor::Device;
 use serde::Serialize;
 
+use super::rig::{pose_scores, Scores};
 use super::visibility::visible_vertices;
 use crate::error::{Context, Error, Result};
 use crate::fit::{fit, FitOptions};
@@ -53,6 +54,9 @@ pub struct Report {
     pub frames: Vec<FrameScores>,
     /// Means over frames (vertex error and PCK over frames with truth).
     pub mean: FrameScores,
+    /// With an accessory rig: how the rig-placed accessories hold up on the fitted poses, the
+    /// worst over the frames ([`pose_scores`]).
+    pub accessories: Option<Scores>,
 }
 
 /// Fits (as `options` say) and scores `frames.frames[i]` for each `i` in `indices` (all frames if
@@ -108,7 +112,11 @@ pub fn evaluate(
         });
     }
     let mean = mean_scores(&scores);
-    Ok(Report { frames: scores, mean })
+    Ok(Report {
+        frames: scores,
+        mean,
+        accessories: pose_scores(&model.puppet, &fits),
+    })
 }
 
 /// The scores that need ground truth.
@@ -196,6 +204,22 @@ impl Report {
                 pck(s.visible_pck, 2),
                 s.true_pose_l2.map_or("-".to_string(), |v| format!("{v:.1}")),
                 s.true_pose_iou.map_or("-".to_string(), |v| format!("{v:.4}")),
+            ));
+        }
+        if let Some(a) = &self.accessories {
+            out.push_str(&format!(
+                "accessories on the fits (worst frame): {:>9} {:>7} {:>5} {:>7} {:>6} {:>5} {:>5} {:>7} {:>7}\n{:>39} {}\n",
+                "occl.kept",
+                "deepest",
+                "leaks",
+                "overlap",
+                "drift",
+                "inv",
+                "holes",
+                "seam95",
+                "stretch",
+                "",
+                a.row()
             ));
         }
         out

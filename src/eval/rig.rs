@@ -309,6 +309,16 @@ pub fn evaluate_character(
     })
 }
 
+/// The worst of the rig's scores over whole poses of a rigged `puppet` — its body posed by
+/// anything (fits, in-betweens, drags), its accessories where the rig put them; `None` without a
+/// rig or poses.
+pub fn pose_scores(puppet: &Puppet, poses: &[Vec<[f32; 2]>]) -> Option<Scores> {
+    let rig = puppet.rig.as_ref().filter(|_| !poses.is_empty())?;
+    let scene = Scene::new(puppet, rig);
+    let scores: Vec<Scores> = poses.iter().map(|p| scene.score(p)).collect();
+    Some(Scores::worst(&scores))
+}
+
 /// The DAG's parents against the truth.
 fn dag_score(puppet: &Puppet, rig: &RigData, truth: &RigTruth) -> DagScore {
     let parent_of = |child: usize| rig.edges.iter().find(|e| e.child == child).map(|e| e.parent);

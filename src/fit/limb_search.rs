@@ -11,6 +11,7 @@ use crate::picture::Picture;
 use crate::puppet::Puppet;
 use crate::render::soft_raster::{Background, Params, SoftRasterizer};
 use crate::render::straight_picture;
+use crate::rig::deform::RigMap;
 
 /// Turns tried for each limb, in degrees either way, and how finely.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -45,12 +46,19 @@ struct Limb {
 impl LimbSearch {
     /// Improves `pose` (frame pixels, global numbering) towards `frame` by turning limbs, root
     /// first; keeps a turn only if it lowers the L2 (DESIGN.md) of the crisp render. Returns that
-    /// L2 before and after.
+    /// L2 before and after. With a rig's `map`, accessories follow every turned pose.
     ///
     /// # Errors
     /// [`crate::Error::Mismatch`] if `pose` does not fit the puppet, [`crate::Error::Geometry`] if
     /// it is not finite.
-    pub fn improve(&self, raster: &SoftRasterizer, puppet: &Puppet, frame: &Picture, pose: &mut [[f32; 2]]) -> Result<(f64, f64)> {
+    pub fn improve(
+        &self,
+        raster: &SoftRasterizer,
+        puppet: &Puppet,
+        map: Option<&RigMap>,
+        frame: &Picture,
+        pose: &mut [[f32; 2]],
+    ) -> Result<(f64, f64)> {
         let n = (self.max_degrees / self.step_degrees).floor().max(0.0) as i32;
         let angles: Vec<f32> = (-n..=n)
             .filter(|&k| k != 0)
@@ -75,11 +83,11 @@ impl LimbSearch {
         let start = scores(pose)?[0];
         let mut best = start;
         for limb in limbs(puppet) {
-            let tries: Vec<[f32; 2]> = angles.iter().flat_map(|&a| turned(pose, &limb, a)).collect();
+            let tries: Vec<[f32; 2]> = angles.iter().flat_map(|&a| turned(pose, &limb, a, map)).collect();
             let found = scores(&tries)?.into_iter().zip(&angles).min_by(|x, y| x.0.total_cmp(&y.0));
             if let Some((score, &angle)) = found.filter(|&(score, _)| score < best) {
                 best = score;
-                let new = turned(pose, &limb, angle);
+                let new = turned(pose, &limb, angle, map);
                 pose.copy_from_slice(&new);
             }
         }
@@ -87,8 +95,8 @@ impl LimbSearch {
     }
 }
 
-/// `pose` with `limb` turned by `angle` radians about its pivot.
-fn turned(pose: &[[f32; 2]], limb: &Limb, angle: f32) -> Vec<[f32; 2]> {
+/// `pose` with `limb` turned by `angle` radians about its pivot, its accessories placed by `map`.
+fn turned(pose: &[[f32; 2]], limb: &Limb, angle: f32, map: Option<&RigMap>) -> Vec<[f32; 2]> {
     let (s, c) = angle.sin_cos();
     let [px, py] = pose[limb.pivot];
     let mut out = pose.to_vec();
@@ -96,6 +104,9 @@ fn turned(pose: &[[f32; 2]], limb: &Limb, angle: f32) -> Vec<[f32; 2]> {
         let [x, y] = pose[v];
         let (dx, dy) = (x - px, y - py);
         out[v] = [px + c * dx - s * dy, py + s * dx + c * dy];
+    }
+    if let Some(map) = map {
+        map.apply(&mut out);
     }
     out
 }
@@ -169,13 +180,13 @@ mod tests {
         let limbs = limbs(&puppet);
         assert!(!limbs.is_empty(), "the test puppet has a joint");
         let limb = &limbs[0];
-        let mut pose = turned(&rest, limb, 50f32.to_radians());
+        let mut pose = turned(&rest, limb, 50f32.to_radians(), None);
         let raster = SoftRasterizer::new(&puppet).unwrap();
-        let (before, after) = LimbSearch::default().improve(&raster, &puppet, &frame, &mut pose).unwrap();
+        let (before, after) = LimbSearch::default().improve(&raster, &puppet, None, &frame, &mut pose).unwrap();
         assert!(
             (before
                 - l2(
-                    &render_crisp(&puppet, &turned(&rest, limb, 50f32.to_radians()), 48, 40).unwrap(),
+                    &render_crisp(&puppet, &turned(&rest, limb, 50f32.to_radians(), None), 48, 40).unwrap(),
                     &frame
                 ))
             .abs()

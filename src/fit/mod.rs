@@ -19,7 +19,7 @@ use std::path::Path;
 use burn::tensor::{Device, Tensor, TensorData};
 
 use crate::error::{Error, Result};
-use crate::model::deformation::rest_tensor;
+use crate::model::decoder::Decoder;
 use crate::model::{Model, ModelFolder};
 use crate::objective::{LossWeights, Objective};
 use crate::picture::Picture;
@@ -164,11 +164,11 @@ fn fit_batch(model: &Model, frames: &[&Picture], options: &FitOptions, device: &
     for _ in 0..options.vertex_rounds {
         if let Some(search) = &options.limb_search {
             for (pose, frame) in poses.iter_mut().zip(frames) {
-                search.improve(analysis.objective.raster(), &model.puppet, frame, pose)?;
+                search.improve(analysis.objective.raster(), &model.puppet, model.expansion.rig_map(), frame, pose)?;
             }
         }
-        let vertices = analysis.vertices(model.to_work_vertices(&poses, device))?;
-        poses = model.to_frame_vertices(vertices);
+        let free = analysis.vertices(model.to_work_free(&poses, device))?;
+        poses = model.to_frame_vertices(analysis.decoder.expand(free));
     }
     Ok(poses)
 }
@@ -194,7 +194,7 @@ struct Analysis<'a> {
     device: &'a Device,
     images: Tensor<4>,
     objective: Objective,
-    rest: Tensor<2>,
+    decoder: Decoder,
 }
 
 impl<'a> Analysis<'a> {
@@ -217,7 +217,7 @@ impl<'a> Analysis<'a> {
             device,
             images: model.input(frames, device)?,
             objective: Objective::new(&model.puppet, &rest_points, size, options.weights.clone())?,
-            rest: rest_tensor(&rest_points, device),
+            decoder: model.decoder(device),
         })
     }
 
@@ -229,16 +229,17 @@ impl<'a> Analysis<'a> {
             self.options.latent_steps,
             self.options.learning_rate,
             |_| sigma,
-            |z| self.model.net.vertices(z, &self.rest),
+            |z| self.decoder.vertices(&self.model.net, z),
         )
     }
 
-    /// `options.vertex_steps` Adam steps on the working-square vertices `[B, V, 2]` themselves.
-    fn vertices(&self, vertices: Tensor<3>) -> Result<Tensor<3>> {
+    /// `options.vertex_steps` Adam steps on the working-square free vertices `[B, Vb, 2]`
+    /// themselves (the body's, with a rig: the accessories follow it).
+    fn vertices(&self, free: Tensor<3>) -> Result<Tensor<3>> {
         let (start, end) = (self.options.vertex_sigma_start.max(self.options.sigma), self.options.sigma);
         let steps = self.options.vertex_steps;
         let sigma = |k: usize| start * (end / start).powf(k as f32 / (steps.max(2) - 1) as f32);
-        self.descend(vertices, steps, self.options.vertex_learning_rate, sigma, |v| v)
+        self.descend(free, steps, self.options.vertex_learning_rate, sigma, |v| self.decoder.expand(v))
     }
 
     /// Adam on `x`, whose image under `to_vertices` is scored by the objective. The objective is

@@ -8,13 +8,14 @@ use burn::module::Module;
 use burn::store::ModuleRecord;
 use burn::tensor::{Bytes, Device, Tensor, TensorData};
 
-use super::deformation::{rest_tensor, DeformationNet, DeformationNetConfig};
+use super::decoder::{Decoder, Expansion};
+use super::deformation::{DeformationNet, DeformationNetConfig};
 use super::folder::ModelFolder;
 use super::letterbox::Letterbox;
 use crate::atomic_file::write_atomic;
 use crate::error::{Context, Error, Result};
 use crate::picture::Picture;
-use crate::puppet::{format, Puppet};
+use crate::puppet::{format, LayerKind, Puppet};
 
 /// A deformation network together with the puppet it deforms.
 #[derive(Clone, Debug)]
@@ -27,6 +28,8 @@ pub struct Model {
     pub puppet: Puppet,
     /// Frame ↔ working-square map.
     pub letterbox: Letterbox,
+    /// The network's outputs → every vertex (the rig places accessories).
+    pub expansion: Expansion,
 }
 
 impl Model {
@@ -41,6 +44,7 @@ impl Model {
         Ok(Model {
             net: config.init(device),
             config,
+            expansion: Expansion::new(&puppet, &letterbox),
             puppet,
             letterbox,
         })
@@ -67,6 +71,53 @@ impl Model {
         Ok(model)
     }
 
+    /// This model drawing `puppet`: the same body in another outfit ([`crate::rig::outfit`]). The
+    /// network and its outputs are unchanged; `puppet`'s rig places its accessories.
+    ///
+    /// # Errors
+    /// [`Error::Setting`] if the model moves its accessories itself (it was trained without
+    /// the rig); [`Error::Mismatch`] if `puppet`'s body is not the model's.
+    pub fn wearing(&self, puppet: Puppet) -> Result<Model> {
+        if self.puppet.rig.is_none() && self.puppet.layers.iter().any(|l| l.kind == LayerKind::Accessory) {
+            return Err(Error::setting(
+                "model.rig",
+                false,
+                "true: a model trained without the rig moves its accessories itself, so they cannot be changed",
+            ));
+        }
+        let body = |p: &Puppet| {
+            let rest = p.rest_vertices();
+            p.free_vertices().into_iter().map(|g| rest[g]).collect::<Vec<_>>()
+        };
+        let (theirs, ours) = (body(&puppet), body(&self.puppet));
+        if theirs != ours || (puppet.width, puppet.height) != (self.puppet.width, self.puppet.height) {
+            return Err(Error::mismatch(
+                "the outfit's body",
+                format!("{} vertices on {}×{}", theirs.len(), puppet.width, puppet.height),
+                format!(
+                    "the model's ({} vertices on {}×{}, at the same rest places)",
+                    ours.len(),
+                    self.puppet.width,
+                    self.puppet.height
+                ),
+            ));
+        }
+        Ok(Model {
+            net: self.net.clone(),
+            config: self.config.clone(),
+            expansion: Expansion::new(&puppet, &self.letterbox),
+            puppet,
+            letterbox: self.letterbox,
+        })
+    }
+
+    /// A pose of `other`'s puppet (a model of the same body, e.g. the one this was made from by
+    /// [`Model::wearing`]) as a pose of this model's puppet: the body kept, the accessories placed
+    /// by this puppet's rig.
+    pub fn pose_from(&self, other: &Model, pose: &[[f32; 2]]) -> Vec<[f32; 2]> {
+        self.expansion.expand_frame(&other.expansion.free_of(pose))
+    }
+
     /// Writes the network config, the puppet and the weights into the model folder `dir` (each
     /// file atomically).
     ///
@@ -87,9 +138,9 @@ impl Model {
         self.puppet.rest_vertices().into_iter().map(|p| self.letterbox.to_work(p)).collect()
     }
 
-    /// The rest vertices in working pixels as a `[V, 2]` tensor.
-    pub fn rest_work(&self, device: &Device) -> Tensor<2> {
-        rest_tensor(&self.rest_work_points(), device)
+    /// The decoder's tensors (rest pose of the free vertices, the rig's map) on `device`.
+    pub fn decoder(&self, device: &Device) -> Decoder {
+        self.expansion.decoder(device)
     }
 
     /// The network input for `frames`, `[B, 4, S, S]`.
@@ -130,9 +181,9 @@ impl Model {
         Ok(self.net.encode(self.input(frames, device)?))
     }
 
-    /// Decodes latents to vertex positions in working pixels, `[B, V, 2]`.
+    /// Decodes latents to every vertex's position in working pixels, `[B, V, 2]`.
     pub fn decode(&self, z: Tensor<2>, device: &Device) -> Tensor<3> {
-        self.net.vertices(z, &self.rest_work(device))
+        self.decoder(device).vertices(&self.net, z)
     }
 
     /// Working-pixel vertex tensor `[B, V, 2]` → per-item vertex lists in frame pixels.
@@ -148,11 +199,15 @@ impl Model {
             .collect()
     }
 
-    /// Per-item vertex lists in frame pixels → the working-pixel tensor `[B, V, 2]` (the inverse
-    /// of [`Model::to_frame_vertices`]).
-    pub fn to_work_vertices(&self, poses: &[Vec<[f32; 2]>], device: &Device) -> Tensor<3> {
-        let work: Vec<f32> = poses.iter().flatten().flat_map(|&p| self.letterbox.to_work(p)).collect();
-        Tensor::from_data(TensorData::new(work, [poses.len(), self.puppet.vertex_count(), 2]), device)
+    /// The free vertices ([`Puppet::free_vertices`]) of per-item poses of every vertex, frame
+    /// pixels → the working-pixel tensor `[B, Vb, 2]` (what [`Decoder::expand`] takes).
+    pub fn to_work_free(&self, poses: &[Vec<[f32; 2]>], device: &Device) -> Tensor<3> {
+        let work: Vec<f32> = poses
+            .iter()
+            .flat_map(|pose| self.expansion.free_of(pose))
+            .flat_map(|p| self.letterbox.to_work(p))
+            .collect();
+        Tensor::from_data(TensorData::new(work, [poses.len(), self.expansion.free_count(), 2]), device)
     }
 
     /// Fits frames: the predicted template vertices of each, in frame pixels.
@@ -166,11 +221,17 @@ impl Model {
 }
 
 fn check_config(config: &DeformationNetConfig, puppet: &Puppet) -> Result<()> {
-    if config.vertices != puppet.vertex_count() {
+    let free = puppet.free_vertices().len();
+    if config.vertices != free {
+        let whose = if puppet.rig.is_some() {
+            "the puppet's body vertices"
+        } else {
+            "the puppet's"
+        };
         return Err(Error::mismatch(
             "the network's vertex count",
             config.vertices,
-            format!("{}, the puppet's (a model for a different puppet?)", puppet.vertex_count()),
+            format!("{free}, {whose} (a model for a different puppet?)"),
         ));
     }
     if config.input_size == 0 || config.input_size % 8 != 0 {

@@ -6,6 +6,7 @@
 pub mod bundle;
 pub mod conv_kernel;
 pub mod conv_op;
+pub mod decoder;
 pub mod deformation;
 pub mod folder;
 pub mod letterbox;

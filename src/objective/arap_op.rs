@@ -100,7 +100,7 @@ mod tests {
     fn burn_gradient_matches_central_differences_of_the_energy() {
         let puppet = layered_puppet();
         let rest = puppet.rest_vertices();
-        let triangles = crate::objective::global_triangles(&puppet);
+        let triangles = crate::objective::regularised_triangles(&puppet);
         let energy = Arc::new(ArapEnergy::<f32>::new(&rest, &triangles).unwrap());
         let e64 = ArapEnergy::<f64>::new(&rest.iter().map(|p| [p[0] as f64, p[1] as f64]).collect::<Vec<_>>(), &triangles).unwrap();
         let nv = rest.len();

@@ -17,7 +17,7 @@ use serde::{Deserialize, Serialize};
 
 use crate::error::Result;
 use crate::geom::arap::ArapEnergy;
-use crate::puppet::Puppet;
+use crate::puppet::{LayerKind, Puppet};
 use crate::render::burn_op::{soft_raster, Rendered};
 use crate::render::soft_raster::{Background, Params, SoftRasterizer};
 use arap_op::arap_loss;
@@ -90,13 +90,16 @@ pub fn joint_loss(vertices: Tensor<3>, a: Tensor<1, Int>, b: Tensor<1, Int>) -> 
     d.powf_scalar(2.0).reshape([batch as i32, -1]).sum_dim(1).squeeze_dim(1)
 }
 
-/// All layers' triangles with global vertex indices (layers are disjoint components).
-pub fn global_triangles(puppet: &Puppet) -> Vec<[u32; 3]> {
+/// The triangles the ARAP term holds (global vertex indices; layers are disjoint components):
+/// every layer's, or with an accessory rig only the body's — the rig shapes the accessories, and
+/// their vertices are not the network's to move.
+pub fn regularised_triangles(puppet: &Puppet) -> Vec<[u32; 3]> {
     let offsets = puppet.vertex_offsets();
     puppet
         .layers
         .iter()
         .zip(&offsets)
+        .filter(|(layer, _)| puppet.rig.is_none() || layer.kind == LayerKind::Body)
         .flat_map(|(layer, &o)| layer.mesh.triangles.iter().map(move |t| t.map(|i| i + o as u32)))
         .collect()
 }
@@ -142,7 +145,7 @@ impl Objective {
         let raster = Arc::new(SoftRasterizer::new(puppet)?);
         let half = size as f32 / 2.0;
         let ndc: Vec<[f32; 2]> = rest.iter().map(|p| [p[0] / half, p[1] / half]).collect();
-        let arap = Arc::new(ArapEnergy::new(&ndc, &global_triangles(puppet))?);
+        let arap = Arc::new(ArapEnergy::new(&ndc, &regularised_triangles(puppet))?);
         let (joint_a, joint_b) = puppet
             .joints
             .iter()

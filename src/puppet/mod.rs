@@ -170,6 +170,18 @@ impl Puppet {
         self.layers.iter().map(|l| l.mesh.vertices.len()).sum()
     }
 
+    /// Global indices of the vertices a pose sets freely: every vertex, or with an accessory rig
+    /// the body layers' (the rig places the accessories on them).
+    pub fn free_vertices(&self) -> Vec<usize> {
+        let offsets = self.vertex_offsets();
+        self.layers
+            .iter()
+            .enumerate()
+            .filter(|(_, l)| self.rig.is_none() || l.kind == LayerKind::Body)
+            .flat_map(|(k, _)| offsets[k]..offsets[k + 1])
+            .collect()
+    }
+
     /// Global index of a layer vertex.
     pub fn global_index(&self, v: VertexRef) -> usize {
         self.layers[..v.layer].iter().map(|l| l.mesh.vertices.len()).sum::<usize>() + v.vertex as usize

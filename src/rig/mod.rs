@@ -13,11 +13,13 @@
 //!    ([`crate::geom::bbw()`], §3.5).
 //!
 //! [`deform::RigMap`] then carries any body pose to the accessories (§3.5). The rig is stored in
-//! the puppet ([`crate::puppet::rig_data`]); accessories have no hinge joints.
+//! the puppet ([`crate::puppet::rig_data`]); accessories have no hinge joints. [`outfit`] takes
+//! accessories off and puts others on the same body.
 
 pub mod dag;
 pub mod deform;
 pub mod mask;
+pub mod outfit;
 pub mod pins;
 pub mod preview;
 

@@ -10,6 +10,7 @@
 //!
 //! [model]                           # the network (DeformationNetConfig); all optional
 //! input_size = 128
+//! rig = true                        # false: accessories are free layers, not rigged
 //!
 //! [train]
 //! steps = 2000
@@ -115,6 +116,16 @@ pub struct ModelSettings {
     pub latent: usize,
     /// Output scale of the decoder in working pixels.
     pub offset_scale: f32,
+    /// Accessory layers follow the body through their rig (accessory-rigs.md) and the network
+    /// predicts the body only; `false`: accessories are free layers of the network, hinged where
+    /// they touch the body (the behaviour before rigs). Written only when `false`, so configs of
+    /// runs from before the setting still resume.
+    #[serde(skip_serializing_if = "is_true")]
+    pub rig: bool,
+}
+
+fn is_true(b: &bool) -> bool {
+    *b
 }
 
 impl Default for ModelSettings {
@@ -123,6 +134,7 @@ impl Default for ModelSettings {
             input_size: 128,
             latent: 512,
             offset_scale: 16.0,
+            rig: true,
         }
     }
 }

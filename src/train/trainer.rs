@@ -24,7 +24,8 @@ use super::split::{shuffled, split};
 use crate::atomic_file::{record, write_atomic, Outputs};
 use crate::error::{Context, Error, Result};
 use crate::model::bundle::{load_weights, weights_bytes};
-use crate::model::deformation::{rest_tensor, DeformationNetConfig};
+use crate::model::decoder::Decoder;
+use crate::model::deformation::DeformationNetConfig;
 use crate::model::{Model, ModelFolder};
 use crate::objective::{LossTerms, Objective};
 use crate::picture::{ImageLimits, Picture};
@@ -96,21 +97,35 @@ pub struct TrainSummary {
     pub batch: usize,
 }
 
-/// Loads a puppet folder, or builds (and rigs, if it has accessories) a puppet from character
-/// artwork with default options (images within `limits`); build warnings go to `progress`.
+/// Loads a puppet folder, or builds a puppet from character artwork with default options
+/// (images within `limits`) and, if `rig`, rigs its accessories; build warnings go to
+/// `progress`.
 ///
 /// # Errors
 /// Whatever loading or building reports, naming the file.
-pub fn load_or_build_puppet(path: &Path, limits: &ImageLimits, progress: &dyn Progress) -> Result<Puppet> {
+pub fn load_or_build_puppet(path: &Path, limits: &ImageLimits, rig: bool, progress: &dyn Progress) -> Result<Puppet> {
     if path.join(format::PUPPET_FILE).is_file() || path.extension().is_some_and(|e| e == "json") {
-        format::load(path)
+        let puppet = format::load(path)?;
+        if !rig && puppet.rig.is_some() {
+            return Err(Error::setting(
+                "model.rig",
+                false,
+                "true for a rigged puppet folder (give the artwork to train without the rig)",
+            )
+            .with_path(path));
+        }
+        Ok(puppet)
     } else {
         let options = artwork::ImportOptions {
             image: *limits,
             ..artwork::ImportOptions::default()
         };
         let art = artwork::load(path, &options)?;
-        build_rigged(&art, &build::BuildOptions::default(), &RigOptions::default(), progress)
+        if rig {
+            build_rigged(&art, &build::BuildOptions::default(), &RigOptions::default(), progress)
+        } else {
+            Ok(build::build(&art, &build::BuildOptions::default(), progress)?.0)
+        }
     }
 }
 
@@ -146,7 +161,7 @@ pub fn train(config: &TrainConfig, options: &TrainOptions, progress: &dyn Progre
     let image_limits = ImageLimits {
         max_pixels: config.limits.max_image_pixels,
     };
-    let puppet = load_or_build_puppet(&config.puppet, &image_limits, progress)?;
+    let puppet = load_or_build_puppet(&config.puppet, &image_limits, config.model.rig, progress)?;
     let frames = Frames::load(&config.frames, &config.frame_check(puppet.width, puppet.height))?;
     let (train_idx, test_idx) = split(frames.frames.len(), config.test_fraction, config.seed).at_path(&config.frames)?;
     if config.test_fraction > 0.0 && test_idx.is_empty() {
@@ -169,7 +184,7 @@ pub fn train(config: &TrainConfig, options: &TrainOptions, progress: &dyn Progre
 
     let device = crate::backend::train_device();
     device.seed(config.seed);
-    let net_config = DeformationNetConfig::new(puppet.vertex_count())
+    let net_config = DeformationNetConfig::new(puppet.free_vertices().len())
         .with_input_size(config.model.input_size)
         .with_latent(config.model.latent)
         .with_offset_scale(config.model.offset_scale);
@@ -384,8 +399,8 @@ pub struct Trainer {
     /// The model being trained.
     pub model: Model,
     optimizer: ModuleOptimizer,
-    /// Rest vertices in working pixels `[V, 2]`, built once (the decoder adds offsets to them).
-    rest: Tensor<2>,
+    /// The rest pose the network's offsets are added to and the rig's map, built once.
+    decoder: Decoder,
     objective: Objective,
     inputs: Vec<Vec<f32>>,
     held_out: Vec<Vec<f32>>,
@@ -413,7 +428,7 @@ impl Trainer {
             inputs: planes(frames),
             held_out: planes(held_out),
             optimizer: adam(&config.train.adam),
-            rest: rest_tensor(&rest, device),
+            decoder: model.decoder(device),
             objective,
             batches: BatchOrder::new(frames.len(), config.train.batch.min(frames.len()), config.seed),
             config: config.clone(),
@@ -468,7 +483,7 @@ impl Trainer {
         let images = self.images(&batch, &self.device);
         let sigma = self.config.sigma_at(step);
         let net = &self.model.net;
-        let vertices = net.vertices(net.encode(images.clone()), &self.rest);
+        let vertices = self.decoder.vertices(net, net.encode(images.clone()));
         let terms = self.objective.evaluate(vertices, images, sigma, &self.device)?;
         let row = LogRow {
             step: step + 1,
@@ -495,11 +510,11 @@ impl Trainer {
         }
         let net = self.model.net.valid();
         let device = crate::backend::device();
-        let rest = rest_tensor(&self.model.rest_work_points(), &device);
+        let decoder = self.model.decoder(&device);
         let mut sum = 0.0;
         for chunk in self.held_out.chunks(16) {
             let images = self.images(&chunk.iter().collect::<Vec<_>>(), &device);
-            let vertices = net.vertices(net.encode(images.clone()), &rest);
+            let vertices = decoder.vertices(&net, net.encode(images.clone()));
             let terms = self.objective.evaluate(vertices, images, self.config.sigma_at(step), &device)?;
             sum += value(&terms.total) * chunk.len() as f64;
         }
