@@ -238,6 +238,16 @@ fn outfits_dress_inbetweens_fits_and_drags_of_a_bare_model() {
         &["fit", "--model", s(&model), s(&a), "-o", s(&out), "--dress", s(&other)],
     )
     .assert_error(&["--dress", "other", "arm", "does not draw"]);
+    // An accessory far from every layer: named, with the fix.
+    let floating = write_hatted_character(&tmp.path().join("floating"));
+    crate::util::shape(64, 64, [200, 0, 0, 255], |x, y| x < 6.0 && y > 58.0)
+        .save(floating.join("hat.png"))
+        .unwrap();
+    puppet(
+        tmp.path(),
+        &["fit", "--model", s(&model), s(&a), "-o", s(&out), "--dress", s(&floating)],
+    )
+    .assert_error(&["--dress", "\"hat\"", "rig.edge"]);
     assert!(!out.exists(), "a refused outfit wrote {}", out.display());
 }
 

@@ -1,11 +1,12 @@
-"""Draws another outfit for the Kenney male adventurer: a cap and a scarf over the same body.
+"""Draws other outfits for the Kenney male adventurer over the same body.
 
     python3 data/tools/make_outfit.py data/kenney/male_adventurer
 
-writes <character>/outfits/cap_scarf/: one full-canvas PNG per layer (the body parts and the
-hair cut from the idle frame by the label map, as `puppet build` cuts them, plus the two new
-accessories drawn here) and a character.toml in the layer-PNG form. `puppet inbetween --dress`
-and the demo put it on a model trained on the character. Needs Pillow.
+writes <character>/outfits/cap_scarf/ (a cap and a scarf) and outfits/crown_cape/ (a crown and
+a cape behind him): one full-canvas PNG per layer (the body parts and the hair cut from the idle
+frame by the label map, as `puppet build` cuts them, plus the accessories drawn here) and a
+character.toml in the layer-PNG form. `puppet inbetween --dress` and the demo put them on a model
+trained on the character. Needs Pillow.
 """
 
 import sys
@@ -28,6 +29,9 @@ CAP = (200, 40, 40, 255)
 CAP_SHADE = (150, 25, 30, 255)
 SCARF = (40, 90, 200, 255)
 SCARF_SHADE = (25, 60, 150, 255)
+GOLD = (235, 190, 40, 255)
+GOLD_SHADE = (190, 140, 20, 255)
+CAPE = (130, 30, 120, 255)
 
 
 def rgb(hex_colour):
@@ -68,18 +72,53 @@ def scarf(size):
     return layer
 
 
+def crown(size):
+    """A crown sitting on the hair: a band and three points."""
+    layer = Image.new("RGBA", size, (0, 0, 0, 0))
+    draw = ImageDraw.Draw(layer)
+    draw.rectangle((31, 33, 61, 40), fill=GOLD)
+    for x in (31, 43, 55):
+        draw.polygon([(x, 34), (x + 3, 22), (x + 6, 34)], fill=GOLD)
+    draw.rectangle((31, 38, 61, 40), fill=GOLD_SHADE)
+    draw.ellipse((44, 35, 48, 39), fill=(200, 40, 40, 255))
+    return layer
+
+
+def cape(size):
+    """A cape hanging from the shoulders behind the body, wider at the bottom."""
+    layer = Image.new("RGBA", size, (0, 0, 0, 0))
+    draw = ImageDraw.Draw(layer)
+    draw.polygon([(26, 82), (70, 82), (82, 114), (14, 114)], fill=CAPE)
+    return layer
+
+
+# Outfit name → accessories: (name, drawing, in front of the body (True) or behind it).
+OUTFITS = {
+    "cap_scarf": [("scarf", scarf, True), ("cap", cap, True)],
+    "crown_cape": [("cape", cape, False), ("crown", crown, True)],
+}
+
+
 def main(character):
     character = Path(character)
+    for outfit, accessories in OUTFITS.items():
+        write_outfit(character, outfit, accessories)
+
+
+def write_outfit(character, outfit, accessories):
     image = Image.open(character / "frames" / "maleAdventurer_idle.png").convert("RGBA")
     labels = Image.open(character / "labels.png").convert("RGBA")
-    out = character / "outfits" / "cap_scarf"
+    out = character / "outfits" / outfit
     out.mkdir(parents=True, exist_ok=True)
-    layers = [(name, cut(image, labels, rgb(colour)), kind) for name, colour, kind in PARTS]
-    layers += [("scarf", scarf(image.size), "accessory"), ("cap", cap(image.size), "accessory")]
+    body = [(name, cut(image, labels, rgb(colour)), kind) for name, colour, kind in PARTS]
+    behind = [(name, draw(image.size), "accessory") for name, draw, front in accessories if not front]
+    ahead = [(name, draw(image.size), "accessory") for name, draw, front in accessories if front]
+    layers = behind + body + ahead
+    names = ", ".join(name for name, _, _ in accessories)
     toml = [
         "# Another outfit for the male adventurer, drawn by data/tools/make_outfit.py: the same body",
-        "# (cut from the idle frame by the label map), its hair, a scarf and a cap. Back → front.",
-        'name = "male_adventurer_cap_scarf"',
+        f"# (cut from the idle frame by the label map), his hair, and {names}. Back → front.",
+        f'name = "male_adventurer_{outfit}"',
         'root = "torso"',
         "# The body's hinges come from the model it dresses.",
         "joints = []",
@@ -95,8 +134,8 @@ def main(character):
     preview = Image.new("RGBA", image.size, (255, 255, 255, 255))
     for _, picture, _ in layers:
         preview.alpha_composite(picture)
-    preview.resize((image.width * 4, image.height * 4), Image.NEAREST).save("/tmp/outfit_preview.png")
-    print(f"wrote {out} ({len(layers)} layers); preview /tmp/outfit_preview.png")
+    preview.resize((image.width * 4, image.height * 4), Image.NEAREST).save(f"/tmp/outfit_{outfit}.png")
+    print(f"wrote {out} ({len(layers)} layers); preview /tmp/outfit_{outfit}.png")
 
 
 if __name__ == "__main__":
