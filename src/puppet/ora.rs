@@ -7,11 +7,12 @@
 //! are accessories; all others are body parts. The root is the body layer with the most opaque
 //! pixels. Every overlapping pair of layers is joined.
 //!
-//! A zip can declare anything: `stack.xml` is read to at most [`MAX_STACK_XML`] bytes, each layer
-//! PNG to at most [`MAX_LAYER_ENTRY`] bytes however small its compressed form, and the canvas and
-//! layer count are checked against [`ImportOptions`] before any layer is decoded.
+//! A zip can declare anything: the archive itself may be at most [`max_file_bytes`] long (the
+//! zip index in memory grows with it), `stack.xml` is read to at most [`MAX_STACK_XML`] bytes,
+//! each layer PNG to at most [`MAX_LAYER_ENTRY`] bytes however small its compressed form, and
+//! the canvas and layer count are checked against [`ImportOptions`] before any layer is decoded.
 
-use std::io::Read;
+use std::io::{Read, Seek};
 use std::path::Path;
 
 use quick_xml::events::Event;
@@ -20,6 +21,7 @@ use super::artwork::{ArtLayer, Artwork, ImportOptions};
 use super::LayerKind;
 use crate::error::{Error, Result};
 use crate::picture::Picture;
+use crate::user_file;
 
 /// The most bytes `stack.xml` may inflate to (a real one is a few kilobytes).
 pub const MAX_STACK_XML: u64 = 4 << 20;
@@ -37,15 +39,32 @@ struct StackLayer {
     accessory: bool,
 }
 
+/// The longest `.ora` file read: every layer's pixels at the most the import allows
+/// ([`ImportOptions::max_total_pixels`]) stored as uncompressed 16-bit PNGs, plus one largest image
+/// file for the merged image editors add — 656 MiB by default (real files are far smaller:
+/// `data/kenney/robot/robot.ora`, nine layers of 96×128, is 49 KB).
+pub fn max_file_bytes(opts: &ImportOptions) -> u64 {
+    opts.max_total_pixels.saturating_mul(8).saturating_add(opts.image.max_file_bytes())
+}
+
 /// Reads a `.ora` file.
 ///
 /// # Errors
-/// [`Error::Io`] if unreadable; [`Error::Format`] for a bad zip, a missing or malformed
-/// `stack.xml`, or a layer whose PNG is absent; [`Error::Layer`] for an undecodable or fully
-/// transparent layer; [`Error::Limit`] for a canvas, layer count or entry past the limits.
+/// [`Error::Io`] if unreadable; [`Error::Limit`] if it is longer than [`max_file_bytes`]; as
+/// [`from_reader`] for its contents.
 pub fn load(path: &Path, opts: &ImportOptions) -> Result<Artwork> {
-    let file = std::fs::File::open(path).map_err(|e| Error::io(path, e))?;
-    let mut zip = zip::ZipArchive::new(file).map_err(|e| Error::format(path, format!("not a valid OpenRaster zip: {e}")))?;
+    from_reader(user_file::open(path, max_file_bytes(opts))?, path, opts)
+}
+
+/// Reads the bytes of a `.ora` archive from `reader`; `path` names it in errors and gives the
+/// character its name.
+///
+/// # Errors
+/// [`Error::Format`] for a bad zip, a missing or malformed `stack.xml`, or a layer whose PNG is
+/// absent; [`Error::Layer`] for an undecodable or fully transparent layer; [`Error::Limit`] for a
+/// canvas, layer count or entry past the limits.
+pub fn from_reader(reader: impl Read + Seek, path: &Path, opts: &ImportOptions) -> Result<Artwork> {
+    let mut zip = zip::ZipArchive::new(reader).map_err(|e| Error::format(path, format!("not a valid OpenRaster zip: {e}")))?;
     let stack_xml = read_entry(&mut zip, "stack.xml", MAX_STACK_XML, path)?
         .ok_or_else(|| Error::format(path, "no stack.xml in the archive (not an OpenRaster file?)"))?;
     let stack_xml = String::from_utf8(stack_xml).map_err(|_| Error::format(path, "stack.xml is not UTF-8"))?;
@@ -115,7 +134,7 @@ pub fn load(path: &Path, opts: &ImportOptions) -> Result<Artwork> {
 }
 
 /// The entry `name` inflated, at most `limit` bytes; `None` if the archive has no such entry.
-fn read_entry(zip: &mut zip::ZipArchive<std::fs::File>, name: &str, limit: u64, path: &Path) -> Result<Option<Vec<u8>>> {
+fn read_entry(zip: &mut zip::ZipArchive<impl Read + Seek>, name: &str, limit: u64, path: &Path) -> Result<Option<Vec<u8>>> {
     let entry = match zip.by_name(name) {
         Ok(entry) => entry,
         Err(zip::result::ZipError::FileNotFound) => return Ok(None),
