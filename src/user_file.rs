@@ -8,11 +8,11 @@
 //! | limit | files | real sizes |
 //! |---|---|---|
 //! | [`CONFIG`] 1 MiB | `character.toml`, training configs, `train.toml`, eval-rig edits, `net.json`, `rig_truth.json`, a checkpoint's `state.json` and `latest` | under 4 KB |
-//! | [`DATA`] 256 MiB | `puppet.json`, `truth.json`, pose files, points files, `split.json`, `log.csv`, the output manifest | `truth.json` of 16 frames: 208 KB; a puppet of a few thousand vertices: under 2 MB |
-//! | [`WEIGHTS`] 4 GiB | a checkpoint's network and optimiser state | the default network for 2,000 vertices: 13 MB (Adam's state twice that) |
+//! | [`DATA`] 256 MiB | `puppet.json`, `truth.json`, pose files, points files, `split.json`, `log.csv`, the output manifest | `truth.json` of 16 frames: 208 KB; the robot's `puppet.json`: 254 KB, 3.7 MB after two rounds of subdivision (about 86 bytes a vertex) |
 //!
-//! Images and `.ora` archives have their own limits, derived from the pixel limits
-//! ([`crate::picture::ImageLimits::max_file_bytes`], `crate::puppet::ora`).
+//! Images, `.ora` archives and network weights have limits derived from what they must hold:
+//! the pixel limits (`ImageLimits::max_file_bytes`, `ora::max_file_bytes`) and the network's
+//! parameter count (`bundle::max_weights_bytes`).
 
 use std::fs::File;
 use std::io::Read;
@@ -24,8 +24,6 @@ use crate::error::{Error, Result};
 pub const CONFIG: u64 = 1 << 20;
 /// The limit of machine-written data files (puppets, poses, ground truth, logs): 256 MiB.
 pub const DATA: u64 = 256 << 20;
-/// The limit of a checkpoint's network weights and optimiser state: 4 GiB.
-pub const WEIGHTS: u64 = 4 << 30;
 
 /// The bytes of the file `path`, refused if it holds more than `limit` bytes.
 ///
