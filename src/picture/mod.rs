@@ -139,7 +139,12 @@ impl Picture {
             .map_err(|e| Error::image(path, format!("cannot decode image: {e}")))
     }
 
-    fn header_size(bytes: &[u8], path: &Path) -> Result<(u32, u32)> {
+    /// The width and height image bytes declare in their header, without decoding them; `path`
+    /// only names the source in errors.
+    ///
+    /// # Errors
+    /// [`Error::Image`] if the bytes are not an image this build reads.
+    pub fn header_size(bytes: &[u8], path: &Path) -> Result<(u32, u32)> {
         reader(bytes, path)?
             .into_dimensions()
             .map_err(|e| Error::image(path, format!("cannot decode image: {e}")))
