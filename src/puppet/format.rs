@@ -369,3 +369,22 @@ fn file_safe(name: &str) -> String {
         })
         .collect()
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Found while writing the puppet_json target's area invariant (by hand, not by the fuzzer):
+    /// finite vertices 3e38 apart gave a triangle of infinite area, which the winding check
+    /// (`area <= 0`) let through.
+    #[test]
+    fn a_triangle_whose_area_overflows_is_refused_naming_the_layer() {
+        let json = br#"{"schema":1,"width":4,"height":4,"root":"torso","joints":[],"layers":[{"name":"torso","kind":"body",
+            "texture":"t.png","vertices":[[0,0],[0,3e38],[3e38,3e38]],"triangles":[[0,2,1]],"uvs":[[0,0],[0,1],[1,1]]}]}"#;
+        let err = parse(json, Path::new("p/puppet.json"), |_| Ok(Picture::filled(4, 4, [1.0; 4]))).unwrap_err();
+        assert_eq!(
+            err.to_string(),
+            "p/puppet.json: layer \"torso\": triangle 0 [0, 2, 1] is too large (its area is inf)"
+        );
+    }
+}
