@@ -205,9 +205,9 @@ fn stamp(path: &Path) -> Result<String> {
     Ok(format!("{}\t{modified}", meta.len()))
 }
 
-/// The manifest's entries: name → stamp.
+/// The manifest's entries: name → stamp (none if there is no manifest).
 fn read_manifest(manifest: &Path) -> Result<BTreeMap<String, String>> {
-    match std::fs::read_to_string(manifest) {
+    match crate::user_file::read_text(manifest, crate::user_file::DATA) {
         Ok(text) => Ok(text
             .lines()
             .filter(|l| !l.is_empty())
@@ -216,8 +216,8 @@ fn read_manifest(manifest: &Path) -> Result<BTreeMap<String, String>> {
                 None => (l.to_string(), String::new()),
             })
             .collect()),
-        Err(e) if e.kind() == std::io::ErrorKind::NotFound => Ok(BTreeMap::new()),
-        Err(e) => Err(Error::io(manifest, e)),
+        Err(Error::Io { err, .. }) if err.kind() == std::io::ErrorKind::NotFound => Ok(BTreeMap::new()),
+        Err(e) => Err(e),
     }
 }
 

@@ -14,6 +14,7 @@ const LAYERS: &[(&str, u8)] = &[
     ("progress", 0),
     ("rng", 0),
     ("backend", 0),
+    ("user_file", 0),
     ("geom", 1),
     ("metrics", 1),
     ("puppet", 2),
@@ -36,8 +37,11 @@ const LAYERS: &[(&str, u8)] = &[
 /// Imports allowed between modules of one layer (importer, imported): one-way, so no cycle.
 const SAME_LAYER: &[(&str, &str)] = &[
     ("atomic_file", "error"),
+    ("atomic_file", "user_file"),
+    ("user_file", "error"),
     ("picture", "error"),
     ("picture", "atomic_file"),
+    ("picture", "user_file"),
     ("rig", "render"),
     ("objective", "model"),
     ("train", "model"),

@@ -15,6 +15,7 @@ pub mod error;
 pub mod picture;
 pub mod progress;
 pub mod rng;
+pub mod user_file;
 // Layer 1, maths.
 pub mod geom;
 pub mod metrics;

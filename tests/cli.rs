@@ -232,3 +232,25 @@ fn rig_previews_applies_a_pose_and_eval_rig_scores_a_set() {
     std::fs::write(tmp.path().join("short.json"), r#"{"vertices": [[1.0, 2.0]]}"#).unwrap();
     puppet(tmp.path(), &["rig", "apply", "out", "--pose", "short.json", "-o", "b.png"]).assert_error(&["short.json", "1 vertices"]);
 }
+
+#[test]
+fn a_dicebear_character_of_thin_line_art_builds_and_rigs() {
+    // notionists-1's lips and nose are one-stroke line art: refinement at 30° does not finish on
+    // them, and the mesher falls back to a lower angle bound instead of refusing the layer.
+    let tmp = tempfile::tempdir().unwrap();
+    let art = repo().join("data/rigs/dicebear/notionists-1");
+    let out = tmp.path().join("out");
+    puppet(tmp.path(), &["build", art.to_str().unwrap(), "-o", out.to_str().unwrap()]).assert_ok();
+    let p = format::load(&out).unwrap();
+    assert_eq!(p.layers.len(), 7);
+    for layer in &p.layers {
+        layer.mesh.check_invariants().unwrap();
+    }
+    let rig = p.rig.as_ref().expect("accessories make a rig");
+    assert_eq!(rig.accessories.len(), 5);
+    let truth: serde_json::Value = serde_json::from_slice(&std::fs::read(art.join("rig_truth.json")).unwrap()).unwrap();
+    for edge in &rig.edges {
+        let (child, parent) = (&p.layers[edge.child].name, &p.layers[edge.parent].name);
+        assert_eq!(truth["attach_to"][child].as_str(), Some(parent.as_str()), "{child}");
+    }
+}

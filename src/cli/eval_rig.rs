@@ -3,7 +3,6 @@
 
 use std::path::PathBuf;
 
-use anyhow::Context as _;
 use puppet::eval::rig::{default_edits, edit_sheet, evaluate_character, set_members, EditsFile, RigReport, RigTruth, TRUTH_FILE};
 use puppet::progress::Progress;
 use puppet::puppet::{artwork, build};
@@ -52,9 +51,8 @@ pub fn run(args: EvalRigArgs, s: &Session) -> anyhow::Result<()> {
             let art = artwork::load(dir, &artwork::ImportOptions::default())?;
             let puppet = build_rigged(&art, &build::BuildOptions::default(), &RigOptions::default(), &s.ui)?;
             let truth_path = dir.join(TRUTH_FILE);
-            let truth: Option<RigTruth> = if truth_path.is_file() {
-                let text = std::fs::read_to_string(&truth_path).with_context(|| format!("reading {}", truth_path.display()))?;
-                Some(serde_json::from_str(&text).with_context(|| format!("{}: not a rig truth file", truth_path.display()))?)
+            let truth = if truth_path.is_file() {
+                Some(RigTruth::load(&truth_path)?)
             } else {
                 None
             };

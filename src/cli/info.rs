@@ -34,7 +34,7 @@ pub fn run(args: InfoArgs, s: &Session) -> anyhow::Result<()> {
 }
 
 fn model_lines(folder: &ModelFolder, s: &Session) -> anyhow::Result<()> {
-    let net = std::fs::read_to_string(folder.net())?;
+    let net = puppet::user_file::read_text(&folder.net(), puppet::user_file::CONFIG)?;
     let config: serde_json::Value = serde_json::from_str(&net).unwrap_or_default();
     let field = |k: &str| config.get(k).map_or("?".to_string(), |v| v.to_string());
     s.ui.print(format!(

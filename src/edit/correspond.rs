@@ -9,6 +9,7 @@ use super::bind::{bind, Binding};
 use crate::error::{Error, Result};
 use crate::picture::Picture;
 use crate::puppet::Puppet;
+use crate::user_file;
 
 /// The most points a points file may list.
 pub const MAX_POINTS: usize = 1_000_000;
@@ -16,12 +17,21 @@ pub const MAX_POINTS: usize = 1_000_000;
 /// Reads a points file: a JSON list of `[x, y]` points (frame pixels).
 ///
 /// # Errors
-/// [`Error::Io`] if unreadable; [`Error::Format`] naming the file for anything but a list of
-/// finite number pairs, or more than [`MAX_POINTS`] of them.
+/// [`Error::Io`] if unreadable; [`Error::Limit`] if larger than [`user_file::DATA`];
+/// [`Error::Format`] naming the file for anything but a list of finite number pairs, or more
+/// than [`MAX_POINTS`] of them.
 pub fn load_points(path: &Path) -> Result<Vec<[f32; 2]>> {
-    let bytes = std::fs::read(path).map_err(|e| Error::io(path, e))?;
+    parse_points(&user_file::read_bytes(path, user_file::DATA)?, path)
+}
+
+/// Parses the bytes of a points file; `path` only names it in errors.
+///
+/// # Errors
+/// [`Error::Format`] naming `path` for anything but a list of finite number pairs, or more than
+/// [`MAX_POINTS`] of them.
+pub fn parse_points(bytes: &[u8], path: &Path) -> Result<Vec<[f32; 2]>> {
     let points: Vec<[f32; 2]> =
-        serde_json::from_slice(&bytes).map_err(|e| Error::format(path, format!("not a JSON list of [x, y] points: {e}")))?;
+        serde_json::from_slice(bytes).map_err(|e| Error::format(path, format!("not a JSON list of [x, y] points: {e}")))?;
     if points.len() > MAX_POINTS {
         return Err(Error::limit("the points", points.len() as u64, MAX_POINTS as u64, "points").with_path(path));
     }

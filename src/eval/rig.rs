@@ -38,6 +38,7 @@ use crate::puppet::{LayerKind, Puppet};
 use crate::rig::deform::{bind_point, deform, DeformOptions};
 use crate::rig::mask::Mask;
 use crate::rng::Rng;
+use crate::user_file;
 
 /// The truth file of a character of a rig evaluation set.
 pub const TRUTH_FILE: &str = "rig_truth.json";
@@ -48,6 +49,25 @@ pub const TRUTH_FILE: &str = "rig_truth.json";
 pub struct RigTruth {
     /// Each accessory's true parent, by name.
     pub attach_to: BTreeMap<String, String>,
+}
+
+impl RigTruth {
+    /// Reads a `rig_truth.json`.
+    ///
+    /// # Errors
+    /// [`Error::Io`] if unreadable; [`Error::Limit`] if larger than [`user_file::CONFIG`];
+    /// [`Error::Format`] naming the file for anything but `{"attach_to": {"layer": "parent"}}`.
+    pub fn load(path: &Path) -> Result<Self> {
+        Self::parse(&user_file::read_bytes(path, user_file::CONFIG)?, path)
+    }
+
+    /// Parses the bytes of a `rig_truth.json`; `path` only names the file in errors.
+    ///
+    /// # Errors
+    /// [`Error::Format`] naming `path` for anything but `{"attach_to": {"layer": "parent"}}`.
+    pub fn parse(bytes: &[u8], path: &Path) -> Result<Self> {
+        serde_json::from_slice(bytes).map_err(|e| Error::format(path, format!("not a rig truth file: {e}")))
+    }
 }
 
 /// A body layer an edit acts on, found by geometry, not by name.
@@ -165,10 +185,18 @@ impl EditsFile {
     /// Reads an edits file.
     ///
     /// # Errors
-    /// [`Error::Io`]/[`Error::Format`] naming the file.
+    /// [`Error::Io`]/[`Error::Format`] naming the file; [`Error::Limit`] if it is larger than
+    /// [`user_file::CONFIG`].
     pub fn load(path: &Path) -> Result<Vec<NamedEdit>> {
-        let text = std::fs::read_to_string(path).map_err(|e| Error::io(path, e))?;
-        let file: EditsFile = toml::from_str(&text).map_err(|e| Error::format(path, format!("invalid edits file: {e}")))?;
+        Self::parse(&user_file::read_text(path, user_file::CONFIG)?, path)
+    }
+
+    /// Parses the text of an edits file; `path` only names the file in errors.
+    ///
+    /// # Errors
+    /// [`Error::Format`] naming `path` for bad TOML, an unknown key or no edit.
+    pub fn parse(text: &str, path: &Path) -> Result<Vec<NamedEdit>> {
+        let file: EditsFile = toml::from_str(text).map_err(|e| Error::format(path, format!("invalid edits file: {e}")))?;
         if file.edits.is_empty() {
             return Err(Error::format(path, "no [[edit]] entries"));
         }

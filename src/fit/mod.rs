@@ -24,6 +24,7 @@ use crate::model::{Model, ModelFolder};
 use crate::objective::{LossWeights, Objective};
 use crate::picture::Picture;
 use crate::progress::Progress;
+use crate::user_file;
 use limb_search::LimbSearch;
 
 /// Frames fitted together (one rasterizer, objective and network input per batch).
@@ -86,8 +87,9 @@ impl FitOptions {
     /// over a background must fit with the masked loss too), or the defaults if it has none.
     ///
     /// # Errors
-    /// [`Error::Format`] naming `train.toml` if it cannot be read or its `[loss]` or
-    /// `train.sigma` do not parse.
+    /// [`Error::Io`] naming `train.toml` if it cannot be read, [`Error::Limit`] if it is larger
+    /// than [`user_file::CONFIG`], [`Error::Format`] if it or its `[loss]` or `train.sigma` do not
+    /// parse.
     pub fn for_model(dir: &Path, latent_steps: usize, vertex_steps: usize) -> Result<Self> {
         let path = ModelFolder::new(dir).config();
         let mut options = FitOptions {
@@ -98,7 +100,7 @@ impl FitOptions {
         if !path.is_file() {
             return Ok(options);
         }
-        let text = std::fs::read_to_string(&path).map_err(|e| Error::format(&path, e.to_string()))?;
+        let text = user_file::read_text(&path, user_file::CONFIG)?;
         let config: toml::Value = toml::from_str(&text).map_err(|e| Error::format(&path, e.to_string()))?;
         if let Some(loss) = config.get("loss") {
             options.weights = loss.clone().try_into().map_err(|e| Error::format(&path, format!("[loss]: {e}")))?;

@@ -16,6 +16,7 @@ use crate::atomic_file::write_atomic;
 use crate::error::{Context, Error, Result};
 use crate::picture::Picture;
 use crate::puppet::{format, LayerKind, Puppet};
+use crate::user_file;
 
 /// A deformation network together with the puppet it deforms.
 #[derive(Clone, Debug)]
@@ -55,18 +56,19 @@ impl Model {
     /// # Errors
     /// [`Error::WrongFolder`] if `dir` is not a model folder; [`Error::Io`]/[`Error::Format`]
     /// naming the file that is missing or wrong, including weights that do not fit the config or
-    /// the puppet.
+    /// the puppet; [`Error::Limit`] naming a file larger than its limit ([`user_file::CONFIG`]
+    /// for the network config, [`max_weights_bytes`] for the weights).
     pub fn load(dir: &Path, device: &Device) -> Result<Self> {
         let folder = ModelFolder::open(dir)?;
         let net_path = folder.net();
-        let text = std::fs::read_to_string(&net_path).map_err(|e| Error::io(&net_path, e))?;
+        let text = user_file::read_bytes(&net_path, user_file::CONFIG)?;
         let config: DeformationNetConfig =
-            serde_json::from_str(&text).map_err(|e| Error::format(&net_path, format!("invalid network config: {e}")))?;
+            serde_json::from_slice(&text).map_err(|e| Error::format(&net_path, format!("invalid network config: {e}")))?;
         let puppet = format::load(&folder.puppet())?;
         check_config(&config, &puppet).at_path(&net_path)?;
         let mut model = Model::new(config, puppet, device)?;
         let weights_path = folder.weights();
-        let bytes = std::fs::read(&weights_path).map_err(|e| Error::io(&weights_path, e))?;
+        let bytes = user_file::read_bytes(&weights_path, max_weights_bytes(&model.net))?;
         model.net = load_weights(model.net, bytes, &weights_path)?;
         Ok(model)
     }
@@ -251,6 +253,12 @@ pub fn weights_bytes(net: &DeformationNet, path: &Path) -> Result<Vec<u8>> {
         .into_bytes()
         .map_err(|e| Error::format(path, format!("cannot encode weights: {e:?}")))?;
     Ok(bytes.to_vec())
+}
+
+/// The most bytes a weights file of `net` may hold: 8 bytes a parameter (f64 storage, twice what
+/// f32 weights take) plus 1 MiB for the record's names and shapes.
+pub fn max_weights_bytes(net: &DeformationNet) -> u64 {
+    8 * net.num_params() as u64 + (1 << 20)
 }
 
 /// Loads burnpack `bytes` read from `path` into `net`.

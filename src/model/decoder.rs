@@ -11,7 +11,7 @@
 
 use burn::tensor::{Device, Int, Tensor, TensorData};
 
-use super::deformation::DeformationNet;
+use super::deformation::{rest_tensor, DeformationNet};
 use super::letterbox::Letterbox;
 use crate::puppet::Puppet;
 use crate::rig::deform::RigMap;
@@ -114,7 +114,7 @@ impl Expansion {
     /// The tensors of the expansion on `device`.
     pub fn decoder(&self, device: &Device) -> Decoder {
         let (vb, va) = (self.free.len(), self.offsets.len() / 2);
-        let rest = Tensor::from_data(TensorData::new(self.rest.as_flattened().to_vec(), [vb, 2]), device);
+        let rest = rest_tensor(&self.rest, device);
         let rig = (va > 0).then(|| RigTensors {
             matrix: Tensor::from_data(TensorData::new(self.matrix.clone(), [va, vb]), device),
             offsets: Tensor::from_data(TensorData::new(self.offsets.clone(), [va, 2]), device),

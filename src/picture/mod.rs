@@ -6,6 +6,7 @@ pub mod draw;
 use std::path::Path;
 
 use crate::error::{Error, Result};
+use crate::user_file;
 
 /// A straight-alpha RGBA image, `pixels[y * width + x] = [r, g, b, a]`, each in [0, 1].
 #[derive(Clone, Debug, PartialEq)]
@@ -78,17 +79,20 @@ impl Picture {
     ///
     /// # Errors
     /// [`Error::Io`] if the file cannot be read, [`Error::Image`] if it cannot be decoded,
-    /// [`Error::Limit`] (about `path`) if its header declares more pixels than the limit.
+    /// [`Error::Limit`] (about `path`) if its header declares more pixels than the limit or the
+    /// file is longer than [`ImageLimits::max_file_bytes`].
     pub fn load(path: &Path) -> Result<Self> {
         Self::load_within(path, &ImageLimits::default())
     }
 
-    /// Reads an image within `limits`, checked from its header before any pixel is decoded.
+    /// Reads an image within `limits`: the file's length against
+    /// [`ImageLimits::max_file_bytes`] before it is read, the pixels from its header before any
+    /// is decoded.
     ///
     /// # Errors
-    /// As [`Picture::load`].
+    /// As [`Picture::load`]; also [`Error::Limit`] naming `path` if the file is too long.
     pub fn load_within(path: &Path, limits: &ImageLimits) -> Result<Self> {
-        let bytes = std::fs::read(path).map_err(|e| Error::io(path, e))?;
+        let bytes = user_file::read_bytes(path, limits.max_file_bytes())?;
         Self::decode_within(&bytes, path, limits)
     }
 
@@ -135,7 +139,12 @@ impl Picture {
             .map_err(|e| Error::image(path, format!("cannot decode image: {e}")))
     }
 
-    fn header_size(bytes: &[u8], path: &Path) -> Result<(u32, u32)> {
+    /// The width and height image bytes declare in their header, without decoding them; `path`
+    /// only names the source in errors.
+    ///
+    /// # Errors
+    /// [`Error::Image`] if the bytes are not an image this build reads.
+    pub fn header_size(bytes: &[u8], path: &Path) -> Result<(u32, u32)> {
         reader(bytes, path)?
             .into_dimensions()
             .map_err(|e| Error::image(path, format!("cannot decode image: {e}")))
@@ -234,6 +243,12 @@ impl ImageLimits {
             return Err(Error::limit(format!("a {width}×{height} image"), pixels, self.max_pixels, "pixels"));
         }
         Ok(())
+    }
+
+    /// The longest image file read: 8 bytes a pixel of the largest image (a 16-bit RGBA PNG
+    /// stored uncompressed) plus 16 MiB for headers and metadata chunks — 144 MiB by default.
+    pub fn max_file_bytes(&self) -> u64 {
+        self.max_pixels.saturating_mul(8).saturating_add(16 << 20)
     }
 }
 

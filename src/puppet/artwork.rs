@@ -14,6 +14,7 @@ use super::rig_data::RigOverrides;
 use super::LayerKind;
 use crate::error::{Context, Error, Result};
 use crate::picture::{ImageLimits, Picture};
+use crate::user_file;
 
 /// One layer of imported artwork, full reference-frame size, straight alpha.
 #[derive(Clone, Debug, PartialEq)]
@@ -158,13 +159,10 @@ pub fn load(path: &Path, opts: &ImportOptions) -> Result<Artwork> {
         Some(labels) => {
             let map_path = dir.join(&labels.map);
             let image_path = dir.join(&labels.image);
-            let (w, h) = Picture::file_size(&image_path)?;
-            opts.check(character.layers.len() + 2, w, h).at_path(&image_path)?;
-            let (map, image) = (
-                Picture::load_within(&map_path, &opts.image)?,
-                Picture::load_within(&image_path, &opts.image)?,
-            );
-            cut_label_map(&character, &map, &map_path, &image, &image_path, opts)?
+            let read = |path: &Path| user_file::read_bytes(path, opts.image.max_file_bytes());
+            let image = read(&image_path)?;
+            let map = read(&map_path)?;
+            label_map_layers(&character, &map, &map_path, &image, &image_path, opts)?
         }
         None => load_layer_pngs(&character, dir, &toml_path, opts)?,
     };
@@ -235,6 +233,35 @@ fn load_layer_pngs(character: &Character, dir: &Path, toml_path: &Path, opts: &I
     }
     Error::collect(problems)?;
     Ok(layers)
+}
+
+/// The layers of the label-map form: the reference image (`image`, the bytes of the file
+/// `image_path`) cut into one layer per colour of the label map (`map`, the bytes of `map_path`)
+/// that `character` lists; the paths only name the files in errors. The import is sized from the
+/// image's header against `opts` before either image is decoded.
+///
+/// # Errors
+/// [`Error::Image`] for an undecodable image, [`Error::Limit`] for one past the limits,
+/// [`Error::Format`]/[`Error::Layer`] naming the map for a size that differs from the image's,
+/// colours missing from the legend or legend colours missing from the map, or opaque pixels of
+/// the image with no label — every problem at once.
+///
+/// # Panics
+/// If `character` is not of the label-map form (a caller bug: [`Character::parse`] checks that
+/// every layer has a valid colour when `labels` is present).
+pub fn label_map_layers(
+    character: &Character,
+    map: &[u8],
+    map_path: &Path,
+    image: &[u8],
+    image_path: &Path,
+    opts: &ImportOptions,
+) -> Result<Vec<ArtLayer>> {
+    let (w, h) = Picture::header_size(image, image_path)?;
+    opts.check(character.layers.len() + 2, w, h).at_path(image_path)?;
+    let map_picture = Picture::decode_within(map, map_path, &opts.image)?;
+    let image_picture = Picture::decode_within(image, image_path, &opts.image)?;
+    cut_label_map(character, &map_picture, map_path, &image_picture, image_path, opts)
 }
 
 /// Cuts the reference image into one layer per label-map colour (label-map form).

@@ -28,6 +28,7 @@ use serde::Deserialize;
 use super::rig_data::RigOverrides;
 use super::LayerKind;
 use crate::error::{Error, Result};
+use crate::user_file;
 
 /// The parsed and validated `character.toml`.
 #[derive(Clone, Debug, PartialEq, Deserialize)]
@@ -82,10 +83,11 @@ impl Character {
     /// Reads and validates `path`.
     ///
     /// # Errors
-    /// [`Error::Io`] if unreadable; [`Error::Format`] for bad TOML, unknown keys, or a
-    /// structural problem (see [`Character::parse`]).
+    /// [`Error::Io`] if unreadable; [`Error::Limit`] if larger than [`user_file::CONFIG`];
+    /// [`Error::Format`] for text that is not UTF-8, bad TOML, unknown keys, or a structural
+    /// problem (see [`Character::parse`]).
     pub fn load(path: &Path) -> Result<Self> {
-        let text = std::fs::read_to_string(path).map_err(|e| Error::io(path, e))?;
+        let text = user_file::read_text(path, user_file::CONFIG)?;
         Self::parse(&text, path)
     }
 
@@ -260,5 +262,19 @@ mod tests {
         let text = LAYERS.replace("root = \"torso\"\n", "root = \"torso\"\njoints = [[\"torso\", \"head\"]]\n");
         let err = parse(&text).unwrap_err().to_string();
         assert!(err.contains("\"head\", which is not a layer"), "{err}");
+    }
+
+    #[test]
+    fn a_file_over_the_config_limit_is_refused_naming_it() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("character.toml");
+        let padding = "#".repeat(user_file::CONFIG as usize);
+        std::fs::write(&path, format!("{LAYERS}{padding}\n")).unwrap();
+        let err = Character::load(&path).unwrap_err();
+        assert!(
+            matches!(err.innermost(), Error::Limit { limit, .. } if *limit == user_file::CONFIG),
+            "{err}"
+        );
+        assert!(err.to_string().starts_with(&path.display().to_string()), "{err}");
     }
 }

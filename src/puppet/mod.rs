@@ -56,8 +56,8 @@ impl Mesh {
             .fold(180.0, f32::min)
     }
 
-    /// Checks the invariants every mesh in a puppet keeps: indices in range, positive area,
-    /// finite coordinates, and every vertex used by some triangle.
+    /// Checks the invariants every mesh in a puppet keeps: indices in range, positive finite
+    /// area, finite coordinates, and every vertex used by some triangle.
     ///
     /// # Errors
     /// A description of the first broken invariant.
@@ -70,11 +70,13 @@ impl Mesh {
             if t.iter().any(|&i| i as usize >= self.vertices.len()) {
                 return Err(format!("triangle {k} {t:?} indexes past {} vertices", self.vertices.len()));
             }
-            if self.signed_area(t) <= 0.0 {
-                return Err(format!(
-                    "triangle {k} {t:?} is not counter-clockwise (area {})",
-                    self.signed_area(t)
-                ));
+            let area = self.signed_area(t);
+            // Finite coordinates can still overflow f32 in the area (3e38 apart: inf, or inf - inf).
+            if !area.is_finite() {
+                return Err(format!("triangle {k} {t:?} is too large (its area is {area})"));
+            }
+            if area <= 0.0 {
+                return Err(format!("triangle {k} {t:?} is not counter-clockwise (area {area})"));
             }
             t.iter().for_each(|&i| used[i as usize] = true);
         }

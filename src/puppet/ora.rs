@@ -7,11 +7,12 @@
 //! are accessories; all others are body parts. The root is the body layer with the most opaque
 //! pixels. Every overlapping pair of layers is joined.
 //!
-//! A zip can declare anything: `stack.xml` is read to at most [`MAX_STACK_XML`] bytes, each layer
-//! PNG to at most [`MAX_LAYER_ENTRY`] bytes however small its compressed form, and the canvas and
-//! layer count are checked against [`ImportOptions`] before any layer is decoded.
+//! A zip can declare anything: the archive itself may be at most [`max_file_bytes`] long (the
+//! zip index in memory grows with it), `stack.xml` is read to at most [`MAX_STACK_XML`] bytes,
+//! each layer PNG to at most [`MAX_LAYER_ENTRY`] bytes however small its compressed form, and
+//! the canvas and layer count are checked against [`ImportOptions`] before any layer is decoded.
 
-use std::io::Read;
+use std::io::{Read, Seek};
 use std::path::Path;
 
 use quick_xml::events::Event;
@@ -20,6 +21,7 @@ use super::artwork::{ArtLayer, Artwork, ImportOptions};
 use super::LayerKind;
 use crate::error::{Error, Result};
 use crate::picture::Picture;
+use crate::user_file;
 
 /// The most bytes `stack.xml` may inflate to (a real one is a few kilobytes).
 pub const MAX_STACK_XML: u64 = 4 << 20;
@@ -37,15 +39,32 @@ struct StackLayer {
     accessory: bool,
 }
 
+/// The longest `.ora` file read: every layer's pixels at the most the import allows
+/// ([`ImportOptions::max_total_pixels`]) stored as uncompressed 16-bit PNGs, plus one largest image
+/// file for the merged image editors add — 656 MiB by default (real files are far smaller:
+/// `data/kenney/robot/robot.ora`, nine layers of 96×128, is 49 KB).
+pub fn max_file_bytes(opts: &ImportOptions) -> u64 {
+    opts.max_total_pixels.saturating_mul(8).saturating_add(opts.image.max_file_bytes())
+}
+
 /// Reads a `.ora` file.
 ///
 /// # Errors
-/// [`Error::Io`] if unreadable; [`Error::Format`] for a bad zip, a missing or malformed
-/// `stack.xml`, or a layer whose PNG is absent; [`Error::Layer`] for an undecodable or fully
-/// transparent layer; [`Error::Limit`] for a canvas, layer count or entry past the limits.
+/// [`Error::Io`] if unreadable; [`Error::Limit`] if it is longer than [`max_file_bytes`]; as
+/// [`from_reader`] for its contents.
 pub fn load(path: &Path, opts: &ImportOptions) -> Result<Artwork> {
-    let file = std::fs::File::open(path).map_err(|e| Error::io(path, e))?;
-    let mut zip = zip::ZipArchive::new(file).map_err(|e| Error::format(path, format!("not a valid OpenRaster zip: {e}")))?;
+    from_reader(user_file::open(path, max_file_bytes(opts))?, path, opts)
+}
+
+/// Reads the bytes of a `.ora` archive from `reader`; `path` names it in errors and gives the
+/// character its name.
+///
+/// # Errors
+/// [`Error::Format`] for a bad zip, a missing or malformed `stack.xml`, or a layer whose PNG is
+/// absent; [`Error::Layer`] for an undecodable or fully transparent layer; [`Error::Limit`] for a
+/// canvas, layer count or entry past the limits.
+pub fn from_reader(reader: impl Read + Seek, path: &Path, opts: &ImportOptions) -> Result<Artwork> {
+    let mut zip = zip::ZipArchive::new(reader).map_err(|e| Error::format(path, format!("not a valid OpenRaster zip: {e}")))?;
     let stack_xml = read_entry(&mut zip, "stack.xml", MAX_STACK_XML, path)?
         .ok_or_else(|| Error::format(path, "no stack.xml in the archive (not an OpenRaster file?)"))?;
     let stack_xml = String::from_utf8(stack_xml).map_err(|_| Error::format(path, "stack.xml is not UTF-8"))?;
@@ -115,7 +134,7 @@ pub fn load(path: &Path, opts: &ImportOptions) -> Result<Artwork> {
 }
 
 /// The entry `name` inflated, at most `limit` bytes; `None` if the archive has no such entry.
-fn read_entry(zip: &mut zip::ZipArchive<std::fs::File>, name: &str, limit: u64, path: &Path) -> Result<Option<Vec<u8>>> {
+fn read_entry(zip: &mut zip::ZipArchive<impl Read + Seek>, name: &str, limit: u64, path: &Path) -> Result<Option<Vec<u8>>> {
     let entry = match zip.by_name(name) {
         Ok(entry) => entry,
         Err(zip::result::ZipError::FileNotFound) => return Ok(None),
@@ -138,7 +157,8 @@ fn place(pic: &Picture, entry: &StackLayer, width: u32, height: u32) -> Picture 
     let mut out = Picture::filled(width, height, [0.0; 4]);
     for y in 0..pic.height as i64 {
         for x in 0..pic.width as i64 {
-            let (cx, cy) = (x + entry.x, y + entry.y);
+            // Saturating: an offset far outside the canvas (`x="1e300"`) leaves the layer off it.
+            let (cx, cy) = (x.saturating_add(entry.x), y.saturating_add(entry.y));
             if (0..width as i64).contains(&cx) && (0..height as i64).contains(&cy) {
                 let mut p = pic.pixels[(y * pic.width as i64 + x) as usize];
                 p[3] *= entry.opacity;
@@ -176,9 +196,14 @@ fn parse_stack(xml: &str) -> std::result::Result<(u32, u32, Vec<StackLayer>), St
             let value = a.unescape_value().map_err(|e| format!("bad attribute value: {e}"))?.into_owned();
             attrs.insert(String::from_utf8_lossy(a.key.as_ref()).into_owned(), value);
         }
+        // Finite only: a NaN opacity would make every pixel's alpha NaN, a NaN size a 0-wide canvas.
         let number = |key: &str, default: f64| -> std::result::Result<f64, String> {
             attrs.get(key).map_or(Ok(default), |v| {
-                v.trim().parse::<f64>().map_err(|_| format!("{key}={v:?} is not a number"))
+                v.trim()
+                    .parse::<f64>()
+                    .ok()
+                    .filter(|n| n.is_finite())
+                    .ok_or_else(|| format!("{key}={v:?} is not a finite number"))
             })
         };
         match element.name().as_ref() {
@@ -257,4 +282,70 @@ pub fn save(artwork: &Artwork, path: &Path) -> Result<()> {
         zip.finish().map_err(zip_err)?;
     }
     crate::atomic_file::write_atomic(path, &bytes)
+}
+
+#[cfg(test)]
+mod tests {
+    use std::io::{Cursor, Write};
+
+    use super::*;
+
+    /// A `.ora` in memory: `stack_xml` and one 2×2 opaque layer `a.png`.
+    fn archive(stack_xml: &[u8]) -> Vec<u8> {
+        let mut bytes = Vec::new();
+        let mut zip = zip::ZipWriter::new(Cursor::new(&mut bytes));
+        let stored = zip::write::SimpleFileOptions::default().compression_method(zip::CompressionMethod::Stored);
+        zip.start_file("stack.xml", stored).unwrap();
+        zip.write_all(stack_xml).unwrap();
+        zip.start_file("a.png", stored).unwrap();
+        zip.write_all(&Picture::filled(2, 2, [1.0; 4]).png_bytes(Path::new("a.png")).unwrap())
+            .unwrap();
+        zip.finish().unwrap();
+        bytes
+    }
+
+    fn import(stack_xml: &str) -> Result<Artwork> {
+        from_reader(
+            Cursor::new(archive(stack_xml.as_bytes())),
+            Path::new("c.ora"),
+            &ImportOptions::default(),
+        )
+    }
+
+    #[test]
+    fn a_layer_reads_at_its_offset() {
+        let art = import(r#"<image w="4" h="3"><stack><layer name="a" src="a.png" x="1" y="1"/></stack></image>"#).unwrap();
+        assert_eq!(art.layers.len(), 1);
+        let opaque: Vec<usize> = (0..12).filter(|&i| art.layers[0].picture.pixels[i][3] == 1.0).collect();
+        assert_eq!(opaque, [5, 6, 9, 10]);
+    }
+
+    /// Found by fuzz/ (ora_stack, minimised): an offset beyond i64 saturated to `i64::MAX` and
+    /// overflowed when the layer was placed.
+    #[test]
+    fn an_offset_far_off_the_canvas_is_a_transparent_layer_not_an_overflow() {
+        for x in ["2666666666666666666666666666666666666666666664", "-1e300"] {
+            let xml = format!(r#"<image w="8" h="8"><stack><layer name="torso" src="a.png" x="{x}"/></stack></image>"#);
+            let err = import(&xml).unwrap_err().to_string();
+            assert_eq!(err, "c.ora: layer \"torso\": fully transparent (no pixel has alpha > 0)");
+        }
+    }
+
+    /// Found while writing the ora_stack target (`common::check_layers`, by hand, not by the
+    /// fuzzer): `opacity="nan"` gave a layer whose alpha was NaN everywhere.
+    #[test]
+    fn a_number_that_is_not_finite_is_an_error_naming_the_attribute() {
+        let layer = |attrs: &str| format!(r#"<image w="8" h="8"><stack><layer src="a.png" {attrs}/></stack></image>"#);
+        for (xml, problem) in [
+            (layer(r#"opacity="nan""#), r#"opacity="nan" is not a finite number"#),
+            (layer(r#"x="inf""#), r#"x="inf" is not a finite number"#),
+            (
+                r#"<image w="NaN" h="8"><stack><layer src="a.png"/></stack></image>"#.to_string(),
+                r#"w="NaN" is not a finite number"#,
+            ),
+        ] {
+            let err = import(&xml).unwrap_err().to_string();
+            assert_eq!(err, format!("c.ora: stack.xml: {problem}"));
+        }
+    }
 }

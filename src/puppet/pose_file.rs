@@ -8,6 +8,7 @@ use serde::{Deserialize, Serialize};
 
 use super::Puppet;
 use crate::error::{Error, Result};
+use crate::user_file;
 
 /// A pose on disk.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -21,9 +22,10 @@ impl PoseFile {
     /// Reads a pose and checks it fits `puppet` (vertex count, finite coordinates).
     ///
     /// # Errors
-    /// [`Error::Io`] if unreadable, [`Error::Format`] for bad JSON or a pose of another puppet.
+    /// [`Error::Io`] if unreadable, [`Error::Limit`] if larger than [`user_file::DATA`],
+    /// [`Error::Format`] for bad JSON or a pose of another puppet.
     pub fn load(path: &Path, puppet: &Puppet) -> Result<Self> {
-        let bytes = std::fs::read(path).map_err(|e| Error::io(path, e))?;
+        let bytes = user_file::read_bytes(path, user_file::DATA)?;
         Self::parse(&bytes, path, puppet)
     }
 

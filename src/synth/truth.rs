@@ -14,6 +14,7 @@ use super::pose::Motion;
 use super::similarity::Similarity;
 use crate::error::{Error, Result};
 use crate::puppet::Puppet;
+use crate::user_file;
 
 /// The ground-truth file a synthetic sequence carries beside its frames.
 pub const TRUTH_FILE: &str = "truth.json";
@@ -147,11 +148,19 @@ impl Truth {
     /// Reads and checks a truth.json.
     ///
     /// # Errors
-    /// [`Error::Io`] if unreadable; [`Error::Format`] for bad JSON, another schema version, or
-    /// inconsistent contents (part counts, grid sizes).
+    /// [`Error::Io`] if unreadable; [`Error::Limit`] if larger than [`user_file::DATA`]; as
+    /// [`Truth::parse`] for its contents.
     pub fn load(path: &Path) -> Result<Self> {
-        let text = std::fs::read_to_string(path).map_err(|e| Error::io(path, e))?;
-        let truth: Truth = serde_json::from_str(&text).map_err(|e| Error::format(path, format!("invalid truth.json: {e}")))?;
+        Self::parse(&user_file::read_bytes(path, user_file::DATA)?, path)
+    }
+
+    /// Parses and checks the bytes of a truth.json; `path` only names the file in errors.
+    ///
+    /// # Errors
+    /// [`Error::Format`] for bad JSON, another schema version, or inconsistent contents (part
+    /// counts, grid sizes).
+    pub fn parse(bytes: &[u8], path: &Path) -> Result<Self> {
+        let truth: Truth = serde_json::from_slice(bytes).map_err(|e| Error::format(path, format!("invalid truth.json: {e}")))?;
         if truth.version != TRUTH_VERSION {
             return Err(Error::format(
                 path,

@@ -13,6 +13,7 @@ use serde::{Deserialize, Serialize};
 
 use crate::atomic_file::write_atomic;
 use crate::error::{Error, Result};
+use crate::user_file;
 
 /// The checkpoints folder inside a model folder.
 pub const CHECKPOINT_DIR: &str = "checkpoints";
@@ -35,17 +36,32 @@ pub struct CheckpointState {
     pub config: serde_json::Value,
 }
 
-/// A loaded checkpoint.
+/// A checkpoint whose state is read; its tensors are read on demand ([`Checkpoint::weights`],
+/// [`Checkpoint::optimizer`]), when the network they must fit, and so their size, is known.
 #[derive(Debug)]
 pub struct Checkpoint {
     /// Its state.
     pub state: CheckpointState,
-    /// Burnpack bytes of the network.
-    pub weights: Vec<u8>,
-    /// Burnpack bytes of the optimiser state.
-    pub optimizer: Vec<u8>,
-    /// Where it was read from (for messages).
+    /// Its folder.
     pub dir: PathBuf,
+}
+
+impl Checkpoint {
+    /// Burnpack bytes of the network, at most `limit` of them.
+    ///
+    /// # Errors
+    /// [`Error::Io`] naming the file if unreadable, [`Error::Limit`] if it is larger.
+    pub fn weights(&self, limit: u64) -> Result<Vec<u8>> {
+        user_file::read_bytes(&self.dir.join(WEIGHTS), limit)
+    }
+
+    /// Burnpack bytes of the optimiser state, at most `limit` of them.
+    ///
+    /// # Errors
+    /// As [`Checkpoint::weights`].
+    pub fn optimizer(&self, limit: u64) -> Result<Vec<u8>> {
+        user_file::read_bytes(&self.dir.join(OPTIMIZER), limit)
+    }
 }
 
 /// The newest complete checkpoint's folder under `model_dir`, if any.
@@ -57,7 +73,7 @@ pub fn latest(model_dir: &Path) -> Result<Option<PathBuf>> {
     if !pointer.exists() {
         return Ok(None);
     }
-    let name = std::fs::read_to_string(&pointer).map_err(|e| Error::io(&pointer, e))?;
+    let name = user_file::read_text(&pointer, user_file::CONFIG)?;
     let dir = model_dir.join(CHECKPOINT_DIR).join(name.trim());
     if !dir.join(STATE).is_file() {
         return Err(Error::format(
@@ -102,19 +118,17 @@ pub fn save(model_dir: &Path, state: &CheckpointState, weights: &[u8], optimizer
     Ok(done)
 }
 
-/// Reads the checkpoint folder `dir`.
+/// Reads the state of the checkpoint folder `dir`.
 ///
 /// # Errors
-/// [`Error::Io`]/[`Error::Format`] naming the file that is missing or unreadable.
+/// [`Error::Io`]/[`Error::Format`] naming the file that is missing or unreadable;
+/// [`Error::Limit`] if `state.json` is larger than [`user_file::CONFIG`].
 pub fn load(dir: &Path) -> Result<Checkpoint> {
-    let read = |file: &str| std::fs::read(dir.join(file)).map_err(|e| Error::io(dir.join(file), e));
     let state_path = dir.join(STATE);
-    let state: CheckpointState =
-        serde_json::from_slice(&read(STATE)?).map_err(|e| Error::format(&state_path, format!("invalid checkpoint state: {e}")))?;
+    let state: CheckpointState = serde_json::from_slice(&user_file::read_bytes(&state_path, user_file::CONFIG)?)
+        .map_err(|e| Error::format(&state_path, format!("invalid checkpoint state: {e}")))?;
     Ok(Checkpoint {
         state,
-        weights: read(WEIGHTS)?,
-        optimizer: read(OPTIMIZER)?,
         dir: dir.to_path_buf(),
     })
 }
@@ -136,7 +150,9 @@ mod tests {
         let second = save(dir.path(), &state(20), b"w20", b"o20").unwrap();
         assert_eq!(latest(dir.path()).unwrap(), Some(second.clone()));
         let c = load(&second).unwrap();
-        assert_eq!((c.state, c.weights, c.optimizer), (state(20), b"w20".to_vec(), b"o20".to_vec()));
+        assert_eq!((c.weights(3).unwrap(), c.optimizer(3).unwrap()), (b"w20".to_vec(), b"o20".to_vec()));
+        assert!(matches!(c.weights(2).unwrap_err().innermost(), Error::Limit { .. }));
+        assert_eq!(c.state, state(20));
         let names: Vec<_> = std::fs::read_dir(dir.path().join(CHECKPOINT_DIR))
             .unwrap()
             .map(|e| e.unwrap().file_name())

@@ -48,6 +48,7 @@ use serde::{Deserialize, Serialize};
 
 use crate::picture::ImageLimits;
 use crate::puppet::sequence::FrameCheck;
+use crate::user_file;
 
 use super::optim::AdamSettings;
 use crate::error::{Context, Error, Result};
@@ -226,10 +227,11 @@ impl TrainConfig {
     /// they exist), and validates it.
     ///
     /// # Errors
-    /// [`Error::Io`] if unreadable; [`Error::Format`] naming `path` for bad TOML or an unknown
-    /// key; [`Error::Setting`] (about `path`) for an invalid value (see [`TrainConfig::validate`]).
+    /// [`Error::Io`] if unreadable; [`Error::Limit`] if larger than [`user_file::CONFIG`];
+    /// [`Error::Format`] naming `path` for text that is not UTF-8, bad TOML or an unknown key;
+    /// [`Error::Setting`] (about `path`) for an invalid value (see [`TrainConfig::validate`]).
     pub fn load(path: &Path) -> Result<Self> {
-        let text = std::fs::read_to_string(path).map_err(|e| Error::io(path, e))?;
+        let text = user_file::read_text(path, user_file::CONFIG)?;
         Self::parse(&text, path)
     }
 

@@ -9,6 +9,7 @@ use std::path::{Path, PathBuf};
 use crate::error::{Error, Result};
 use crate::picture::draw::{line, text};
 use crate::picture::Picture;
+use crate::user_file;
 
 /// The CSV header; [`LogRow`] writes the same columns.
 pub const HEADER: &str = "step,total,rec,arap,joints,area,sigma,seconds,held_out";
@@ -51,7 +52,7 @@ impl TrainLog {
     pub fn open(path: &Path, keep_through: u64) -> Result<Self> {
         let mut rows = Vec::new();
         if path.exists() {
-            let text = std::fs::read_to_string(path).map_err(|e| Error::io(path, e))?;
+            let text = user_file::read_text(path, user_file::DATA)?;
             for (n, line) in text.lines().enumerate().skip(1) {
                 let v: Vec<f64> = line
                     .split(',')

@@ -23,7 +23,7 @@ use super::optim::adam;
 use super::split::{shuffled, split};
 use crate::atomic_file::{record, write_atomic, Outputs};
 use crate::error::{Context, Error, Result};
-use crate::model::bundle::{load_weights, weights_bytes};
+use crate::model::bundle::{load_weights, max_weights_bytes, weights_bytes};
 use crate::model::decoder::Decoder;
 use crate::model::deformation::DeformationNetConfig;
 use crate::model::{Model, ModelFolder};
@@ -34,6 +34,7 @@ use crate::puppet::sequence::Frames;
 use crate::puppet::{artwork, build, format, Puppet};
 use crate::rig::{build_rigged, RigOptions};
 use crate::rng::Rng;
+use crate::user_file;
 
 /// How to run (as opposed to what to train, which is the config).
 #[derive(Clone, Debug, Default)]
@@ -62,14 +63,15 @@ impl SplitRecord {
     /// Reads `split.json` of a model folder; `None` if the model has none (not trained here).
     ///
     /// # Errors
-    /// [`Error::Format`] naming the file if it is not a split record.
+    /// [`Error::Format`] naming the file if it is not a split record; [`Error::Io`] if it cannot
+    /// be read; [`Error::Limit`] if it is larger than [`user_file::DATA`].
     pub fn load(model_dir: &Path) -> Result<Option<Self>> {
         let path = ModelFolder::new(model_dir).split();
         if !path.is_file() {
             return Ok(None);
         }
-        let text = std::fs::read_to_string(&path).map_err(|e| Error::io(&path, e))?;
-        serde_json::from_str(&text)
+        let text = user_file::read_bytes(&path, user_file::DATA)?;
+        serde_json::from_slice(&text)
             .map(Some)
             .map_err(|e| Error::format(&path, format!("invalid split record: {e}")))
     }
@@ -440,14 +442,19 @@ impl Trainer {
     /// Loads a checkpoint's weights and optimiser state.
     ///
     /// # Errors
-    /// [`Error::Format`] naming the file that does not fit.
+    /// [`Error::Format`] naming the file that does not fit; [`Error::Io`] or [`Error::Limit`]
+    /// naming one that cannot be read or is larger than this network's weights can be (the
+    /// optimiser state: twice that, Adam's two moments).
     pub fn restore(&mut self, checkpoint: &Checkpoint) -> Result<()> {
         let dir = &checkpoint.dir;
-        self.model.net = load_weights(self.model.net.clone(), checkpoint.weights.clone(), &dir.join(checkpoint::WEIGHTS))?;
+        let limit = max_weights_bytes(&self.model.net);
+        let weights = checkpoint.weights(limit)?;
+        let optimizer = checkpoint.optimizer(2 * limit)?;
+        self.model.net = load_weights(self.model.net.clone(), weights, &dir.join(checkpoint::WEIGHTS))?;
         self.optimizer = self
             .optimizer
             .clone()
-            .from_bytes(Bytes::from_bytes_vec(checkpoint.optimizer.clone()))
+            .from_bytes(Bytes::from_bytes_vec(optimizer))
             .map_err(|e| Error::format(dir.join(checkpoint::OPTIMIZER), format!("cannot read optimiser state: {e:?}")))?;
         Ok(())
     }

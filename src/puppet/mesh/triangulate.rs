@@ -28,6 +28,9 @@ use crate::puppet::Mesh;
 /// Refinement is refused when it would need more than this many vertices.
 pub const MAX_VERTICES: usize = 20_000_000;
 
+/// The lower angle bounds (degrees) a refinement that does not finish is tried again with.
+pub const FALLBACK_ANGLES: [f32; 2] = [20.0, 0.0];
+
 /// Interior lattice seeds closer than this many lattice spacings to a ring edge are dropped.
 pub const LATTICE_MARGIN: f64 = 0.5;
 
@@ -35,13 +38,14 @@ pub const LATTICE_MARGIN: f64 = 0.5;
 /// vertex, refined to `opts.min_angle` degrees and `opts.max_area` px².
 ///
 /// Returns a mesh with counter-clockwise triangles (positive [`Mesh::signed_area`]), no unused
-/// vertex, and for each required point the index of its vertex.
+/// vertex, and for each required point the index of its vertex. A refinement that does not
+/// finish within its vertex budget is run again under each of [`FALLBACK_ANGLES`] in turn.
 ///
 /// # Errors
 /// [`MeshError::Options`] for rings with fewer than 3 points, non-finite or out-of-range
 /// coordinates, a point repeated, crossing edges, a bound needing more than [`MAX_VERTICES`]
-/// vertices, or a refinement that does not finish within its vertex budget (angle bounds above
-/// ~32°); [`MeshError::TooSmall`] if the rings enclose no area or features are too close for
+/// vertices, or a refinement that does not finish within its vertex budget even at the lowest
+/// fallback angle; [`MeshError::TooSmall`] if the rings enclose no area or features are too close for
 /// f32 output; [`MeshError::PointOutside`] for a required point outside the region.
 ///
 /// # Panics
@@ -93,44 +97,30 @@ pub fn triangulate(rings: &[Vec<[f64; 2]>], required: &[[f64; 2]], opts: &MeshOp
         )));
     }
     vertices.extend(lattice(rings, max_area).into_iter().map(|p| Point2::new(p[0], p[1])));
-    let mut crossing = None;
-    let mut cdt = ConstrainedDelaunayTriangulation::<Point2<f64>>::try_bulk_load_cdt(vertices, edges, |e| {
-        crossing.get_or_insert(e[0]);
-    })
-    .map_err(|e| MeshError::Options(format!("ring points rejected: {e:?}")))?;
-    if let Some(v) = crossing {
-        let p = cdt.vertex(spade::handles::FixedVertexHandle::from_index(v)).position();
-        return Err(MeshError::Options(format!(
-            "the ring edge from ({}, {}) crosses another ring edge",
-            p.x, p.y
-        )));
-    }
-    let mut required_handles = Vec::with_capacity(required.len());
-    for &p in required {
-        let outside = || MeshError::PointOutside {
-            x: p[0] as f32,
-            y: p[1] as f32,
-        };
-        if !(p[0].is_finite() && p[1].is_finite()) {
-            return Err(outside());
+    // Thin strokes (line art's lips, a nose drawn as one curve) can keep the refinement adding
+    // vertices along their sharp tips without end; such a part is meshed again under a lower
+    // angle bound rather than refused.
+    let angles = std::iter::once(opts.min_angle).chain(FALLBACK_ANGLES.iter().map(|&a| a.min(opts.min_angle)));
+    let mut refined = None;
+    for angle in angles {
+        let (mut cdt, required_handles) = constrained(vertices.clone(), edges.clone(), rings, required)?;
+        let params = RefinementParameters::<f64>::new()
+            .exclude_outer_faces(true)
+            .with_angle_limit(AngleLimit::from_deg(f64::from(angle)))
+            .with_max_allowed_area(max_area)
+            .with_max_additional_vertices(estimate as usize);
+        let result = cdt.refine(params);
+        if result.refinement_complete {
+            refined = Some((cdt, required_handles, result));
+            break;
         }
-        if !inside_rings(rings, p) && !on_rings(rings, p) {
-            return Err(outside());
-        }
-        required_handles.push(cdt.insert(Point2::new(p[0], p[1])).map_err(|_| outside())?);
     }
-    let params = RefinementParameters::<f64>::new()
-        .exclude_outer_faces(true)
-        .with_angle_limit(AngleLimit::from_deg(f64::from(opts.min_angle)))
-        .with_max_allowed_area(max_area)
-        .with_max_additional_vertices(estimate as usize);
-    let result = cdt.refine(params);
-    if !result.refinement_complete {
+    let Some((cdt, required_handles, result)) = refined else {
         return Err(MeshError::Options(format!(
-            "refinement to {}° and {max_area} px² did not finish within {} added vertices",
-            opts.min_angle, estimate as usize
+            "refinement to {}° and {max_area} px² did not finish within {} added vertices, nor at {:?}°",
+            opts.min_angle, estimate as usize, FALLBACK_ANGLES
         )));
-    }
+    };
     let mut excluded = vec![false; cdt.num_all_faces()];
     for f in &result.excluded_faces {
         excluded[f.index()] = true;
@@ -170,6 +160,50 @@ pub fn triangulate(rings: &[Vec<[f64; 2]>], required: &[[f64; 2]], opts: &MeshOp
         });
     }
     Ok((mesh, required))
+}
+
+/// The constrained Delaunay triangulation of the ring `edges` over `vertices` (ring points, then
+/// lattice seeds), with the `required` points inserted; their handles in order.
+#[allow(clippy::type_complexity)]
+fn constrained(
+    vertices: Vec<Point2<f64>>,
+    edges: Vec<[usize; 2]>,
+    rings: &[Vec<[f64; 2]>],
+    required: &[[f64; 2]],
+) -> Result<
+    (
+        ConstrainedDelaunayTriangulation<Point2<f64>>,
+        Vec<spade::handles::FixedVertexHandle>,
+    ),
+    MeshError,
+> {
+    let mut crossing = None;
+    let mut cdt = ConstrainedDelaunayTriangulation::<Point2<f64>>::try_bulk_load_cdt(vertices, edges, |e| {
+        crossing.get_or_insert(e[0]);
+    })
+    .map_err(|e| MeshError::Options(format!("ring points rejected: {e:?}")))?;
+    if let Some(v) = crossing {
+        let p = cdt.vertex(spade::handles::FixedVertexHandle::from_index(v)).position();
+        return Err(MeshError::Options(format!(
+            "the ring edge from ({}, {}) crosses another ring edge",
+            p.x, p.y
+        )));
+    }
+    let mut required_handles = Vec::with_capacity(required.len());
+    for &p in required {
+        let outside = || MeshError::PointOutside {
+            x: p[0] as f32,
+            y: p[1] as f32,
+        };
+        if !(p[0].is_finite() && p[1].is_finite()) {
+            return Err(outside());
+        }
+        if !inside_rings(rings, p) && !on_rings(rings, p) {
+            return Err(outside());
+        }
+        required_handles.push(cdt.insert(Point2::new(p[0], p[1])).map_err(|_| outside())?);
+    }
+    Ok((cdt, required_handles))
 }
 
 /// Seeds for the interior: an equilateral lattice whose triangles have area just under

@@ -1,0 +1,14 @@
+//! A training config TOML: parsed and validated; an accepted one passes `validate` again.
+#![no_main]
+
+use std::path::Path;
+
+use libfuzzer_sys::fuzz_target;
+use puppet::train::config::TrainConfig;
+
+fuzz_target!(|data: &[u8]| {
+    let Ok(text) = std::str::from_utf8(data) else { return };
+    if let Ok(config) = TrainConfig::parse(text, Path::new("fuzz/train.toml")) {
+        config.validate().expect("a parsed config is valid");
+    }
+});
