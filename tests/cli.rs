@@ -233,6 +233,49 @@ fn rig_previews_applies_a_pose_and_eval_rig_scores_a_set() {
     puppet(tmp.path(), &["rig", "apply", "out", "--pose", "short.json", "-o", "b.png"]).assert_error(&["short.json", "1 vertices"]);
 }
 
+/// `puppet synth --accessories` makes a rig evaluation member with truth: the DAG is judged
+/// against the generator's parents and the rig is scored along the true motion, where it must
+/// place the accessories far better than leaving them at rest.
+#[test]
+fn eval_rig_scores_a_dressed_synthetic_sequence_along_its_true_motion() {
+    let tmp = tempfile::tempdir().unwrap();
+    puppet(
+        tmp.path(),
+        &[
+            "synth",
+            "--accessories",
+            "--seed",
+            "3",
+            "--frames",
+            "6",
+            "--size",
+            "128x128",
+            "-o",
+            "set/dressed",
+        ],
+    )
+    .assert_ok();
+    let edits = tmp.path().join("edits.toml");
+    std::fs::write(
+        &edits,
+        "[[edit]]\nname = \"tilt\"\nkind = \"tilt\"\nlayer = \"head\"\ndegrees = 12.0\n",
+    )
+    .unwrap();
+    let eval = puppet(tmp.path(), &["eval-rig", "set", "--edits", "edits.toml", "-o", "report.json"]);
+    eval.assert_ok();
+    assert!(eval.stdout.contains("true motion"), "{}", eval.stdout);
+    let json: serde_json::Value = serde_json::from_slice(&std::fs::read(tmp.path().join("report.json")).unwrap()).unwrap();
+    let c = &json["characters"][0];
+    assert_eq!(c["dag"]["judged"].as_u64(), Some(7), "{}", c["dag"]);
+    let motion = &c["motion"];
+    assert_eq!(motion["frames"].as_u64(), Some(6));
+    let (rig, unchanged) = (&motion["rig"], &motion["unchanged"]);
+    let f = |v: &serde_json::Value, k: &str| v[k].as_f64().unwrap();
+    eprintln!("rig {rig}\nunchanged {unchanged}");
+    assert!(f(rig, "accessory_error") < 0.5 * f(unchanged, "accessory_error"), "{motion}");
+    assert!(f(rig, "accessory_iou") > f(unchanged, "accessory_iou"), "{motion}");
+}
+
 #[test]
 fn a_dicebear_character_of_thin_line_art_builds_and_rigs() {
     // notionists-1's lips and nose are one-stroke line art: refinement at 30° does not finish on

@@ -268,13 +268,16 @@ fn a_rigged_model_drags_the_body_by_its_hat_and_takes_the_hat_off() {
     let head = |path: &Path| puppet::picture::Picture::load(path).unwrap().get(23, 16);
     assert!(head(&a)[3] > 0.5 && head(&arap)[3] < 0.5, "the head moved with its hat");
 
-    // eval scores the rig-placed hat on the fits too.
+    // eval scores the rig-placed hat on the fits, on in-betweens and on drags too.
     let seq = tmp.path().join("seq");
     std::fs::create_dir_all(&seq).unwrap();
     std::fs::copy(&a, seq.join("a.png")).unwrap();
+    std::fs::copy(&a, seq.join("b.png")).unwrap();
     let run = puppet(tmp.path(), &["eval", "--model", s(&model), s(&seq), "--one-pass"]);
     run.assert_ok();
-    assert!(run.stdout.contains("accessories on the fits"), "{}", run.stdout);
+    for row in ["accessories (worst pose)", "fits", "in-betweens", "drags"] {
+        assert!(run.stdout.contains(row), "{row}: {}", run.stdout);
+    }
 
     let ib = tmp.path().join("ib");
     let run = puppet(

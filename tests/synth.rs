@@ -163,6 +163,52 @@ fn true_positions_land_on_the_drawn_part_in_every_frame() {
     }
 }
 
+/// Accessories (issue 13's synthetic set) are drawn where the truth puts them, as their own
+/// layers of kind "accessory", each with its true parent in template/rig_truth.json and outside
+/// the joints; the body is the undressed character's.
+#[test]
+fn a_dressed_character_draws_its_accessories_where_the_truth_puts_them() {
+    let dressed = |seed, motion| SynthOptions {
+        accessories: true,
+        ..opts(seed, 8, 128, motion)
+    };
+    for (seed, motion) in [(3, Motion::Walk), (21, Motion::Random)] {
+        let seq = generate(&dressed(seed, motion), &Silent).unwrap();
+        let plain = generate(&opts(seed, 8, 128, motion), &Silent).unwrap();
+        assert_eq!(
+            seq.character.parts.len(),
+            plain.character.parts.len() + 7,
+            "seed {seed}: seven accessories"
+        );
+        let (deep, deep_bad, all, all_bad) = check_truth_against_labels(&seq, 2);
+        eprintln!("dressed seed {seed}: {deep_bad}/{deep} interior points off their part; {all_bad}/{all} of all");
+        assert!(deep > 1000);
+        assert_eq!(deep_bad, 0, "seed {seed}: interior points off their part");
+        assert!(
+            (all_bad as f64) < 0.03 * all as f64,
+            "seed {seed}: {all_bad}/{all} mask points off their part"
+        );
+    }
+    let dir = tempfile::tempdir().unwrap();
+    let seq = generate(&dressed(3, Motion::Walk), &Silent).unwrap();
+    write_sequence(&seq, dir.path(), &Silent).unwrap();
+    let spec = puppet::puppet::character::Character::load(&dir.path().join("template/character.toml")).unwrap();
+    let accessories: Vec<&str> = spec
+        .layers
+        .iter()
+        .filter(|l| l.kind == LayerKind::Accessory)
+        .map(|l| l.name.as_str())
+        .collect();
+    assert_eq!(accessories.len(), 7, "{accessories:?}");
+    let joints = spec.joints.clone().unwrap();
+    assert!(joints.iter().flatten().all(|j| !accessories.contains(&j.as_str())), "{joints:?}");
+    let truth = puppet::eval::rig::RigTruth::load(&dir.path().join("template/rig_truth.json")).unwrap();
+    assert_eq!(truth.attach_to.len(), 7);
+    assert_eq!(truth.attach_to["hat"], "head");
+    assert_eq!(truth.attach_to["sleeve"], "arm_front_upper");
+    assert_eq!(truth.attach_to["vest"], "torso");
+}
+
 /// The real thing: a puppet built from the template by `puppet::puppet::build` (the mesher of
 /// `puppet build`); every vertex at least 2 px inside its layer lands on its part (or on a part
 /// in front of it) in every frame.

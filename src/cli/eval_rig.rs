@@ -3,10 +3,13 @@
 
 use std::path::PathBuf;
 
-use puppet::eval::rig::{default_edits, edit_sheet, evaluate_character, set_members, EditsFile, RigReport, RigTruth, TRUTH_FILE};
+use puppet::eval::rig::{
+    default_edits, edit_sheet, evaluate_character, evaluate_motion, set_members, EditsFile, RigReport, RigTruth, TRUTH_FILE,
+};
 use puppet::progress::Progress;
 use puppet::puppet::{artwork, build};
 use puppet::rig::{build_rigged, RigOptions};
+use puppet::synth::Truth;
 
 use super::Session;
 
@@ -15,6 +18,9 @@ use super::Session;
 /// Each is built, rigged and put through a suite of body edits (the head widened 10 % and 20 %,
 /// tilted ±12°, the body squashed to 0.8, the torso widened 15 %, five ARAP drags); the rig is
 /// scored against accessories left unchanged and accessories stuck to the body under them.
+/// A subfolder may also be a synthetic sequence of `puppet synth --accessories` (template/ and
+/// truth.json): its rig is then also scored along the sequence's true body motion, against the
+/// accessories' true places (vertex error and coverage IoU).
 /// Characters that cannot be built are named and the rest scored; the command then exits 1.
 #[derive(Debug, clap::Args)]
 pub struct EvalRigArgs {
@@ -44,9 +50,9 @@ pub fn run(args: EvalRigArgs, s: &Session) -> anyhow::Result<()> {
     let members = set_members(&args.set)?;
     let mut characters = Vec::new();
     let mut problems = Vec::new();
-    for dir in &members {
-        let name = dir.file_name().map_or_else(String::new, |n| n.to_string_lossy().into_owned());
-        s.ui.stage(&name, edits.len() as u64);
+    for member in &members {
+        let (name, dir) = (&member.name, &member.artwork);
+        s.ui.stage(name, edits.len() as u64);
         let scored = (|| -> anyhow::Result<_> {
             let art = artwork::load(dir, &artwork::ImportOptions::default())?;
             let puppet = build_rigged(&art, &build::BuildOptions::default(), &RigOptions::default(), &s.ui)?;
@@ -56,7 +62,11 @@ pub fn run(args: EvalRigArgs, s: &Session) -> anyhow::Result<()> {
             } else {
                 None
             };
-            let report = evaluate_character(&name, &puppet, truth.as_ref(), &edits, &s.ui)?;
+            let mut report = evaluate_character(name, &puppet, truth.as_ref(), &edits, &s.ui)?;
+            if let Some(sequence) = &member.sequence {
+                let truth = Truth::load(&sequence.join(puppet::synth::truth::TRUTH_FILE))?;
+                report.motion = Some(evaluate_motion(&puppet, &truth, &s.ui)?);
+            }
             if let Some(pictures) = &args.pictures {
                 s.save_png(&pictures.join(format!("{name}.png")), &edit_sheet(&puppet, &edits, 6)?)?;
             }

@@ -48,6 +48,11 @@ pub struct SynthArgs {
     /// Cells per row of the sprite sheet.
     #[arg(long, default_value_t = 4, value_name = "N")]
     pub columns: usize,
+    /// Dress the character: a vest, back hair, freckles, sunglasses, a hat, a bracelet and a
+    /// sleeve as accessory layers of the template (kind = "accessory"), each following its
+    /// parent part; template/rig_truth.json names every accessory's true parent.
+    #[arg(long)]
+    pub accessories: bool,
 }
 
 /// `--motion` values.
@@ -87,6 +92,7 @@ impl SynthArgs {
             motion,
             deform_sigma: self.deform,
             wobble: self.wobble,
+            accessories: self.accessories,
         };
         opts.validate()?;
         if self.sprite_sheet && self.columns == 0 {

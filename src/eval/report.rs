@@ -5,6 +5,7 @@
 use burn::tensor::Device;
 use serde::Serialize;
 
+use super::edit_poses::{drag_poses, inbetween_poses};
 use super::rig::{pose_scores, Scores};
 use super::visibility::visible_vertices;
 use crate::error::{Context, Error, Result};
@@ -14,6 +15,7 @@ use crate::model::Model;
 use crate::picture::Picture;
 use crate::progress::Progress;
 use crate::puppet::sequence::Frames;
+use crate::puppet::LayerKind;
 use crate::render::render_crisp;
 use crate::synth::{true_positions, Truth};
 
@@ -45,6 +47,23 @@ pub struct FrameScores {
     pub true_pose_l2: Option<f64>,
     /// Silhouette IoU of the puppet rendered at the true vertices (ground truth only).
     pub true_pose_iou: Option<f64>,
+    /// On a puppet with accessory layers (ground truth only): vertex error of the body layers'
+    /// vertices and of the accessories' vertices, each over all and over visible vertices.
+    pub split: Option<SplitError>,
+}
+
+/// Vertex errors of a dressed puppet, body and accessories apart (pixels; `None` where a group
+/// has no vertex).
+#[derive(Clone, Copy, Debug, Default, Serialize)]
+pub struct SplitError {
+    /// Body vertices, all.
+    pub body: Option<f64>,
+    /// Body vertices the frame shows.
+    pub body_visible: Option<f64>,
+    /// Accessory vertices, all.
+    pub accessories: Option<f64>,
+    /// Accessory vertices the frame shows.
+    pub accessories_visible: Option<f64>,
 }
 
 /// Scores of a set of frames and their means.
@@ -54,10 +73,27 @@ pub struct Report {
     pub frames: Vec<FrameScores>,
     /// Means over frames (vertex error and PCK over frames with truth).
     pub mean: FrameScores,
-    /// With an accessory rig: how the rig-placed accessories hold up on the fitted poses, the
-    /// worst over the frames ([`pose_scores`]).
-    pub accessories: Option<Scores>,
+    /// On a puppet with accessory layers: how the accessories hold up ([`pose_scores`], the
+    /// worst over the poses) on the fits, on latent in-betweens of consecutive frames and on
+    /// seeded drags ([`super::edit_poses`]).
+    pub accessories: Option<AccessoryScores>,
 }
+
+/// A dressed puppet's accessories on each kind of pose.
+#[derive(Clone, Debug, Serialize)]
+pub struct AccessoryScores {
+    /// On the fitted frames.
+    pub fits: Scores,
+    /// On in-betweens of consecutive frames (t = ¼, ½, ¾); `None` with one frame.
+    pub inbetweens: Option<Scores>,
+    /// On two-pin drags from each fitted frame.
+    pub drags: Option<Scores>,
+    /// Poses scored: fits, in-betweens, drag frames.
+    pub poses: [usize; 3],
+}
+
+/// The seed of the drags of [`AccessoryScores::drags`].
+const DRAG_SEED: u64 = 14;
 
 /// Fits (as `options` say) and scores `frames.frames[i]` for each `i` in `indices` (all frames if
 /// empty), against `truth` where given (matched to frames by file name).
@@ -109,13 +145,29 @@ pub fn evaluate(
             visible_share: truth.map(|t| t.visible_share),
             true_pose_l2: truth.map(|t| t.true_pose_l2),
             true_pose_iou: truth.map(|t| t.true_pose_iou),
+            split: truth.and_then(|t| t.split),
         });
     }
     let mean = mean_scores(&scores);
+    let accessories = match pose_scores(&model.puppet, &fits)? {
+        Some(on_fits) => {
+            progress.stage("in-betweens and drags", 1);
+            let inbetweens = inbetween_poses(model, &pictures, options, device)?;
+            let drags = drag_poses(model, &pictures, options, device, DRAG_SEED)?;
+            progress.advance(1);
+            Some(AccessoryScores {
+                fits: on_fits,
+                inbetweens: pose_scores(&model.puppet, &inbetweens)?,
+                drags: pose_scores(&model.puppet, &drags)?,
+                poses: [fits.len(), inbetweens.len(), drags.len()],
+            })
+        }
+        None => None,
+    };
     Ok(Report {
         frames: scores,
         mean,
-        accessories: pose_scores(&model.puppet, &fits),
+        accessories,
     })
 }
 
@@ -129,6 +181,7 @@ struct TruthScores {
     visible_share: f64,
     true_pose_l2: f64,
     true_pose_iou: f64,
+    split: Option<SplitError>,
 }
 
 fn truth_scores(truth: &Truth, frame: usize, model: &Model, fit: &[[f32; 2]], picture: &Picture) -> Result<TruthScores> {
@@ -138,6 +191,26 @@ fn truth_scores(truth: &Truth, frame: usize, model: &Model, fit: &[[f32; 2]], pi
     let shown = visible_vertices(&model.puppet, &true_v);
     let keep = |points: &[[f32; 2]]| -> Vec<[f32; 2]> { points.iter().zip(&shown).filter(|(_, &s)| s).map(|(p, _)| *p).collect() };
     let (fit_shown, true_shown) = (keep(fit), keep(&true_v));
+    let split = model.puppet.layers.iter().any(|l| l.kind == LayerKind::Accessory).then(|| {
+        let mut accessory = vec![false; true_v.len()];
+        for (layer, &offset) in model.puppet.layers.iter().zip(&model.puppet.vertex_offsets()) {
+            if layer.kind == LayerKind::Accessory {
+                accessory[offset..offset + layer.mesh.vertices.len()].fill(true);
+            }
+        }
+        let error = |want_accessory: bool, only_shown: bool| {
+            let chosen = |k: usize| accessory[k] == want_accessory && (shown[k] || !only_shown);
+            let pick = |points: &[[f32; 2]]| -> Vec<[f32; 2]> { (0..points.len()).filter(|&k| chosen(k)).map(|k| points[k]).collect() };
+            let (f, t) = (pick(fit), pick(&true_v));
+            (!t.is_empty()).then(|| vertex_error(&f, &t))
+        };
+        SplitError {
+            body: error(false, false),
+            body_visible: error(false, true),
+            accessories: error(true, false),
+            accessories_visible: error(true, true),
+        }
+    });
     Ok(TruthScores {
         vertex_error: vertex_error(fit, &true_v),
         pck: PCK_ALPHAS.map(|a| pck(fit, &true_v, a, w, h)),
@@ -146,6 +219,7 @@ fn truth_scores(truth: &Truth, frame: usize, model: &Model, fit: &[[f32; 2]], pi
         visible_share: true_shown.len() as f64 / true_v.len().max(1) as f64,
         true_pose_l2: l2(&true_render, picture),
         true_pose_iou: silhouette_iou(&true_render, picture),
+        split,
     })
 }
 
@@ -167,7 +241,23 @@ fn mean_scores(scores: &[FrameScores]) -> FrameScores {
         visible_share: truth_avg(&|s| s.visible_share),
         true_pose_l2: truth_avg(&|s| s.true_pose_l2),
         true_pose_iou: truth_avg(&|s| s.true_pose_iou),
+        split: mean_split(scores),
     }
+}
+
+/// Each part of the split averaged over the frames that have it.
+fn mean_split(scores: &[FrameScores]) -> Option<SplitError> {
+    let splits: Vec<SplitError> = scores.iter().filter_map(|s| s.split).collect();
+    let avg = |f: fn(&SplitError) -> Option<f64>| {
+        let v: Vec<f64> = splits.iter().filter_map(f).collect();
+        (!v.is_empty()).then(|| v.iter().sum::<f64>() / v.len() as f64)
+    };
+    (!splits.is_empty()).then(|| SplitError {
+        body: avg(|s| s.body),
+        body_visible: avg(|s| s.body_visible),
+        accessories: avg(|s| s.accessories),
+        accessories_visible: avg(|s| s.accessories_visible),
+    })
 }
 
 impl Report {
@@ -206,21 +296,27 @@ impl Report {
                 s.true_pose_iou.map_or("-".to_string(), |v| format!("{v:.4}")),
             ));
         }
-        if let Some(a) = &self.accessories {
+        if let Some(split) = &self.mean.split {
+            let px = |v: Option<f64>| v.map_or("-".to_string(), |v| format!("{v:.2}"));
             out.push_str(&format!(
-                "accessories on the fits (worst frame): {:>9} {:>7} {:>5} {:>7} {:>6} {:>5} {:>5} {:>7} {:>7}\n{:>39} {}\n",
-                "occl.kept",
-                "deepest",
-                "leaks",
-                "overlap",
-                "drift",
-                "inv",
-                "holes",
-                "seam95",
-                "stretch",
-                "",
-                a.row()
+                "vertex error, mean (px): body {} all / {} visible; accessories {} all / {} visible\n",
+                px(split.body),
+                px(split.body_visible),
+                px(split.accessories),
+                px(split.accessories_visible)
             ));
+        }
+        if let Some(a) = &self.accessories {
+            out.push_str(&format!("accessories (worst pose)  {:>6} | {}\n", "poses", Scores::header()));
+            for (name, scores, n) in [
+                ("fits", Some(&a.fits), a.poses[0]),
+                ("in-betweens", a.inbetweens.as_ref(), a.poses[1]),
+                ("drags", a.drags.as_ref(), a.poses[2]),
+            ] {
+                if let Some(s) = scores {
+                    out.push_str(&format!("  {name:<23} {n:>6} | {}\n", s.row()));
+                }
+            }
         }
         out
     }

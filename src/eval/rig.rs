@@ -12,7 +12,12 @@
 //! - **occlusion kept**: the body outline hidden under accessories' rest meshes, sampled every
 //!   pixel and carried by the edit, still covered by an accessory in front of it — the share of
 //!   samples, the deepest exposure (pixels from an uncovered sample to the nearest cover), and
-//!   leak blobs (runs of more than 4 consecutive uncovered samples along an outline);
+//!   leak blobs (runs of more than 4 consecutive uncovered samples along an outline); and
+//!   **own occlusion kept**, the same share over only the outline each accessory hides of the
+//!   body layer it follows (its DAG parent, or the body layer its parent chain ends in), covered
+//!   by those accessories: what the occlusion constraint promises. The first counts a torso
+//!   outline that a sleeve hid and uncovers when the arm swings, as the drawn truth does too;
+//!   the second does not;
 //! - **stays attached**: each accessory's overlap area with its parent after / before (overlap
 //!   retention, median over accessories), and the drift of 16 fixed anchors of the overlap
 //!   bound to both layers (mean pixels between the two places an anchor goes);
@@ -32,12 +37,14 @@ use serde::{Deserialize, Serialize};
 use crate::edit::arap_drag::arap_drag;
 use crate::edit::bind::Binding;
 use crate::error::{Error, Result};
-use crate::progress::Progress;
-use crate::puppet::rig_data::{Constraint, RigData};
+use crate::progress::{Progress, Silent};
+use crate::puppet::rig_data::{Constraint, RigData, RigEdge, RigOverrides};
 use crate::puppet::{LayerKind, Puppet};
+use crate::rig::dag::{layer_dag, DagOptions};
 use crate::rig::deform::{bind_point, deform, DeformOptions};
 use crate::rig::mask::Mask;
 use crate::rng::Rng;
+use crate::synth::{true_positions, Truth};
 use crate::user_file;
 
 /// The truth file of a character of a rig evaluation set.
@@ -113,9 +120,9 @@ pub enum Edit {
     },
 }
 
-/// A named edit.
+/// A named edit. (Unknown keys are refused by [`Edit`]: serde's `deny_unknown_fields` here
+/// would refuse every key of the flattened edit, `kind` included.)
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
 pub struct NamedEdit {
     /// Its name in the report.
     pub name: String,
@@ -213,6 +220,11 @@ pub struct Scores {
     pub deepest_exposure: f64,
     /// Runs of more than 4 px of exposed outline.
     pub leak_blobs: usize,
+    /// Share of the outline each accessory hid of the body layer it follows still covered by
+    /// those accessories (module doc).
+    pub own_occlusion_kept: f64,
+    /// Deepest exposure of that outline, pixels.
+    pub own_deepest_exposure: f64,
     /// Median over accessories of overlap area after / before.
     pub overlap_retention: f64,
     /// Mean distance between the two places each overlap anchor goes, pixels.
@@ -254,6 +266,35 @@ pub struct DagScore {
     pub wrong: Vec<(String, String, String)>,
 }
 
+/// One way of moving the accessories along a synthetic sequence's true body motion, against
+/// the accessories' true places.
+#[derive(Clone, Debug, Default, PartialEq, Serialize)]
+pub struct MotionScores {
+    /// Mean distance of the accessory vertices from their true places, pixels.
+    pub accessory_error: f64,
+    /// Mean, over frames and accessories, of the IoU of an accessory's coverage with its true
+    /// coverage.
+    pub accessory_iou: f64,
+    /// The worst of the pose scores over the frames.
+    pub scores: Scores,
+}
+
+/// A synthetic character's accessories along its sequence's true body motion.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct MotionReport {
+    /// Frames scored.
+    pub frames: usize,
+    /// The accessory rig.
+    pub rig: MotionScores,
+    /// Accessories left at rest.
+    pub unchanged: MotionScores,
+    /// Accessories stuck to the body under them.
+    pub sticker: MotionScores,
+    /// The accessories where the generator drew them: what the pose scores are for the true
+    /// motion itself (a sleeve swinging with its arm uncovers the torso outline it hid at rest).
+    pub truth: Scores,
+}
+
 /// One character's report.
 #[derive(Clone, Debug, PartialEq, Serialize)]
 pub struct CharacterReport {
@@ -267,6 +308,8 @@ pub struct CharacterReport {
     pub dag: Option<DagScore>,
     /// Per edit.
     pub edits: Vec<EditReport>,
+    /// For a synthetic sequence, along its true motion ([`evaluate_motion`]).
+    pub motion: Option<MotionReport>,
 }
 
 /// The whole set's report.
@@ -276,19 +319,52 @@ pub struct RigReport {
     pub characters: Vec<CharacterReport>,
 }
 
-/// The characters of a set: every subfolder holding `character.toml`, in name order.
+/// One character of a rig evaluation set.
+#[derive(Clone, Debug, PartialEq, Eq, PartialOrd, Ord)]
+pub struct Member {
+    /// The subfolder's name.
+    pub name: String,
+    /// The folder holding `character.toml`.
+    pub artwork: PathBuf,
+    /// For a synthetic sequence (`puppet synth --accessories`), its folder, which holds
+    /// `truth.json` and the artwork in `template/`.
+    pub sequence: Option<PathBuf>,
+}
+
+/// The characters of a set, in name order: every subfolder holding `character.toml`, or a
+/// synthetic sequence (`template/character.toml` beside `truth.json`).
 ///
 /// # Errors
 /// [`Error::Io`] if `dir` cannot be read; [`Error::Format`] if it holds no character.
-pub fn set_members(dir: &Path) -> Result<Vec<PathBuf>> {
-    let mut out: Vec<PathBuf> = std::fs::read_dir(dir)
+pub fn set_members(dir: &Path) -> Result<Vec<Member>> {
+    let mut out: Vec<Member> = std::fs::read_dir(dir)
         .map_err(|e| Error::io(dir, e))?
         .filter_map(|e| e.ok().map(|e| e.path()))
-        .filter(|p| p.join("character.toml").is_file())
+        .filter_map(|p| {
+            let name = p.file_name()?.to_string_lossy().into_owned();
+            if p.join("character.toml").is_file() {
+                Some(Member {
+                    name,
+                    artwork: p,
+                    sequence: None,
+                })
+            } else if p.join("template/character.toml").is_file() && p.join(crate::synth::truth::TRUTH_FILE).is_file() {
+                Some(Member {
+                    name,
+                    artwork: p.join("template"),
+                    sequence: Some(p),
+                })
+            } else {
+                None
+            }
+        })
         .collect();
     out.sort();
     if out.is_empty() {
-        return Err(Error::format(dir, "no character folders (subfolders with character.toml)"));
+        return Err(Error::format(
+            dir,
+            "no character folders (subfolders with character.toml, or synthetic sequences with template/ and truth.json)",
+        ));
     }
     Ok(out)
 }
@@ -308,7 +384,7 @@ pub fn evaluate_character(
         .rig
         .as_ref()
         .ok_or_else(|| Error::setting(format!("character {name:?}"), "no rig", "a character with accessory layers"))?;
-    let scene = Scene::new(puppet, rig);
+    let scene = Scene::new(puppet, &rig.edges);
     let sticker = Sticker::new(puppet);
     let rest = puppet.rest_vertices();
     let mut reports = Vec::with_capacity(edits.len());
@@ -334,17 +410,94 @@ pub fn evaluate_character(
         accessories: rig.accessories.len(),
         dag: truth.map(|t| dag_score(puppet, rig, t)),
         edits: reports,
+        motion: None,
     })
 }
 
-/// The worst of the rig's scores over whole poses of a rigged `puppet` — its body posed by
-/// anything (fits, in-betweens, drags), its accessories where the rig put them; `None` without a
-/// rig or poses.
-pub fn pose_scores(puppet: &Puppet, poses: &[Vec<[f32; 2]>]) -> Option<Scores> {
-    let rig = puppet.rig.as_ref().filter(|_| !poses.is_empty())?;
-    let scene = Scene::new(puppet, rig);
+/// Scores the rig of `puppet` (rigged, built from the template of the synthetic sequence whose
+/// ground truth is `truth`) along the sequence: in every frame the body takes its true pose, and
+/// the accessories placed by the rig, left at rest, or stuck to the body under them are compared
+/// with where the generator drew them.
+///
+/// # Errors
+/// [`Error::Setting`] if the puppet has no rig; as [`true_positions`] if a layer is not a part
+/// of the truth.
+pub fn evaluate_motion(puppet: &Puppet, truth: &Truth, progress: &dyn Progress) -> Result<MotionReport> {
+    let rig = puppet
+        .rig
+        .as_ref()
+        .ok_or_else(|| Error::setting(format!("character {:?}", truth.name), "no rig", "a character with accessory layers"))?;
+    let scene = Scene::new(puppet, &rig.edges);
+    let sticker = Sticker::new(puppet);
+    let rest = puppet.rest_vertices();
+    let accessory: Vec<usize> = scene.accessory_vertices().collect();
+    let mut sums = [[0.0f64; 2]; 3];
+    let mut scores: [Vec<Scores>; 3] = Default::default();
+    let mut truth_scores = Vec::with_capacity(truth.frames.len());
+    progress.stage("true motion", truth.frames.len() as u64);
+    for frame in 0..truth.frames.len() {
+        let true_v = true_positions(truth, frame, puppet)?;
+        let mut unchanged = true_v.clone();
+        accessory.iter().for_each(|&k| unchanged[k] = rest[k]);
+        let poses = [
+            deform(puppet, rig, &true_v, &DeformOptions::default()),
+            unchanged,
+            sticker.apply(&true_v),
+        ];
+        for (m, pose) in poses.iter().enumerate() {
+            let error = accessory.iter().map(|&k| f64::from(dist(pose[k], true_v[k]))).sum::<f64>();
+            sums[m][0] += error / accessory.len().max(1) as f64;
+            let iou = scene
+                .accessories
+                .iter()
+                .map(|&l| {
+                    let (got, want) = (scene.layer_mask(l, pose), scene.layer_mask(l, &true_v));
+                    got.and(&want).count() as f64 / got.or(&want).count().max(1) as f64
+                })
+                .sum::<f64>();
+            sums[m][1] += iou / scene.accessories.len().max(1) as f64;
+            scores[m].push(scene.score(pose));
+        }
+        truth_scores.push(scene.score(&true_v));
+        progress.advance(1);
+    }
+    let n = truth.frames.len().max(1) as f64;
+    let [rig_scores, unchanged, sticker] = [0, 1, 2].map(|m| MotionScores {
+        accessory_error: sums[m][0] / n,
+        accessory_iou: sums[m][1] / n,
+        scores: Scores::worst(&scores[m]),
+    });
+    Ok(MotionReport {
+        frames: truth.frames.len(),
+        rig: rig_scores,
+        unchanged,
+        sticker,
+        truth: Scores::worst(&truth_scores),
+    })
+}
+
+/// The worst of the rig's scores over whole poses of `puppet` — its body posed by anything
+/// (fits, in-betweens, drags), its accessories where the rig (or, on a puppet trained without
+/// one, the network) put them; `None` without accessory layers or poses. Attachments are judged
+/// against the rig's parents, or on an unrigged puppet against the parents the rig would choose
+/// (default DAG options), so both are scored the same way.
+///
+/// # Errors
+/// As [`layer_dag`] on an unrigged puppet.
+pub fn pose_scores(puppet: &Puppet, poses: &[Vec<[f32; 2]>]) -> Result<Option<Scores>> {
+    if poses.is_empty() || puppet.layers.iter().all(|l| l.kind == LayerKind::Body) {
+        return Ok(None);
+    }
+    let edges = match &puppet.rig {
+        Some(rig) => rig.edges.clone(),
+        None => {
+            let masks: Vec<Mask> = puppet.layers.iter().map(|l| Mask::of_layer(l, 0.5)).collect();
+            layer_dag(puppet, &masks, &RigOverrides::default(), &DagOptions::default(), &Silent)?
+        }
+    };
+    let scene = Scene::new(puppet, &edges);
     let scores: Vec<Scores> = poses.iter().map(|p| scene.score(p)).collect();
-    Some(Scores::worst(&scores))
+    Ok(Some(Scores::worst(&scores)))
 }
 
 /// The DAG's parents against the truth.
@@ -601,15 +754,78 @@ struct Attachment {
     anchors: Vec<(Bound, Bound)>,
 }
 
+/// A body layer's outline samples hidden at rest by a set of accessories.
+struct Hidden {
+    /// The accessories that hide them.
+    cover: Vec<usize>,
+    /// Runs of hidden samples (in outline order), each bound to the layer's rest mesh as
+    /// (triangle corners, global numbering; weights).
+    rings: Vec<Vec<Bound>>,
+    /// Samples over all runs.
+    count: usize,
+}
+
+/// How much of some hidden outline a pose keeps covered.
+struct Covered {
+    /// Share of the samples covered (1 without samples).
+    share: f64,
+    /// Deepest exposure, pixels.
+    deepest: f64,
+    /// Runs of more than 4 uncovered samples.
+    blobs: usize,
+}
+
+/// Carries each sample of `groups` by the pose (`at`) and checks it against the union of its
+/// group's accessory `masks` in that pose.
+fn covered(groups: &[Hidden], masks: &BTreeMap<usize, Mask>, at: &dyn Fn(&Bound) -> [f32; 2]) -> Covered {
+    let (mut kept, mut total, mut deepest, mut blobs) = (0usize, 0usize, 0.0f64, 0usize);
+    for group in groups {
+        total += group.count;
+        let cover = group
+            .cover
+            .iter()
+            .filter_map(|a| masks.get(a))
+            .fold(None::<Mask>, |acc, m| Some(acc.map_or_else(|| m.clone(), |u| u.or(m))));
+        let Some(cover) = cover else { continue };
+        let distance = cover.distance();
+        for ring in &group.rings {
+            let mut run = 0usize;
+            for bound in ring {
+                let q = at(bound);
+                if cover.covers(q) {
+                    kept += 1;
+                    blobs += usize::from(run > 4);
+                    run = 0;
+                } else {
+                    run += 1;
+                    let (x, y) = (q[0].floor() as i64, q[1].floor() as i64);
+                    let d = if x >= 0 && y >= 0 && x < i64::from(cover.width) && y < i64::from(cover.height) {
+                        f64::from(distance[(y as usize) * cover.width as usize + x as usize])
+                    } else {
+                        f64::INFINITY
+                    };
+                    deepest = deepest.max(d);
+                }
+            }
+            blobs += usize::from(run > 4);
+        }
+    }
+    Covered {
+        share: if total == 0 { 1.0 } else { kept as f64 / total as f64 },
+        deepest,
+        blobs,
+    }
+}
+
 /// What the metrics measure against, prepared once per character at rest.
 struct Scene<'a> {
     puppet: &'a Puppet,
     offsets: Vec<usize>,
     accessories: Vec<usize>,
-    /// Per body layer, its runs of hidden outline samples (in outline order), each sample bound
-    /// to the layer's rest mesh as (triangle corners, global numbering; weights).
-    hidden: Vec<(usize, Vec<Vec<Bound>>)>,
-    hidden_count: usize,
+    /// Per body layer, its outline hidden by the accessories in front of it.
+    hidden: Vec<Hidden>,
+    /// Per body layer, its outline hidden by the accessories that follow it.
+    own: Vec<Hidden>,
     /// Per accessory, its attachment to its first parent.
     attachments: Vec<Attachment>,
     /// Coincident seams: a child point, the parent point nearest it, their rest distance.
@@ -619,7 +835,7 @@ struct Scene<'a> {
 }
 
 impl<'a> Scene<'a> {
-    fn new(puppet: &'a Puppet, rig: &RigData) -> Self {
+    fn new(puppet: &'a Puppet, edges: &[RigEdge]) -> Self {
         let offsets = puppet.vertex_offsets();
         let masks: Vec<Mask> = puppet.layers.iter().map(|l| Mask::of_layer(l, 0.5)).collect();
         let accessories: Vec<usize> = (0..puppet.layers.len())
@@ -638,17 +854,24 @@ impl<'a> Scene<'a> {
                 (a, Mask::of_triangles(&m.vertices, &m.triangles, puppet.width, puppet.height))
             })
             .collect();
-        let mut hidden = Vec::new();
-        let mut hidden_count = 0;
-        for b in body_layers(puppet) {
-            let front: Vec<&Mask> = covering.iter().filter(|(a, _)| *a > b).map(|(_, m)| m).collect();
-            let samples = masks[b].outline(1.0);
-            let mut ring = Vec::new();
-            let mut rings = Vec::new();
-            for &s in &samples {
+        // The body layer each accessory follows, through its first parents.
+        let follows = |a: usize| {
+            let mut at = a;
+            for _ in 0..puppet.layers.len() {
+                if puppet.layers[at].kind == LayerKind::Body {
+                    return Some(at);
+                }
+                at = edges.iter().find(|e| e.child == at)?.parent;
+            }
+            None
+        };
+        let hidden_by = |b: usize, cover: Vec<usize>| {
+            let front: Vec<&Mask> = covering.iter().filter(|(a, _)| cover.contains(a)).map(|(_, m)| m).collect();
+            let (mut ring, mut rings, mut count) = (Vec::new(), Vec::new(), 0);
+            for s in masks[b].outline(1.0) {
                 if front.iter().any(|m| m.covers(s)) {
                     ring.push(bind(b, s));
-                    hidden_count += 1;
+                    count += 1;
                 } else if !ring.is_empty() {
                     rings.push(std::mem::take(&mut ring));
                 }
@@ -656,13 +879,18 @@ impl<'a> Scene<'a> {
             if !ring.is_empty() {
                 rings.push(ring);
             }
-            if !rings.is_empty() {
-                hidden.push((b, rings));
-            }
+            (count > 0).then_some(Hidden { cover, rings, count })
+        };
+        let (mut hidden, mut own) = (Vec::new(), Vec::new());
+        for b in body_layers(puppet) {
+            let front: Vec<usize> = accessories.iter().copied().filter(|&a| a > b).collect();
+            let following: Vec<usize> = front.iter().copied().filter(|&a| follows(a) == Some(b)).collect();
+            hidden.extend(hidden_by(b, front));
+            own.extend(hidden_by(b, following));
         }
         let mut attachments = Vec::new();
         let mut seams = Vec::new();
-        for e in &rig.edges {
+        for e in edges {
             let (c, p) = (e.child, e.parent);
             if !attachments.iter().any(|a: &Attachment| a.child == c) {
                 let shared = masks[c].and(&masks[p]);
@@ -700,7 +928,7 @@ impl<'a> Scene<'a> {
             offsets,
             accessories,
             hidden,
-            hidden_count,
+            own,
             attachments,
             seams,
             rest_holes,
@@ -724,37 +952,8 @@ impl<'a> Scene<'a> {
     fn score(&self, pose: &[[f32; 2]]) -> Scores {
         let at = |(tri, w): &Bound| [0, 1].map(|c| w[0] * pose[tri[0]][c] + w[1] * pose[tri[1]][c] + w[2] * pose[tri[2]][c]);
         let masks: BTreeMap<usize, Mask> = self.accessories.iter().map(|&a| (a, self.layer_mask(a, pose))).collect();
-        let (mut kept, mut deepest, mut blobs) = (0usize, 0.0f64, 0usize);
-        for (b, rings) in &self.hidden {
-            let cover = masks
-                .iter()
-                .filter(|(&a, _)| a > *b)
-                .map(|(_, m)| m)
-                .fold(None::<Mask>, |acc, m| Some(acc.map_or_else(|| m.clone(), |u| u.or(m))));
-            let Some(cover) = cover else { continue };
-            let distance = cover.distance();
-            for ring in rings {
-                let mut run = 0usize;
-                for bound in ring {
-                    let q = at(bound);
-                    if cover.covers(q) {
-                        kept += 1;
-                        blobs += usize::from(run > 4);
-                        run = 0;
-                    } else {
-                        run += 1;
-                        let (x, y) = (q[0].floor() as i64, q[1].floor() as i64);
-                        let d = if x >= 0 && y >= 0 && x < i64::from(cover.width) && y < i64::from(cover.height) {
-                            f64::from(distance[(y as usize) * cover.width as usize + x as usize])
-                        } else {
-                            f64::INFINITY
-                        };
-                        deepest = deepest.max(d);
-                    }
-                }
-                blobs += usize::from(run > 4);
-            }
-        }
+        let occlusion = covered(&self.hidden, &masks, &at);
+        let own = covered(&self.own, &masks, &at);
         let mut retention = Vec::new();
         let mut drift = Vec::new();
         for a in &self.attachments {
@@ -783,13 +982,11 @@ impl<'a> Scene<'a> {
             .map(|(a, b, rest)| f64::from((dist(at(a), at(b)) - rest).abs()))
             .collect();
         Scores {
-            occlusion_kept: if self.hidden_count == 0 {
-                1.0
-            } else {
-                kept as f64 / self.hidden_count as f64
-            },
-            deepest_exposure: deepest,
-            leak_blobs: blobs,
+            occlusion_kept: occlusion.share,
+            deepest_exposure: occlusion.deepest,
+            leak_blobs: occlusion.blobs,
+            own_occlusion_kept: own.share,
+            own_deepest_exposure: own.deepest,
             overlap_retention: median(&mut retention),
             anchor_drift: if drift.is_empty() {
                 0.0
@@ -872,6 +1069,7 @@ impl Scores {
     pub fn worst<'a>(scores: impl IntoIterator<Item = &'a Scores>) -> Self {
         let mut s = Scores {
             occlusion_kept: 1.0,
+            own_occlusion_kept: 1.0,
             overlap_retention: f64::INFINITY,
             ..Scores::default()
         };
@@ -879,6 +1077,8 @@ impl Scores {
             s.occlusion_kept = s.occlusion_kept.min(x.occlusion_kept);
             s.deepest_exposure = s.deepest_exposure.max(x.deepest_exposure);
             s.leak_blobs += x.leak_blobs;
+            s.own_occlusion_kept = s.own_occlusion_kept.min(x.own_occlusion_kept);
+            s.own_deepest_exposure = s.own_deepest_exposure.max(x.own_deepest_exposure);
             s.overlap_retention = s.overlap_retention.min(x.overlap_retention);
             s.anchor_drift = s.anchor_drift.max(x.anchor_drift);
             s.inverted += x.inverted;
@@ -895,13 +1095,23 @@ impl Scores {
         s
     }
 
+    /// The column titles of [`Scores::row`].
+    pub fn header() -> String {
+        format!(
+            "{:>9} {:>7} {:>5} {:>8} {:>8} {:>7} {:>6} {:>5} {:>5} {:>7} {:>7}",
+            "occl.kept", "deepest", "leaks", "own.kept", "own.deep", "overlap", "drift", "inv", "holes", "seam95", "stretch"
+        )
+    }
+
     /// One row of the report table.
     pub fn row(&self) -> String {
         format!(
-            "{:>8.2}% {:>7.2} {:>5} {:>7.3} {:>6.2} {:>5} {:>5} {:>7} {:>7.2}",
+            "{:>8.2}% {:>7.2} {:>5} {:>7.2}% {:>8.2} {:>7.3} {:>6.2} {:>5} {:>5} {:>7} {:>7.2}",
             100.0 * self.occlusion_kept,
             self.deepest_exposure,
             self.leak_blobs,
+            100.0 * self.own_occlusion_kept,
+            self.own_deepest_exposure,
             self.overlap_retention,
             self.anchor_drift,
             self.inverted,
@@ -923,10 +1133,7 @@ impl RigReport {
 
     /// The report as a table: per character and over the set, each way of moving accessories.
     pub fn table(&self) -> String {
-        let header = format!(
-            "{:<22} {:>9} | {:<9} {:>9} {:>7} {:>5} {:>7} {:>6} {:>5} {:>5} {:>7} {:>7}\n",
-            "character", "DAG s/l", "method", "occl.kept", "deepest", "leaks", "overlap", "drift", "inv", "holes", "seam95", "stretch"
-        );
+        let header = format!("{:<22} {:>9} | {:<9} {}\n", "character", "DAG s/l", "method", Scores::header());
         let mut out = header;
         fn method(report: &EditReport, k: usize) -> &Scores {
             match k {
@@ -958,6 +1165,50 @@ impl RigReport {
                 String::new()
             };
             out.push_str(&format!("{label:<22} {dag:>9} | {name:<9} {}\n", summary.row()));
+        }
+        let motions: Vec<(&str, &MotionReport)> = self
+            .characters
+            .iter()
+            .filter_map(|c| c.motion.as_ref().map(|m| (c.name.as_str(), m)))
+            .collect();
+        if !motions.is_empty() {
+            out.push_str(&format!(
+                "\n{:<22} {:>9} | {:<9} {:>6} {:>6} {}\n",
+                "true motion",
+                "frames",
+                "method",
+                "acc.px",
+                "IoU",
+                Scores::header()
+            ));
+            fn pick(m: &MotionReport, k: usize) -> &MotionScores {
+                match k {
+                    0 => &m.rig,
+                    1 => &m.sticker,
+                    _ => &m.unchanged,
+                }
+            }
+            for (name, m) in &motions {
+                let truth = MotionScores {
+                    accessory_error: 0.0,
+                    accessory_iou: 1.0,
+                    scores: m.truth.clone(),
+                };
+                for (k, method) in names.iter().chain(&["truth"]).enumerate() {
+                    let s = if k < names.len() { pick(m, k) } else { &truth };
+                    let (label, frames) = if k == 0 {
+                        (*name, m.frames.to_string())
+                    } else {
+                        ("", String::new())
+                    };
+                    out.push_str(&format!(
+                        "{label:<22} {frames:>9} | {method:<9} {:>6.2} {:>6.3} {}\n",
+                        s.accessory_error,
+                        s.accessory_iou,
+                        s.scores.row()
+                    ));
+                }
+            }
         }
         out
     }
@@ -993,4 +1244,19 @@ pub fn edit_sheet(puppet: &Puppet, edits: &[NamedEdit], rows: usize) -> Result<c
     }
     let refs: Vec<&crate::picture::Picture> = cells.iter().collect();
     Ok(crate::picture::contact_sheet(&refs, 3))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn an_edits_file_reads_back_the_suite_and_refuses_an_unknown_key() {
+        let path = Path::new("edits.toml");
+        let text = toml::to_string(&EditsFile { edits: default_edits() }).unwrap();
+        assert_eq!(EditsFile::parse(&text, path).unwrap(), default_edits());
+        let typo = "[[edit]]\nname = \"t\"\nkind = \"tilt\"\nlayer = \"head\"\ndegree = 12.0\n";
+        let err = EditsFile::parse(typo, path).unwrap_err().to_string();
+        assert!(err.contains("edits.toml") && err.contains("degree"), "{err}");
+    }
 }

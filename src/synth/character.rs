@@ -37,6 +37,9 @@ pub enum Role {
     Tail,
     /// Ear, child of the head.
     Ear,
+    /// Clothing or an accessory (hat, glasses, sleeve…): a layer of its own, fixed in its
+    /// parent's local frame and carried by the parent's deformation — never a joint.
+    Accessory,
 }
 
 /// Which of a pair of limbs: the one farther from the viewer or the nearer one.
@@ -84,20 +87,27 @@ pub struct Character {
 }
 
 /// Layer order back → front by name; absent optional parts are skipped.
-const Z_ORDER: [&str; 13] = [
+const Z_ORDER: [&str; 20] = [
     "tail",
     "arm_back_lower",
     "arm_back_upper",
     "leg_back_lower",
     "leg_back_upper",
     "torso",
+    "vest",
     "leg_front_lower",
     "leg_front_upper",
+    "hair_back",
     "ear_back",
     "ear_front",
     "head",
+    "freckles",
+    "glasses",
+    "hat",
     "arm_front_lower",
+    "bracelet",
     "arm_front_upper",
+    "sleeve",
 ];
 
 fn hsv(h: f32, s: f32, v: f32) -> Rgb {
@@ -190,6 +200,16 @@ struct Build {
 impl Character {
     /// Generates the character for `seed`, scaled to stand in a `width × height` frame.
     pub fn generate(seed: u64, width: u32, height: u32) -> Self {
+        Self::build(seed, width, height, false)
+    }
+
+    /// The character of [`Character::generate`] wearing accessory layers (see [`accessories`]):
+    /// the same body, scaled anew so that the hat fits in the frame too.
+    pub fn dressed(seed: u64, width: u32, height: u32) -> Self {
+        Self::build(seed, width, height, true)
+    }
+
+    fn build(seed: u64, width: u32, height: u32, dressed: bool) -> Self {
         let root = Rng::new(seed);
         let mut rng = root.fork(1);
         let pal = Palette::random(&mut rng);
@@ -372,6 +392,10 @@ impl Character {
                 });
             }
         }
+        if dressed {
+            let extra = accessories(&parts, &mut root.fork(7), b.outline_px);
+            parts.extend(extra);
+        }
         let parts = reorder(parts);
         let mut c = Character {
             name: format!("synth-{seed}"),
@@ -410,15 +434,20 @@ impl Character {
         (0..self.parts.len()).map(|i| resolve(self, i, root, delta, &mut out)).collect()
     }
 
-    /// The pivots of part `i`'s children, in its local frame.
+    /// The pivots of part `i`'s jointed children (not its accessories), in its local frame.
     pub fn child_pivots(&self, i: usize) -> Vec<[f32; 2]> {
-        self.parts.iter().filter(|p| p.parent == Some(i)).map(|p| p.pivot).collect()
+        self.parts
+            .iter()
+            .filter(|p| p.parent == Some(i) && p.role != Role::Accessory)
+            .map(|p| p.pivot)
+            .collect()
     }
 
-    /// Pairs of parts joined at a pivot (parent name, child name).
+    /// Pairs of body parts joined at a pivot (parent name, child name).
     pub fn joints(&self) -> Vec<[String; 2]> {
         self.parts
             .iter()
+            .filter(|p| p.role != Role::Accessory)
             .filter_map(|p| p.parent.map(|q| [self.parts[q].name.clone(), p.name.clone()]))
             .collect()
     }
@@ -783,6 +812,161 @@ fn head(rng: &mut Rng, pal: &Palette, b: &Build) -> (Shape, Look, [f32; 2]) {
         });
     }
     (Shape { primitives: vec![prim] }, look, c)
+}
+
+/// The accessory set of issue 13's synthetic data, each in its parent's local frame (pivot at
+/// the parent's origin, no rest turn) and sized from the parent's silhouette: a vest with a
+/// collar over the torso; back hair behind the head; freckles (several pieces in one layer),
+/// sunglasses and a hat on the head; a bracelet on the front forearm and a sleeve over the front
+/// upper arm. Each covers part of its parent's outline, so the rig has occlusion to keep.
+fn accessories(body: &[Part], rng: &mut Rng, outline_px: f32) -> Vec<Part> {
+    let index = |name: &str| body.iter().position(|p| p.name == name).expect("every character has this part");
+    let bounds = |i: usize| body[i].shape.bounds();
+    let capsule = |i: usize| match body[i].shape.primitives[0] {
+        Primitive::Capsule { b, ra, .. } => (b[1], ra),
+        _ => unreachable!("limbs are capsules"),
+    };
+    let colour = |rng: &mut Rng| hsv(rng.unit(), rng.range(0.4, 0.9), rng.range(0.35, 0.9));
+    let outline = hsv(rng.unit(), 0.5, 0.12);
+    let look = |fill: Rgb, size: f32| Look {
+        fill,
+        pattern: Pattern::Plain,
+        shadow: scale_rgb(fill, 0.78),
+        shadow_offset: [-0.3 * size, -0.2 * size],
+        features: Vec::new(),
+        outline,
+        outline_px,
+    };
+    let part = |name: &str, parent: usize, primitives: Vec<Primitive>, look: Look| Part {
+        name: name.into(),
+        role: Role::Accessory,
+        side: Side::Middle,
+        parent: Some(parent),
+        pivot: [0.0, 0.0],
+        rest_angle: 0.0,
+        shape: Shape { primitives },
+        look,
+    };
+    let (torso, head) = (index("torso"), index("head"));
+    let [tl, th] = bounds(torso);
+    let (tw, tall) = (th[0] - tl[0], th[1] - tl[1]);
+    let [hl, hh] = bounds(head);
+    let (hw, hgt) = (hh[0] - hl[0], hh[1] - hl[1]);
+    let hc = [0.5 * (hl[0] + hh[0]), 0.5 * (hl[1] + hh[1])];
+    let mut out = Vec::new();
+    let mut vest = look(colour(rng), 0.4 * tw);
+    vest.pattern = Pattern::Stripes {
+        angle: 0.0,
+        period: rng.range(5.0, 7.0),
+        width: 1.5,
+        color: lighten(vest.fill, 0.4),
+    };
+    out.push(part(
+        "vest",
+        torso,
+        vec![
+            Primitive::RoundedBox {
+                center: [0.0, tl[1] + 0.32 * tall],
+                half: [0.56 * tw, 0.3 * tall],
+                radius: 0.2 * tw,
+                angle: 0.0,
+            },
+            // The collar, along the neckline.
+            Primitive::Superellipse {
+                center: [0.1 * tw, tl[1] + 0.03 * tall],
+                radii: [0.32 * tw, 0.09 * tall],
+                exponent: 2.0,
+                angle: 0.0,
+            },
+        ],
+        vest,
+    ));
+    out.push(part(
+        "hair_back",
+        head,
+        vec![Primitive::Superellipse {
+            center: [hc[0] - 0.22 * hw, hc[1] + 0.05 * hgt],
+            radii: [0.48 * hw, 0.56 * hgt],
+            exponent: 2.2,
+            angle: rng.range(-0.2, 0.1),
+        }],
+        look(hsv(rng.range(0.0, 0.12), rng.range(0.4, 0.9), rng.range(0.15, 0.6)), 0.3 * hw),
+    ));
+    // Four specks on the far cheek, apart from each other: one layer of four pieces.
+    let speck = 0.04 * hw;
+    let freckles = (0..4)
+        .map(|k| Primitive::Superellipse {
+            center: [
+                hc[0] + (0.26 + 0.1 * (k / 2) as f32 + 0.05 * (k % 2) as f32) * hw,
+                hc[1] + (0.1 + 0.09 * (k % 2) as f32) * hgt,
+            ],
+            radii: [speck, speck],
+            exponent: 2.0,
+            angle: 0.0,
+        })
+        .collect();
+    let mut freckle_look = look([0.6, 0.35, 0.25], speck);
+    freckle_look.outline_px = 0.0;
+    out.push(part("freckles", head, freckles, freckle_look));
+    let lens = |x: f32| Primitive::Superellipse {
+        center: [hc[0] + x * hw, hc[1] - 0.04 * hgt],
+        radii: [0.13 * hw, 0.11 * hgt],
+        exponent: 2.6,
+        angle: 0.0,
+    };
+    out.push(part(
+        "glasses",
+        head,
+        vec![
+            lens(0.06),
+            lens(0.3),
+            Primitive::Capsule {
+                a: [hc[0] + 0.06 * hw, hc[1] - 0.06 * hgt],
+                b: [hc[0] + 0.3 * hw, hc[1] - 0.06 * hgt],
+                ra: 0.03 * hgt,
+                rb: 0.03 * hgt,
+            },
+        ],
+        look([0.1, 0.1, 0.14], 0.1 * hw),
+    ));
+    out.push(part(
+        "hat",
+        head,
+        vec![
+            Primitive::RoundedBox {
+                center: [hc[0] - 0.02 * hw, hl[1] + 0.02 * hgt],
+                half: [0.36 * hw, 0.2 * hgt],
+                radius: 0.1 * hw,
+                angle: 0.0,
+            },
+            Primitive::RoundedBox {
+                center: [hc[0] + 0.05 * hw, hl[1] + 0.22 * hgt],
+                half: [0.6 * hw, 0.06 * hgt],
+                radius: 0.05 * hgt,
+                angle: 0.0,
+            },
+        ],
+        look(colour(rng), 0.3 * hw),
+    ));
+    // A band around a limb, centred `at` along its bone and `half` long either way (fractions
+    // of the bone), `width` times the limb's radius either side, corners rounded by `corner`
+    // radii.
+    let band = |name: &str, limb: &str, [at, half]: [f32; 2], [width, corner]: [f32; 2], fill: Rgb| {
+        let i = index(limb);
+        let (len, r) = capsule(i);
+        let shape = Primitive::RoundedBox {
+            center: [0.0, at * len],
+            half: [width * r, half * len],
+            radius: corner * r,
+            angle: 0.0,
+        };
+        part(name, i, vec![shape], look(fill, r))
+    };
+    out.push(band("bracelet", "arm_front_lower", [0.78, 0.14], [1.05, 0.3], lighten(colour(rng), 0.3)));
+    // Below the shoulder and hardly wider than the arm, so that it lies on the arm about as much
+    // as on the vest behind it (the DAG then takes the arm, nearer in z-order).
+    out.push(band("sleeve", "arm_front_upper", [0.42, 0.26], [1.08, 0.5], colour(rng)));
+    out
 }
 
 /// Sorts parts into [`Z_ORDER`], remapping parent indices.

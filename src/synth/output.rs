@@ -5,6 +5,7 @@
 
 use std::path::{Path, PathBuf};
 
+use super::character::Role;
 use super::labels::label_picture;
 use super::sequence::{frame_name, Sequence};
 use super::truth::SheetLayout;
@@ -27,8 +28,10 @@ pub struct Written {
 }
 
 /// Writes the template artwork: `dir/character.toml` and `dir/<layer>.png`, layers back to
-/// front, every layer a body part, the torso the root, joints listed explicitly (parent and
-/// child of every pivot) so that layers that merely touch at rest are not joined.
+/// front, the torso the root, joints listed explicitly (parent and child of every pivot) so that
+/// layers that merely touch at rest are not joined. Accessory parts are `kind = "accessory"`
+/// layers, and `dir/rig_truth.json` (`{"attach_to": {accessory: parent}}`, what `puppet
+/// eval-rig` scores a rig's layer DAG against) names the part each one follows.
 ///
 /// # Errors
 /// [`Error::Io`] or [`Error::Image`] naming the file.
@@ -39,10 +42,27 @@ pub fn write_template(seq: &Sequence, dir: &Path) -> Result<PathBuf> {
         toml.push_str(&format!("  [{a:?}, {b:?}],\n"));
     }
     toml.push_str("]\n");
+    let mut attach_to = std::collections::BTreeMap::new();
     for (part, layer) in seq.character.parts.iter().zip(&seq.template) {
         let file = format!("{}.png", part.name);
         layer.save_png(&dir.join(&file))?;
-        toml.push_str(&format!("\n[[layer]]\nname = {:?}\nkind = \"body\"\nfile = {file:?}\n", part.name));
+        let kind = if part.role == Role::Accessory {
+            if let Some(parent) = part.parent {
+                attach_to.insert(part.name.clone(), seq.character.parts[parent].name.clone());
+            }
+            "accessory"
+        } else {
+            "body"
+        };
+        toml.push_str(&format!(
+            "\n[[layer]]\nname = {:?}\nkind = \"{kind}\"\nfile = {file:?}\n",
+            part.name
+        ));
+    }
+    if !attach_to.is_empty() {
+        let path = dir.join("rig_truth.json");
+        let text = serde_json::json!({ "attach_to": attach_to }).to_string();
+        write_atomic(&path, text.as_bytes())?;
     }
     let path = dir.join("character.toml");
     write_atomic(&path, toml.as_bytes())?;

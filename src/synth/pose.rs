@@ -147,7 +147,7 @@ impl Animator {
                         Role::Head => 0.05 * libm::sinf(2.0 * phi),
                         Role::Tail => 0.35 * libm::sinf(phi),
                         Role::Ear => 0.15 * libm::sinf(2.0 * phi + 1.0),
-                        Role::Torso => 0.0,
+                        Role::Torso | Role::Accessory => 0.0,
                     };
                 }
             }
@@ -189,7 +189,7 @@ impl Animator {
                         Role::Head => -0.1 * crouch + 0.1 * air,
                         Role::Tail => 0.6 * air,
                         Role::Ear => 0.5 * air,
-                        Role::Torso => 0.0,
+                        Role::Torso | Role::Accessory => 0.0,
                     };
                 }
             }
@@ -202,7 +202,11 @@ impl Animator {
                 scale *= rng.range(0.92, 1.06);
                 for (i, part) in character.parts.iter().enumerate() {
                     let range = if part.role == Role::Head { 0.15 * PI } else { 0.3 * PI };
-                    delta[i] = if part.role == Role::Torso { 0.0 } else { rng.range(-range, range) };
+                    delta[i] = if matches!(part.role, Role::Torso | Role::Accessory) {
+                        0.0
+                    } else {
+                        rng.range(-range, range)
+                    };
                 }
             }
         }

@@ -2,7 +2,7 @@
 //! every frame drawn from the posed, deformed and wobbling shapes, with the ground truth that
 //! relates them (issue 4 items 2–4).
 
-use super::character::Character;
+use super::character::{Character, Role};
 use super::deformation::Grid;
 use super::draw::{draw, draw_part, Drawing, Placed};
 use super::labels::label_hex;
@@ -44,6 +44,8 @@ pub struct SynthOptions {
     pub deform_sigma: f32,
     /// Per-frame line wobble amplitude, pixels (0: none).
     pub wobble: f32,
+    /// Dress the character in accessory layers ([`Character::dressed`]).
+    pub accessories: bool,
 }
 
 impl Default for SynthOptions {
@@ -56,6 +58,7 @@ impl Default for SynthOptions {
             motion: Motion::Walk,
             deform_sigma: 0.02,
             wobble: 0.35,
+            accessories: false,
         }
     }
 }
@@ -126,7 +129,11 @@ pub fn frame_name(prefix: &str, t: usize, n: usize) -> String {
 pub fn generate(opts: &SynthOptions, progress: &dyn Progress) -> Result<Sequence> {
     opts.validate()?;
     let (w, h) = (opts.width, opts.height);
-    let character = Character::generate(opts.seed, w, h);
+    let character = if opts.accessories {
+        Character::dressed(opts.seed, w, h)
+    } else {
+        Character::generate(opts.seed, w, h)
+    };
     let n = character.parts.len();
     let k = character.rest_root.scale(); // rest-frame pixels per local unit
                                          // Grids: 3 px of margin (anti-aliasing and wobble stay inside), cells of ≤ 3.5 % of the
@@ -137,14 +144,19 @@ pub fn generate(opts: &SynthOptions, progress: &dyn Progress) -> Result<Sequence
         .map(|p| Grid::covering(p.shape.bounds(), 3.0 / k, 0.035 * w.min(h) as f32 / k))
         .collect();
     let root_rng = Rng::new(opts.seed);
-    let mut deformers = Vec::new();
+    // One deformer per body part; accessories are carried by their parent's deformation.
+    let mut deformers: Vec<Option<PartArap>> = Vec::new();
     if opts.deform_sigma > 0.0 {
         let mut rng = root_rng.fork(4);
         for (i, part) in character.parts.iter().enumerate() {
+            if part.role == Role::Accessory {
+                deformers.push(None);
+                continue;
+            }
             let mut pins = vec![[0.0, 0.0]];
             pins.extend(character.child_pivots(i));
             let free = if part.parent.is_none() || part.name == "head" { 2 } else { 1 };
-            deformers.push(PartArap::new(&grids[i], &part.shape, &pins, free, &mut rng)?);
+            deformers.push(Some(PartArap::new(&grids[i], &part.shape, &pins, free, &mut rng)?));
         }
     }
     let rest_world = character.world_transforms(&character.rest_root, &vec![0.0; n]);
@@ -171,12 +183,13 @@ pub fn generate(opts: &SynthOptions, progress: &dyn Progress) -> Result<Sequence
         let pose = animator.pose(&character, t);
         let world = character.world_transforms(&pose.root, &pose.delta);
         let mut rng = root_rng.fork(1000 + t as u64);
-        let deformed: Vec<Option<Vec<[f32; 2]>>> = deformers
+        let mut deformed: Vec<Option<Vec<[f32; 2]>>> = deformers
             .iter_mut()
-            .map(|d| Some(d.deform(sigma, pose.phase, &mut rng)))
+            .map(|d| d.as_mut().map(|d| d.deform(sigma, pose.phase, &mut rng)))
             .chain(std::iter::repeat(None))
             .take(n)
             .collect();
+        carry_accessories(&character, &grids, &mut deformed);
         let wobbles: Vec<Wobble> = (0..n).map(|_| wobble(&mut rng, opts.wobble)).collect();
         let placed: Vec<Placed> = (0..n)
             .map(|i| Placed {
@@ -229,6 +242,19 @@ pub fn generate(opts: &SynthOptions, progress: &dyn Progress) -> Result<Sequence
         frames,
         truth,
     })
+}
+
+/// Gives every accessory its parent's deformation: the parent's grid map (extended linearly
+/// beyond the parent's grid) evaluated at the accessory's grid vertices — both grids are in the
+/// parent's local frame, the accessory's pivot being the parent's origin.
+fn carry_accessories(character: &Character, grids: &[Grid], deformed: &mut [Option<Vec<[f32; 2]>>]) {
+    for (i, part) in character.parts.iter().enumerate() {
+        if let (Role::Accessory, Some(parent)) = (part.role, part.parent) {
+            deformed[i] = deformed[parent]
+                .as_ref()
+                .map(|d| grids[i].vertices().iter().map(|&v| grids[parent].map(d, v)).collect());
+        }
+    }
 }
 
 /// A fresh wobble: two silhouette waves and one width wave, wavelengths 8–16 local units in
