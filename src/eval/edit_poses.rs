@@ -14,13 +14,13 @@ use crate::puppet::LayerKind;
 use crate::rng::Rng;
 
 /// Where the in-betweens of each pair of consecutive frames are taken.
-const INBETWEEN_T: [f32; 3] = [0.25, 0.5, 0.75];
+pub const INBETWEEN_T: [f32; 3] = [0.25, 0.5, 0.75];
 
 /// Frames of each drag (the pins move along a straight line to their targets).
-const DRAG_FRAMES: usize = 4;
+pub const DRAG_FRAMES: usize = 4;
 
 /// How far each pin is dragged, as a fraction of the larger frame side.
-const DRAG_REACH: f32 = 0.08;
+pub const DRAG_REACH: f32 = 0.08;
 
 /// Latent in-betweens of every pair of consecutive `frames` at t = ¼, ½, ¾ (frame pixels).
 ///

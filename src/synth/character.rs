@@ -203,7 +203,8 @@ impl Character {
         Self::build(seed, width, height, false)
     }
 
-    /// The character of [`Character::generate`] wearing accessory layers (see [`accessories`]):
+    /// The character of [`Character::generate`] wearing seven accessory layers (a vest, back hair,
+    /// freckles, sunglasses, a hat, a bracelet and a sleeve, each fixed in its parent part's frame):
     /// the same body, scaled anew so that the hat fits in the frame too.
     pub fn dressed(seed: u64, width: u32, height: u32) -> Self {
         Self::build(seed, width, height, true)
@@ -962,7 +963,13 @@ fn accessories(body: &[Part], rng: &mut Rng, outline_px: f32) -> Vec<Part> {
         };
         part(name, i, vec![shape], look(fill, r))
     };
-    out.push(band("bracelet", "arm_front_lower", [0.78, 0.14], [1.05, 0.3], lighten(colour(rng), 0.3)));
+    out.push(band(
+        "bracelet",
+        "arm_front_lower",
+        [0.78, 0.14],
+        [1.05, 0.3],
+        lighten(colour(rng), 0.3),
+    ));
     // Below the shoulder and hardly wider than the arm, so that it lies on the arm about as much
     // as on the vest behind it (the DAG then takes the arm, nearer in z-order).
     out.push(band("sleeve", "arm_front_upper", [0.42, 0.26], [1.08, 0.5], colour(rng)));
