@@ -46,6 +46,46 @@ fn s(p: &Path) -> &str {
     p.to_str().unwrap()
 }
 
+/// `puppet eval` of a dressed model on a dressed synthetic sequence reports the body's and the
+/// accessories' vertex errors apart, and scores the accessories on the fits, on in-betweens of
+/// consecutive frames and on drags.
+#[test]
+fn eval_of_a_dressed_synthetic_sequence_splits_body_and_accessory_errors() {
+    let tmp = tempfile::tempdir().unwrap();
+    let seq = tmp.path().join("seq");
+    puppet(
+        tmp.path(),
+        &[
+            "synth",
+            "--accessories",
+            "--seed",
+            "5",
+            "--frames",
+            "3",
+            "--size",
+            "64x64",
+            "-o",
+            s(&seq),
+        ],
+    )
+    .assert_ok();
+    let (model, _, _) = setup_with(tmp.path(), seq.join("template"));
+    let run = puppet(tmp.path(), &["eval", "--model", s(&model), s(&seq), "--one-pass", "-o", "r.json"]);
+    run.assert_ok();
+    assert!(run.stdout.contains("vertex error, mean (px): body"), "{}", run.stdout);
+    let json: serde_json::Value = serde_json::from_slice(&std::fs::read(tmp.path().join("r.json")).unwrap()).unwrap();
+    let split = &json["mean"]["split"];
+    for key in ["body", "body_visible", "accessories", "accessories_visible"] {
+        assert!(split[key].as_f64().is_some_and(f64::is_finite), "{key}: {split}");
+    }
+    let accessories = &json["accessories"];
+    assert_eq!(accessories["poses"], serde_json::json!([3, 6, 12]), "{accessories}");
+    for kind in ["fits", "inbetweens", "drags"] {
+        let kept = accessories[kind]["occlusion_kept"].as_f64().unwrap();
+        assert!((0.0..=1.0).contains(&kept), "{kind}: {kept}");
+    }
+}
+
 #[test]
 fn inbetween_writes_steps_sheets_and_a_gif() {
     let tmp = tempfile::tempdir().unwrap();
