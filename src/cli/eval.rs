@@ -15,6 +15,9 @@ use super::Session;
 
 /// Score a trained model: fit each held-out frame, render it, and report L2, masked RMSE and
 /// silhouette IoU (plus vertex error and PCK@0.1/0.05/0.025 where the sequence has truth.json).
+/// For a puppet with accessories: vertex error of body and accessories apart, and how the
+/// accessories keep hidden what they hid and stay attached on the fits, on in-betweens of
+/// consecutive frames and on seeded drags.
 /// Frames that cannot be read are named and the rest scored; the command then exits with
 /// status 1.
 #[derive(Debug, clap::Args)]
