@@ -149,7 +149,7 @@ pub fn evaluate(
         });
     }
     let mean = mean_scores(&scores);
-    let accessories = match pose_scores(&model.puppet, &fits)? {
+    let accessories = match pose_scores(&model.puppet, &fits, progress) {
         Some(on_fits) => {
             progress.stage("in-betweens and drags", 1);
             let inbetweens = inbetween_poses(model, &pictures, options, device)?;
@@ -157,8 +157,8 @@ pub fn evaluate(
             progress.advance(1);
             Some(AccessoryScores {
                 fits: on_fits,
-                inbetweens: pose_scores(&model.puppet, &inbetweens)?,
-                drags: pose_scores(&model.puppet, &drags)?,
+                inbetweens: pose_scores(&model.puppet, &inbetweens, progress),
+                drags: pose_scores(&model.puppet, &drags, progress),
                 poses: [fits.len(), inbetweens.len(), drags.len()],
             })
         }

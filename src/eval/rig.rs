@@ -480,24 +480,28 @@ pub fn evaluate_motion(puppet: &Puppet, truth: &Truth, progress: &dyn Progress) 
 /// (fits, in-betweens, drags), its accessories where the rig (or, on a puppet trained without
 /// one, the network) put them; `None` without accessory layers or poses. Attachments are judged
 /// against the rig's parents, or on an unrigged puppet against the parents the rig would choose
-/// (default DAG options), so both are scored the same way.
-///
-/// # Errors
-/// As [`layer_dag`] on an unrigged puppet.
-pub fn pose_scores(puppet: &Puppet, poses: &[Vec<[f32; 2]>]) -> Result<Option<Scores>> {
+/// (default DAG options), so both are scored the same way; an unrigged puppet whose DAG cannot
+/// be built (an accessory far from every layer) is not scored, with a warning saying why.
+pub fn pose_scores(puppet: &Puppet, poses: &[Vec<[f32; 2]>], progress: &dyn Progress) -> Option<Scores> {
     if poses.is_empty() || puppet.layers.iter().all(|l| l.kind == LayerKind::Body) {
-        return Ok(None);
+        return None;
     }
     let edges = match &puppet.rig {
         Some(rig) => rig.edges.clone(),
         None => {
             let masks: Vec<Mask> = puppet.layers.iter().map(|l| Mask::of_layer(l, 0.5)).collect();
-            layer_dag(puppet, &masks, &RigOverrides::default(), &DagOptions::default(), &Silent)?
+            match layer_dag(puppet, &masks, &RigOverrides::default(), &DagOptions::default(), &Silent) {
+                Ok(edges) => edges,
+                Err(e) => {
+                    progress.warn(&format!("accessories not scored: {e}"));
+                    return None;
+                }
+            }
         }
     };
     let scene = Scene::new(puppet, &edges);
     let scores: Vec<Scores> = poses.iter().map(|p| scene.score(p)).collect();
-    Ok(Some(Scores::worst(&scores)))
+    Some(Scores::worst(&scores))
 }
 
 /// The DAG's parents against the truth.
@@ -1249,6 +1253,37 @@ pub fn edit_sheet(puppet: &Puppet, edits: &[NamedEdit], rows: usize) -> Result<c
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn an_unrigged_dressed_puppet_is_scored_against_the_dag_the_rig_would_choose_or_warned_about() {
+        use crate::progress::Recorder;
+        use crate::test_util::{layered_puppet, rect_layer, stripes};
+        let mut p = layered_puppet();
+        let arm = p.layer_index("arm_front").unwrap();
+        p.layers[arm].kind = LayerKind::Accessory;
+        let rest = p.rest_vertices();
+        let recorder = Recorder::default();
+        let at_rest = pose_scores(&p, std::slice::from_ref(&rest), &recorder).expect("scored");
+        assert_eq!(at_rest.occlusion_kept, 1.0, "{at_rest:?}");
+        // The sleeve moved 6 px off the torso: outline it hid is uncovered.
+        let offsets = p.vertex_offsets();
+        let mut moved = rest;
+        for v in &mut moved[offsets[arm]..offsets[arm + 1]] {
+            v[1] += 6.0;
+        }
+        let off = pose_scores(&p, &[moved], &recorder).expect("scored");
+        assert!(off.occlusion_kept < 0.9 && off.deepest_exposure >= 2.0, "{off:?}");
+        assert!(recorder.warnings().is_empty(), "{:?}", recorder.warnings());
+        // A patch far from every layer: no DAG, so no scores — and a warning naming it.
+        let mut far = rect_layer("patch", (p.width, p.height), [0.0, 37.0, 3.0, 40.0], (1, 1), stripes([0.5; 3], 4.0));
+        far.kind = LayerKind::Accessory;
+        let mut p = layered_puppet();
+        p.layers.push(far);
+        let rest = p.rest_vertices();
+        assert!(pose_scores(&p, &[rest], &recorder).is_none());
+        let warnings = recorder.warnings();
+        assert!(warnings.len() == 1 && warnings[0].contains("patch"), "{warnings:?}");
+    }
 
     #[test]
     fn an_edits_file_reads_back_the_suite_and_refuses_an_unknown_key() {
