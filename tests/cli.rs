@@ -261,9 +261,24 @@ fn eval_rig_scores_a_dressed_synthetic_sequence_along_its_true_motion() {
         "[[edit]]\nname = \"tilt\"\nkind = \"tilt\"\nlayer = \"head\"\ndegrees = 12.0\n",
     )
     .unwrap();
-    let eval = puppet(tmp.path(), &["eval-rig", "set", "--edits", "edits.toml", "-o", "report.json"]);
+    let eval = puppet(
+        tmp.path(),
+        &[
+            "eval-rig",
+            "set",
+            "--edits",
+            "edits.toml",
+            "-o",
+            "report.json",
+            "--pictures",
+            "pics",
+        ],
+    );
     eval.assert_ok();
     assert!(eval.stdout.contains("true motion"), "{}", eval.stdout);
+    let sheet = puppet::picture::Picture::load(&tmp.path().join("pics/dressed_motion.png")).unwrap();
+    // Four columns (rig, truth, sticker, unchanged) and six frames of 128² drawn at 2×, 2 px apart.
+    assert_eq!((sheet.width, sheet.height), (4 * 256 + 5 * 2, 6 * 256 + 7 * 2));
     let json: serde_json::Value = serde_json::from_slice(&std::fs::read(tmp.path().join("report.json")).unwrap()).unwrap();
     let c = &json["characters"][0];
     assert_eq!(c["dag"]["judged"].as_u64(), Some(7), "{}", c["dag"]);

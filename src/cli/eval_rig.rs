@@ -4,7 +4,7 @@
 use std::path::PathBuf;
 
 use puppet::eval::rig::{
-    default_edits, edit_sheet, evaluate_character, evaluate_motion, set_members, EditsFile, RigReport, RigTruth, TRUTH_FILE,
+    default_edits, edit_sheet, evaluate_character, evaluate_motion, motion_sheet, set_members, EditsFile, RigReport, RigTruth, TRUTH_FILE,
 };
 use puppet::progress::Progress;
 use puppet::puppet::{artwork, build};
@@ -33,7 +33,9 @@ pub struct EvalRigArgs {
     /// Also write the report as JSON here.
     #[arg(short, long, value_name = "FILE")]
     pub output: Option<PathBuf>,
-    /// Also write, per character, a picture of the first edits (rig | sticker | unchanged).
+    /// Also write, per character, a picture of the first edits (rig | sticker | unchanged), and
+    /// for a synthetic sequence NAME_motion.png: six of its frames (rig | truth | sticker |
+    /// unchanged).
     #[arg(long, value_name = "DIR")]
     pub pictures: Option<PathBuf>,
 }
@@ -66,6 +68,9 @@ pub fn run(args: EvalRigArgs, s: &Session) -> anyhow::Result<()> {
             if let Some(sequence) = &member.sequence {
                 let truth = Truth::load(&sequence.join(puppet::synth::truth::TRUTH_FILE))?;
                 report.motion = Some(evaluate_motion(&puppet, &truth, &s.ui)?);
+                if let Some(pictures) = &args.pictures {
+                    s.save_png(&pictures.join(format!("{name}_motion.png")), &motion_sheet(&puppet, &truth, 6)?)?;
+                }
             }
             if let Some(pictures) = &args.pictures {
                 s.save_png(&pictures.join(format!("{name}.png")), &edit_sheet(&puppet, &edits, 6)?)?;

@@ -428,22 +428,15 @@ pub fn evaluate_motion(puppet: &Puppet, truth: &Truth, progress: &dyn Progress) 
         .as_ref()
         .ok_or_else(|| Error::setting(format!("character {:?}", truth.name), "no rig", "a character with accessory layers"))?;
     let scene = Scene::new(puppet, &rig.edges);
-    let sticker = Sticker::new(puppet);
-    let rest = puppet.rest_vertices();
+    let motion = Motion::new(puppet, rig, truth);
     let accessory: Vec<usize> = scene.accessory_vertices().collect();
     let mut sums = [[0.0f64; 2]; 3];
     let mut scores: [Vec<Scores>; 3] = Default::default();
     let mut truth_scores = Vec::with_capacity(truth.frames.len());
     progress.stage("true motion", truth.frames.len() as u64);
     for frame in 0..truth.frames.len() {
-        let true_v = true_positions(truth, frame, puppet)?;
-        let mut unchanged = true_v.clone();
-        accessory.iter().for_each(|&k| unchanged[k] = rest[k]);
-        let poses = [
-            deform(puppet, rig, &true_v, &DeformOptions::default()),
-            unchanged,
-            sticker.apply(&true_v),
-        ];
+        let [rigged, unchanged, stuck, true_v] = motion.poses(frame)?;
+        let poses = [rigged, unchanged, stuck];
         for (m, pose) in poses.iter().enumerate() {
             let error = accessory.iter().map(|&k| f64::from(dist(pose[k], true_v[k]))).sum::<f64>();
             sums[m][0] += error / accessory.len().max(1) as f64;
@@ -502,6 +495,73 @@ pub fn pose_scores(puppet: &Puppet, poses: &[Vec<[f32; 2]>], progress: &dyn Prog
     let scene = Scene::new(puppet, &edges);
     let scores: Vec<Scores> = poses.iter().map(|p| scene.score(p)).collect();
     Some(Scores::worst(&scores))
+}
+
+/// A synthetic sequence's frames posed four ways: the body at its true pose, the accessories
+/// placed by the rig, left at rest, stuck to the body under them, and at their true places.
+struct Motion<'a> {
+    puppet: &'a Puppet,
+    rig: &'a RigData,
+    truth: &'a Truth,
+    sticker: Sticker,
+    rest: Vec<[f32; 2]>,
+    accessory_vertices: Vec<usize>,
+}
+
+impl<'a> Motion<'a> {
+    fn new(puppet: &'a Puppet, rig: &'a RigData, truth: &'a Truth) -> Self {
+        let offsets = puppet.vertex_offsets();
+        Motion {
+            puppet,
+            rig,
+            truth,
+            sticker: Sticker::new(puppet),
+            rest: puppet.rest_vertices(),
+            accessory_vertices: (0..puppet.layers.len())
+                .filter(|&l| puppet.layers[l].kind == LayerKind::Accessory)
+                .flat_map(|l| offsets[l]..offsets[l + 1])
+                .collect(),
+        }
+    }
+
+    /// Frame `frame` as [rig, unchanged, sticker, truth].
+    fn poses(&self, frame: usize) -> Result<[Vec<[f32; 2]>; 4]> {
+        let true_v = true_positions(self.truth, frame, self.puppet)?;
+        let mut unchanged = true_v.clone();
+        self.accessory_vertices.iter().for_each(|&k| unchanged[k] = self.rest[k]);
+        Ok([
+            deform(self.puppet, self.rig, &true_v, &DeformOptions::default()),
+            unchanged,
+            self.sticker.apply(&true_v),
+            true_v,
+        ])
+    }
+}
+
+/// A picture of `puppet` (rigged, from the template of the sequence `truth` describes) along the
+/// true motion: `rows` frames spread over the sequence, each drawn with the accessories placed
+/// by the rig | where the generator drew them | stuck to the body | left at rest.
+///
+/// # Errors
+/// [`Error::Setting`] without a rig; as [`true_positions`]; render errors.
+pub fn motion_sheet(puppet: &Puppet, truth: &Truth, rows: usize) -> Result<crate::picture::Picture> {
+    let rig = puppet
+        .rig
+        .as_ref()
+        .ok_or_else(|| Error::setting("motion sheet", "a puppet without a rig", "a rigged puppet"))?;
+    let motion = Motion::new(puppet, rig, truth);
+    let scale = (256 / puppet.width.max(puppet.height)).clamp(1, 4);
+    let n = truth.frames.len();
+    let rows = rows.min(n).max(1);
+    let mut cells = Vec::new();
+    for r in 0..rows {
+        let [rigged, unchanged, stuck, true_v] = motion.poses(r * n / rows)?;
+        for pose in [rigged, true_v, stuck, unchanged] {
+            cells.push(crate::render::render_crisp(puppet, &pose, puppet.width, puppet.height)?.upscaled_on_white(scale));
+        }
+    }
+    let refs: Vec<&crate::picture::Picture> = cells.iter().collect();
+    Ok(crate::picture::contact_sheet(&refs, 4))
 }
 
 /// The DAG's parents against the truth.
