@@ -1,5 +1,5 @@
 //! Arguments several commands share, declared once and flattened into each (STYLE.md §1): the
-//! model folder, how frames are fitted, sizes, pins and colours.
+//! model folder, how frames are fitted, how animations are written, sizes, pins and colours.
 
 use std::path::{Path, PathBuf};
 
@@ -7,6 +7,8 @@ use anyhow::Context as _;
 use puppet::edit::pose::Pin;
 use puppet::model::Model;
 use puppet::puppet::{artwork, build::BuildOptions, LayerKind};
+use puppet::render::animation::AnimationFiles;
+use puppet::render::Background;
 use puppet::rig::outfit::{dress, undress};
 use puppet::rig::RigOptions;
 
@@ -153,6 +155,56 @@ pub fn parse_pin(s: &str) -> Result<Pin, String> {
     })
 }
 
+/// How the frames a command makes are played and on what: shared by every command that writes
+/// an animation.
+#[derive(Debug, clap::Args)]
+pub struct AnimationArgs {
+    /// Also write an animated GIF (1-bit alpha: on a transparent background, pixels of alpha
+    /// ≥ ½ are drawn in their own colour, the rest are transparent).
+    #[arg(long, value_name = "FILE")]
+    pub gif: Option<PathBuf>,
+    /// Also write an animated PNG (APNG: full alpha, played by browsers and engines).
+    #[arg(long, value_name = "FILE")]
+    pub apng: Option<PathBuf>,
+    /// Frame time of the animations and sprite-sheet atlases, in milliseconds.
+    #[arg(long, default_value_t = 80, value_name = "MS", value_parser = clap::value_parser!(u32).range(1..=65535))]
+    pub delay: u32,
+    /// What every frame written is drawn on: `transparent`, or an opaque colour #RRGGBB.
+    #[arg(long, default_value = "transparent", value_parser = parse_background, value_name = "transparent|#RRGGBB")]
+    pub background: Background,
+}
+
+impl AnimationArgs {
+    /// The animation files these arguments ask for, playing there and back if `there_and_back`
+    /// (frames and sprites are left to the command).
+    pub fn files(&self, there_and_back: bool) -> AnimationFiles {
+        AnimationFiles {
+            gif: self.gif.clone(),
+            apng: self.apng.clone(),
+            delay_ms: self.delay,
+            background: self.background,
+            there_and_back,
+            ..AnimationFiles::default()
+        }
+    }
+
+    /// The animated files asked for, to name in a report.
+    pub fn animations(&self) -> Vec<&Path> {
+        self.gif.iter().chain(&self.apng).map(PathBuf::as_path).collect()
+    }
+}
+
+/// Parses `transparent` or `#rrggbb`.
+pub fn parse_background(s: &str) -> Result<Background, String> {
+    if s.eq_ignore_ascii_case("transparent") {
+        Ok(Background::Transparent)
+    } else {
+        parse_colour(s)
+            .map(Background::Colour)
+            .map_err(|e| format!("{e} (or \"transparent\")"))
+    }
+}
+
 /// Parses `#rrggbb` into RGB in [0, 1].
 pub fn parse_colour(s: &str) -> Result<[f32; 3], String> {
     puppet::puppet::character::parse_color(s)
@@ -187,6 +239,9 @@ mod tests {
         }
         assert_eq!(parse_colour("#ff0000"), Ok([1.0, 0.0, 0.0]));
         assert!(parse_colour("red").is_err());
+        assert_eq!(parse_background("Transparent"), Ok(Background::Transparent));
+        assert_eq!(parse_background("#000000"), Ok(Background::Colour([0.0; 3])));
+        assert!(parse_background("none").unwrap_err().contains("transparent"));
         assert!(positive_f32("0").is_err() && positive_f32("inf").is_err() && positive_f32("2.5") == Ok(2.5));
     }
 }

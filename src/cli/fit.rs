@@ -9,10 +9,11 @@ use puppet::picture::{contact_sheet, Picture};
 use puppet::progress::Progress;
 use puppet::puppet::pose_file::PoseFile;
 use puppet::puppet::sequence::Frames;
+use puppet::render::animation::{AnimationFiles, AnimationWriter};
 use puppet::render::preview::wireframe_preview;
-use puppet::render::render_crisp;
+use puppet::render::render_pose;
 
-use super::args::{FitArgs as FitOptionArgs, ModelArgs, OutfitArgs};
+use super::args::{AnimationArgs, FitArgs as FitOptionArgs, ModelArgs, OutfitArgs};
 use super::Session;
 
 /// The most frames sheet.png shows (evenly sampled when more are fitted).
@@ -20,7 +21,9 @@ const SHEET_ROWS: usize = 16;
 
 /// Fit the puppet to frames: for each, the fitted mesh over the frame (NAME_overlay.png), the
 /// rendered reconstruction (NAME_render.png) and the fitted vertices (NAME_vertices.json, for
-/// `puppet render --pose`), plus sheet.png with frame | render | overlay side by side. NAME is
+/// `puppet render --pose`), plus sheet.png with frame | render | overlay side by side and the
+/// renders in order as sprites.png + sprites.json (a sheet and atlas for engines; --gif and
+/// --apng play them). NAME is
 /// the frame's file name, prefixed by its folders where two frames share a name. Frames that
 /// cannot be read are named and skipped; the command then exits with status 1.
 #[derive(Debug, clap::Args)]
@@ -37,6 +40,11 @@ pub struct FitArgs {
     pub fit: FitOptionArgs,
     #[command(flatten)]
     pub outfit: OutfitArgs,
+    #[command(flatten)]
+    pub animation: AnimationArgs,
+    /// Cells per row of sprites.png.
+    #[arg(long, default_value_t = 8, value_name = "N")]
+    pub columns: usize,
 }
 
 /// Runs `puppet fit`.
@@ -79,12 +87,17 @@ pub fn run(args: FitArgs, s: &Session) -> anyhow::Result<()> {
     }
     let sheet_path = out.join("sheet.png");
     s.outputs.claim(&sheet_path)?;
+    let (w, h) = (model.puppet.width, model.puppet.height);
+    let sprites = AnimationFiles {
+        sprites: Some((out.join("sprites.png"), args.columns)),
+        ..args.animation.files(false)
+    };
+    let mut animation = AnimationWriter::new(&sprites, pictures.len(), w, h, &s.outputs)?;
 
     s.ui.stage("fitting", pictures.len() as u64);
     let refs: Vec<&Picture> = pictures.iter().collect();
     let fits = fit(&model, &refs, &options, &device, &s.ui)?;
     s.ui.stage("writing", pictures.len() as u64);
-    let (w, h) = (model.puppet.width, model.puppet.height);
     let scale = (512 / w.max(h)).clamp(1, 4);
     let shown: Vec<usize> = (0..SHEET_ROWS.min(pictures.len()))
         .map(|k| k * pictures.len() / SHEET_ROWS.min(pictures.len()).max(1))
@@ -93,7 +106,8 @@ pub fn run(args: FitArgs, s: &Session) -> anyhow::Result<()> {
     for (k, ((stem, picture), pose)) in stems.iter().zip(&pictures).zip(fits).enumerate() {
         let [render_path, overlay_path, vertices_path] = paths(stem);
         let pose = drawn.pose_from(&model, &pose);
-        let render = render_crisp(&drawn.puppet, &pose, w, h)?;
+        let render = render_pose(&drawn.puppet, &pose, w, h, 0.0, args.animation.background)?;
+        animation.push(&render)?;
         let overlay = wireframe_preview(&drawn.puppet, &pose, picture, scale);
         s.save_png(&render_path, &render)?;
         s.save_png(&overlay_path, &overlay)?;
@@ -106,9 +120,13 @@ pub fn run(args: FitArgs, s: &Session) -> anyhow::Result<()> {
     if !rows.is_empty() {
         s.save_png(&sheet_path, &contact_sheet(&rows.iter().collect::<Vec<_>>(), 3))?;
     }
+    animation.finish()?;
     s.ui.finish();
+    for path in args.animation.animations() {
+        s.ui.say(format!("wrote {}", path.display()))?;
+    }
     s.ui.say(format!(
-        "fitted {} frames → {} (side by side: {}{})",
+        "fitted {} frames → {} (side by side: {}{}; sprites.png + sprites.json)",
         pictures.len(),
         out.display(),
         sheet_path.display(),

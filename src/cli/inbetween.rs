@@ -13,9 +13,9 @@ use puppet::fit::FitOptions;
 use puppet::model::Model;
 use puppet::progress::Progress;
 use puppet::puppet::sequence::Frames;
-use puppet::render::animation::{AnimationFiles, GifSettings};
+use puppet::render::animation::AnimationFiles;
 
-use super::args::{parse_colour, LatentFitArgs, ModelArgs, OutfitArgs};
+use super::args::{AnimationArgs, LatentFitArgs, ModelArgs, OutfitArgs};
 use super::Session;
 
 /// Make in-between frames of two frames by interpolating their latent codes.
@@ -24,7 +24,8 @@ use super::Session;
 /// frames included, and each pose), vertex/step_NNN.png (linear interpolation of the two
 /// fitted meshes, for comparison), nearest/step_NNN.png (the training frame nearest each latent
 /// step, with --training), sheet.png (rows: latent, vertex, nearest; at most 12 steps shown) and
-/// sprites.png (the latent steps; further pages sprites_2.png, … past 4096 px).
+/// sprites.png with its atlas sprites.json (the latent steps for game engines; further pages
+/// sprites_2.png, … past 4096 px); with --gif / --apng, the latent steps played there and back.
 #[derive(Debug, clap::Args)]
 pub struct InbetweenArgs {
     #[command(flatten)]
@@ -39,7 +40,7 @@ pub struct InbetweenArgs {
     /// frame from its two even neighbours at t = ½ and print the L2 to the true frame for latent
     /// interpolation, vertex interpolation, the nearest even frame, repeating the previous frame,
     /// and the model's own fit (for a model trained on the even frames only).
-    #[arg(long, value_name = "SEQUENCE", conflicts_with_all = ["a", "b", "gif", "training"])]
+    #[arg(long, value_name = "SEQUENCE", conflicts_with_all = ["a", "b", "gif", "apng", "training"])]
     pub score: Option<PathBuf>,
     /// Number of in-between frames strictly between A and B.
     #[arg(long, default_value_t = 8)]
@@ -50,15 +51,8 @@ pub struct InbetweenArgs {
     /// Output folder (created if missing).
     #[arg(short, long, value_name = "DIR", required_unless_present = "score")]
     pub output: Option<PathBuf>,
-    /// Also write the latent in-betweens as an animated GIF (there and back).
-    #[arg(long, value_name = "FILE")]
-    pub gif: Option<PathBuf>,
-    /// GIF frame time in milliseconds.
-    #[arg(long, default_value_t = 80, value_name = "MS")]
-    pub delay: u32,
-    /// The GIF's background (GIF has no partial transparency).
-    #[arg(long, default_value = "#ffffff", value_parser = parse_colour, value_name = "#RRGGBB")]
-    pub background: [f32; 3],
+    #[command(flatten)]
+    pub animation: AnimationArgs,
     /// Training frames (a folder, or a sequence holding frames/): the nearest one (Euclidean
     /// image distance) is written beside each step.
     #[arg(long, value_name = "DIR")]
@@ -106,11 +100,11 @@ pub fn run(args: InbetweenArgs, s: &Session) -> anyhow::Result<()> {
     write_inbetweens(drawn, &ib, &training, &files, &s.outputs, &s.ui)?;
     s.save_png(&sheet_path, &comparison_sheet(drawn, &ib, &training)?)?;
     s.ui.finish();
-    if let Some(gif) = &args.gif {
-        s.ui.say(format!("wrote {}", gif.display()))?;
+    for path in args.animation.animations() {
+        s.ui.say(format!("wrote {}", path.display()))?;
     }
     s.ui.say(format!(
-        "{} in-betweens ({} frames with the two ends) from {} to {} → {} (latent/, vertex/{}, sheet.png, sprites.png)",
+        "{} in-betweens ({} frames with the two ends) from {} to {} → {} (latent/, vertex/{}, sheet.png, sprites.png + sprites.json)",
         args.steps,
         t.len(),
         a_path.display(),
@@ -124,17 +118,14 @@ pub fn run(args: InbetweenArgs, s: &Session) -> anyhow::Result<()> {
 fn files(args: &InbetweenArgs, out: &Path) -> InbetweenFiles {
     let frames = |sub: &str| AnimationFiles {
         frames: Some((out.join(sub), "step".into())),
+        background: args.animation.background,
         ..AnimationFiles::default()
     };
     InbetweenFiles {
         latent: AnimationFiles {
+            frames: Some((out.join("latent"), "step".into())),
             sprites: Some((out.join("sprites.png"), args.columns)),
-            gif: args.gif.as_ref().map(|path| GifSettings {
-                path: path.clone(),
-                delay_ms: args.delay,
-                background: args.background,
-            }),
-            ..frames("latent")
+            ..args.animation.files(true)
         },
         vertex: frames("vertex"),
         nearest: frames("nearest"),
@@ -183,12 +174,17 @@ mod tests {
             "4",
             "--gif",
             "x.gif",
+            "--apng",
+            "x.png",
+            "--background",
+            "transparent",
         ]);
         parses(&["inbetween", "--model", "m", "--score", "seq"]);
         for bad in [
             vec!["inbetween", "--model", "m", "a.png"],
             vec!["inbetween", "--model", "m", "--score", "seq", "--gif", "x.gif"],
             vec!["inbetween", "--model", "m", "a.png", "b.png", "-o", "o", "--background", "white"],
+            vec!["inbetween", "--model", "m", "a.png", "b.png", "-o", "o", "--delay", "0"],
         ] {
             let args = std::iter::once("puppet").chain(bad.iter().copied());
             assert!(clap::Parser::try_parse_from(args).map(|_: crate::cli::Cli| ()).is_err(), "{bad:?}");

@@ -15,10 +15,10 @@ use puppet::model::Model;
 use puppet::picture::{contact_sheet, Picture};
 use puppet::progress::Progress;
 use puppet::puppet::pose_file::PoseFile;
-use puppet::render::animation::{AnimationFiles, AnimationWriter, GifSettings};
-use puppet::render::render_crisp;
+use puppet::render::animation::AnimationWriter;
+use puppet::render::{render_crisp, render_pose};
 
-use super::args::{parse_pin, LatentFitArgs, ModelArgs, OutfitArgs};
+use super::args::{parse_pin, AnimationArgs, LatentFitArgs, ModelArgs, OutfitArgs};
 use super::Session;
 
 /// Drag points of a frame to new places: the frame is fitted, each pin's point is bound to the
@@ -26,7 +26,7 @@ use super::Session;
 ///
 /// Writes OUTPUT (the posed frame), OUTPUT_arap.png (the same pins solved directly by ARAP in
 /// vertex space), OUTPUT_sheet.png (input | fit | ours | ARAP, pins drawn) and OUTPUT.json (the
-/// posed vertices); with --gif, the drag as an editor runs it.
+/// posed vertices); with --gif / --apng, the drag as an editor runs it.
 #[derive(Debug, clap::Args)]
 pub struct PoseArgs {
     #[command(flatten)]
@@ -51,12 +51,12 @@ pub struct PoseArgs {
     /// α2, the joint term's weight (paper: 50).
     #[arg(long, default_value_t = 50.0)]
     pub alpha_joints: f32,
-    /// Also write the drag as an animated GIF: updates along straight lines to the targets.
-    #[arg(long, value_name = "FILE")]
-    pub gif: Option<PathBuf>,
-    /// Updates in the GIF.
-    #[arg(long, default_value_t = 12, value_name = "N")]
-    pub gif_frames: usize,
+    /// The drag's animation (--gif, --apng): updates along straight lines to the targets.
+    #[command(flatten)]
+    pub animation: AnimationArgs,
+    /// Updates in the drag's animation.
+    #[arg(long, alias = "gif-frames", default_value_t = 12, value_name = "N")]
+    pub drag_frames: usize,
     #[command(flatten)]
     pub fit: LatentFitArgs,
     #[command(flatten)]
@@ -86,10 +86,11 @@ pub fn run(args: PoseArgs, s: &Session) -> anyhow::Result<()> {
         "-o {}: the posed frame is a PNG (give a path ending in .png)",
         args.output.display()
     );
+    let animated = args.animation.gif.is_some() || args.animation.apng.is_some();
     anyhow::ensure!(
-        args.gif.is_none() || args.gif_frames >= 2,
-        "--gif-frames {}: need at least 2",
-        args.gif_frames
+        !animated || args.drag_frames >= 2,
+        "--drag-frames {}: need at least 2",
+        args.drag_frames
     );
     let (arap_path, sheet_path, json_path) = (
         beside(&args.output, "_arap.png"),
@@ -110,20 +111,8 @@ pub fn run(args: PoseArgs, s: &Session) -> anyhow::Result<()> {
     let sources: Vec<[f32; 2]> = args.pins.iter().map(|p| p.from).collect();
     let targets: Vec<[f32; 2]> = args.pins.iter().map(|p| p.to).collect();
     editor.set_pins(&sources).at_path(&args.image)?;
-    let gif = args
-        .gif
-        .as_ref()
-        .map(|path| {
-            let files = AnimationFiles {
-                gif: Some(GifSettings {
-                    path: path.clone(),
-                    delay_ms: 80,
-                    background: [1.0; 3],
-                }),
-                ..AnimationFiles::default()
-            };
-            AnimationWriter::new(&files, args.gif_frames, w, h, &s.outputs)
-        })
+    let drag = animated
+        .then(|| AnimationWriter::new(&args.animation.files(false), args.drag_frames, w, h, &s.outputs))
         .transpose()?;
     s.ui.stage("pose", 0);
     let started = std::time::Instant::now();
@@ -132,9 +121,10 @@ pub fn run(args: PoseArgs, s: &Session) -> anyhow::Result<()> {
     let pins: Vec<_> = editor.bindings().iter().copied().zip(targets.iter().copied()).collect();
     let arap = drawn.pose_from(&model, &arap_drag(&model.puppet, editor.fitted(), &pins)?);
     let posed = drawn.pose_from(&model, &dragged.vertices);
-    let ours = render_crisp(&drawn.puppet, &posed, w, h)?;
+    let background = args.animation.background;
+    let ours = render_pose(&drawn.puppet, &posed, w, h, 0.0, background)?;
     let fit = render_crisp(&drawn.puppet, &drawn.pose_from(&model, editor.fitted()), w, h)?;
-    let arap_pic = render_crisp(&drawn.puppet, &arap, w, h)?;
+    let arap_pic = render_pose(&drawn.puppet, &arap, w, h, 0.0, background)?;
     s.save_png(&args.output, &ours)?;
     s.save_png(&arap_path, &arap_pic)?;
     s.outputs.write(&json_path, &PoseFile { vertices: posed }.to_json())?;
@@ -143,11 +133,12 @@ pub fn run(args: PoseArgs, s: &Session) -> anyhow::Result<()> {
         .map(|p| pin_overlay(p, &args.pins))
         .collect();
     s.save_png(&sheet_path, &contact_sheet(&cells.iter().collect::<Vec<_>>(), 4))?;
-    if let (Some(mut writer), Some(path)) = (gif, &args.gif) {
-        s.ui.stage("drag", args.gif_frames as u64);
-        editor.write_drag(drawn, &args.pins, args.gif_frames, &options, &mut writer, &s.ui)?;
-        writer.finish()?;
-        s.ui.say(format!("wrote {}", path.display()))?;
+    if let Some(mut writer) = drag {
+        s.ui.stage("drag", args.drag_frames as u64);
+        editor.write_drag(drawn, &args.pins, args.drag_frames, &options, &mut writer, &s.ui)?;
+        for path in writer.finish()? {
+            s.ui.say(format!("wrote {}", path.display()))?;
+        }
     }
     s.ui.finish();
     let errors: Vec<String> = dragged.pin_error.iter().map(|e| format!("{e:.1}")).collect();
@@ -170,7 +161,24 @@ mod tests {
     #[test]
     fn parses_pins_and_drag_options() {
         parses(&[
-            "pose", "--model", "m", "f.png", "--pin", "1,2:3,4", "--pin", "5,6:7,8", "-o", "o.png", "--steps", "3", "--gif", "d.gif",
+            "pose",
+            "--model",
+            "m",
+            "f.png",
+            "--pin",
+            "1,2:3,4",
+            "--pin",
+            "5,6:7,8",
+            "-o",
+            "o.png",
+            "--steps",
+            "3",
+            "--gif",
+            "d.gif",
+            "--apng",
+            "d.png",
+            "--background",
+            "#102030",
         ]);
         for bad in [
             vec!["pose", "--model", "m", "f.png", "-o", "o.png"],

@@ -26,7 +26,7 @@ use crate::progress::Progress;
 use crate::puppet::build::BuildOptions;
 use crate::puppet::sequence::Frames;
 use crate::puppet::{artwork, LayerKind};
-use crate::render::animation::{AnimationFiles, AnimationWriter, GifSettings};
+use crate::render::animation::{AnimationFiles, AnimationWriter};
 use crate::render::preview::wireframe_preview;
 use crate::render::render_crisp;
 use crate::rig::outfit::dress;
@@ -89,17 +89,34 @@ const FILES: &[&str] = &[
     "puppet.png",
     "fit_idle.png",
     "inbetween_walk.gif",
+    "inbetween_walk.apng",
     "inbetween_walk_sheet.png",
     "inbetween_walk_sprites.png",
+    "inbetween_walk_sprites.json",
     "inbetween_jump.gif",
+    "inbetween_jump.apng",
     "inbetween_jump_sheet.png",
     "inbetween_jump_sprites.png",
+    "inbetween_jump_sprites.json",
     "inbetween_walk_dressed.gif",
+    "inbetween_walk_dressed.apng",
     "inbetween_walk_dressed_sheet.png",
     "pose_sheet.png",
     "drag.gif",
+    "drag.apng",
     "index.html",
 ];
+
+/// The demo's animation `<stem>.gif` and `<stem>.apng` in `out`, on a transparent background.
+fn animation(out: &Path, stem: &str, there_and_back: bool) -> AnimationFiles {
+    AnimationFiles {
+        gif: Some(out.join(format!("{stem}.gif"))),
+        apng: Some(out.join(format!("{stem}.apng"))),
+        delay_ms: 90,
+        there_and_back,
+        ..AnimationFiles::default()
+    }
+}
 
 /// In-between steps between the two end frames of each demo in-between.
 const INBETWEEN_STEPS: usize = 8;
@@ -212,12 +229,7 @@ pub fn run(options: &DemoOptions, progress: &dyn Progress) -> Result<DemoSummary
         let files = InbetweenFiles {
             latent: AnimationFiles {
                 sprites: Some((out.join(format!("{stem}_sprites.png")), t.len())),
-                gif: Some(GifSettings {
-                    path: out.join(format!("{stem}.gif")),
-                    delay_ms: 90,
-                    background: [1.0; 3],
-                }),
-                ..AnimationFiles::default()
+                ..animation(out, stem, true)
             },
             ..InbetweenFiles::default()
         };
@@ -256,15 +268,7 @@ pub fn run(options: &DemoOptions, progress: &dyn Progress) -> Result<DemoSummary
     .map(|p| pin_overlay(p, &[pin]))
     .collect();
     save("pose_sheet.png", &contact_sheet(&shown.iter().collect::<Vec<_>>(), 4))?;
-    let gif = AnimationFiles {
-        gif: Some(GifSettings {
-            path: out.join("drag.gif"),
-            delay_ms: 90,
-            background: [1.0; 3],
-        }),
-        ..AnimationFiles::default()
-    };
-    let mut writer = AnimationWriter::new(&gif, DRAG_FRAMES, w, h, &outputs)?;
+    let mut writer = AnimationWriter::new(&animation(out, "drag", false), DRAG_FRAMES, w, h, &outputs)?;
     editor.write_drag(&model, &[pin], DRAG_FRAMES, &pose_options, &mut writer, progress)?;
     writer.finish()?;
     lap("dragged pose + ARAP comparison", &mut timings);
@@ -346,16 +350,8 @@ fn redress(
         latent: ib.latent.iter().map(|p| worn.pose_from(model, p)).collect(),
         vertex: ib.vertex.iter().map(|p| worn.pose_from(model, p)).collect(),
     };
-    let gif = out.join(format!("{stem}_dressed.gif"));
     let files = InbetweenFiles {
-        latent: AnimationFiles {
-            gif: Some(GifSettings {
-                path: gif,
-                delay_ms: 90,
-                background: [1.0; 3],
-            }),
-            ..AnimationFiles::default()
-        },
+        latent: animation(out, &format!("{stem}_dressed"), true),
         ..InbetweenFiles::default()
     };
     write_inbetweens(&worn, &dressed, &[], &files, outputs, progress)?;

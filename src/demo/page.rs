@@ -9,7 +9,7 @@ use crate::fit::FitOptions;
 /// One in-between of the demo: its files' stem and its two end frames.
 #[derive(Clone, Debug)]
 pub struct Inbetween {
-    /// The stem of its files (`<stem>.gif`, `<stem>_sheet.png`, `<stem>_sprites.png`).
+    /// The stem of its files (`<stem>.apng`, `<stem>.gif`, `<stem>_sheet.png`, `<stem>_sprites.png` and `.json`).
     pub stem: String,
     /// The first frame's name.
     pub from: String,
@@ -146,7 +146,8 @@ pub fn render(d: &PageData) -> String {
         let stem = escape(&ib.stem);
         let _ = writeln!(
             s,
-            "<h3>{} → {}</h3><div class=\"row\"><figure><img src=\"{stem}.gif\" width=\"192\"><figcaption>latent interpolation, there and back</figcaption></figure>\
+            "<h3>{} → {}</h3><div class=\"row\"><figure><img src=\"{stem}.apng\" width=\"192\"><figcaption>latent interpolation, there and back (APNG; also <a href=\"{stem}.gif\">GIF</a>, \
+             <a href=\"{stem}_sprites.png\">sprite sheet</a> + <a href=\"{stem}_sprites.json\">atlas</a>)</figcaption></figure>\
              <figure><img src=\"{stem}_sheet.png\" width=\"800\"><figcaption>rows: latent interpolation (ours), vertex-space interpolation, nearest frame of the sequence</figcaption></figure></div>",
             escape(&ib.from),
             escape(&ib.to)
@@ -157,8 +158,8 @@ pub fn render(d: &PageData) -> String {
         let _ = writeln!(
             s,
             "<h3>The same in-between in another outfit</h3><p>Outfit “{}” ({}), drawn for the same rest body, rigged against the trained model's body in {:.0} ms and \
-             put on the poses above — no retraining (accessory-rigs.md Fig. 1 F–H).</p><div class=\"row\"><figure><img src=\"{stem}_dressed.gif\" width=\"192\">\
-             <figcaption>latent interpolation, re-dressed</figcaption></figure><figure><img src=\"{stem}_dressed_sheet.png\" width=\"800\"><figcaption>rows: latent, vertex-space, nearest frame</figcaption></figure></div>",
+             put on the poses above — no retraining (accessory-rigs.md Fig. 1 F–H).</p><div class=\"row\"><figure><img src=\"{stem}_dressed.apng\" width=\"192\">\
+             <figcaption>latent interpolation, re-dressed (<a href=\"{stem}_dressed.gif\">GIF</a>)</figcaption></figure><figure><img src=\"{stem}_dressed_sheet.png\" width=\"800\"><figcaption>rows: latent, vertex-space, nearest frame</figcaption></figure></div>",
             escape(&o.name),
             o.accessories.iter().map(|a| escape(a)).collect::<Vec<_>>().join(", "),
             o.rig_ms
@@ -169,7 +170,7 @@ pub fn render(d: &PageData) -> String {
         "<h2>4. A dragged pose (§4.2)</h2><p>The point ({:.0}, {:.0}) on layer “{}” is pinned and dragged to ({:.0}, {:.0}); \
          {} gradient steps on the latent (eq. 7–9, α1 = 25, α2 = 50) took {:.1} ms and leave the pin {:.1} px from its target.</p>\
          <div class=\"row\"><figure><img src=\"pose_sheet.png\" width=\"800\"><figcaption>input | fit | ours (latent) | direct vertex-space ARAP</figcaption></figure>\
-         <figure><img src=\"drag.gif\" width=\"192\"><figcaption>the drag as an editor would run it: 12 updates, each continuing from the last</figcaption></figure></div>",
+         <figure><img src=\"drag.apng\" width=\"192\"><figcaption>the drag as an editor would run it: 12 updates, each continuing from the last (<a href=\"drag.gif\">GIF</a>)</figcaption></figure></div>",
         d.pin.from[0],
         d.pin.from[1],
         escape(&d.layer),
@@ -232,6 +233,6 @@ mod tests {
         });
         assert!(!page.contains("<script>") && page.contains("&lt;script&gt;") && page.contains("a&lt;b.png"));
         assert!(page.contains("inbetween_walk_sheet.png") && page.contains("held out"));
-        assert!(page.contains("inbetween_walk_dressed.gif") && page.contains("&lt;hat&gt;") && page.contains("robot &amp; co"));
+        assert!(page.contains("inbetween_walk_dressed.apng") && page.contains("&lt;hat&gt;") && page.contains("robot &amp; co"));
     }
 }

@@ -206,9 +206,8 @@ pub fn write_inbetweens(
         }
         progress.advance(1);
     }
-    // The GIF's way back, without the two ends, so its loop has no jump.
-    for k in (1..n.saturating_sub(1)).rev() {
-        latent.push_gif(&render_crisp(&model.puppet, &inbetweens.latent[k], w, h)?)?;
+    for k in latent.return_frames() {
+        latent.push_return(&render_crisp(&model.puppet, &inbetweens.latent[k], w, h)?)?;
     }
     let mut written = pose_paths;
     written.extend(latent.finish()?);

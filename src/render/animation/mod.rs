@@ -1,25 +1,28 @@
 //! Animation export (DESIGN.md pipeline, last box): frames written one by one as numbered PNGs,
-//! sprite-sheet pages and an animated GIF — what every frame-making command (in-betweens,
-//! dragged poses, the demo) writes — holding one frame and one sheet page in memory however
-//! long the animation.
+//! sprite-sheet pages with engine atlases ([`sheet`]), an animated PNG and an animated GIF —
+//! what every frame-making command (in-betweens, dragged poses, exports, the demo) writes —
+//! holding one frame and one sheet page in memory however long the animation.
 //!
-//! GIF has only 1-bit transparency and a 256-colour palette, so frames are composited on an
-//! opaque background colour first (white by default) and quantised per frame by the `image`
-//! crate (NeuQuant). PNG sequences and sprite sheets keep straight alpha.
+//! The background is a choice: transparent (straight alpha everywhere; GIF, which has 1-bit
+//! alpha, keeps pixels of alpha ≥ ½) or an opaque colour every frame is composited on.
 
-use std::path::{Path, PathBuf};
-use std::sync::{Arc, Mutex};
+mod apng;
+mod gif;
+pub mod sheet;
+mod stream;
 
-use image::codecs::gif::{GifEncoder, Repeat};
-use image::{Delay, Frame};
+use std::borrow::Cow;
+use std::path::PathBuf;
 
-use crate::atomic_file::{record, write_atomic, Outputs};
+use crate::atomic_file::{record, Outputs};
 use crate::error::{Error, Result};
 use crate::picture::Picture;
 use crate::progress::Progress;
 use crate::puppet::Puppet;
 use crate::render::soft_raster::{Background, Params, SoftRasterizer};
 use crate::render::straight_picture;
+
+pub use sheet::MAX_SHEET_SIDE;
 
 /// `p` composited over the opaque colour `background` (RGB in [0, 1]).
 fn flatten(p: &Picture, background: [f32; 3]) -> Picture {
@@ -34,31 +37,40 @@ fn flatten(p: &Picture, background: [f32; 3]) -> Picture {
     })
 }
 
-/// The largest side of a sprite-sheet page: frames past it go on further pages (4096 px is the
-/// texture size every engine and GPU takes; a page is 64 MB while it is filled).
-pub const MAX_SHEET_SIDE: u32 = 4096;
-
-/// An animated GIF's settings.
+/// Where an animation goes (each output optional) and how it plays.
 #[derive(Clone, Debug, PartialEq)]
-pub struct GifSettings {
-    /// The file.
-    pub path: PathBuf,
-    /// Frame time in milliseconds.
-    pub delay_ms: u32,
-    /// The opaque colour frames are composited on (RGB in [0, 1]): GIF has 1-bit alpha.
-    pub background: [f32; 3],
-}
-
-/// Where an animation goes; each output is optional.
-#[derive(Clone, Debug, Default, PartialEq)]
 pub struct AnimationFiles {
     /// Numbered PNGs: the folder and the file-name prefix (`dir/<prefix>_000.png`, …).
     pub frames: Option<(PathBuf, String)>,
-    /// A sprite sheet and its columns (pages `<stem>_2.png`, … when one page would pass
-    /// [`MAX_SHEET_SIDE`]).
+    /// A sprite sheet and its columns, with its atlas `<stem>.json` beside it (pages
+    /// `<stem>_2.png`, … when one page would pass [`MAX_SHEET_SIDE`]).
     pub sprites: Option<(PathBuf, usize)>,
     /// An animated GIF.
-    pub gif: Option<GifSettings>,
+    pub gif: Option<PathBuf>,
+    /// An animated PNG.
+    pub apng: Option<PathBuf>,
+    /// Frame time in milliseconds (animations and atlases).
+    pub delay_ms: u32,
+    /// Transparent, or an opaque colour every output is composited on.
+    pub background: Background,
+    /// The animations (and the atlas's animation) play the frames forwards, then backwards
+    /// without the two ends, so the loop has no jump; the frames of the way back are pushed with
+    /// [`AnimationWriter::push_return`].
+    pub there_and_back: bool,
+}
+
+impl Default for AnimationFiles {
+    fn default() -> Self {
+        AnimationFiles {
+            frames: None,
+            sprites: None,
+            gif: None,
+            apng: None,
+            delay_ms: 80,
+            background: Background::Transparent,
+            there_and_back: false,
+        }
+    }
 }
 
 /// Writes an animation frame by frame, holding one frame and one sprite-sheet page in memory
@@ -69,23 +81,16 @@ pub struct AnimationWriter<'o> {
     size: (u32, u32),
     total: usize,
     written: usize,
+    returned: usize,
     paths: Vec<PathBuf>,
-    sprites: Option<SpritePages>,
-    gif: Option<GifStream>,
-}
-
-/// The sprite-sheet page being filled.
-struct SpritePages {
-    pages: Vec<PathBuf>,
-    columns: usize,
-    per_page: usize,
-    cell: (u32, u32),
-    page: image::RgbaImage,
+    sprites: Option<sheet::SpritePages>,
+    gif: Option<gif::GifStream>,
+    apng: Option<apng::ApngStream>,
 }
 
 /// Renders each pose of `puppet` (frame pixels) crisply at the puppet's size, passes it through
-/// `decorate` (pose index, picture), and writes it to `writer`; with `there_and_back` the GIF
-/// then plays the poses backwards (without the two ends), so its loop has no jump.
+/// `decorate` (pose index, picture), and writes it to `writer` — and, if the writer's animation
+/// plays there and back, the way back.
 ///
 /// # Errors
 /// Render errors (a pose of another puppet) and write errors, each naming what failed.
@@ -93,7 +98,6 @@ pub fn write_poses(
     puppet: &Puppet,
     poses: &[Vec<[f32; 2]>],
     writer: &mut AnimationWriter<'_>,
-    there_and_back: bool,
     decorate: impl Fn(usize, Picture) -> Picture,
     progress: &dyn Progress,
 ) -> Result<()> {
@@ -108,38 +112,20 @@ pub fn write_poses(
         writer.push(&render(k)?)?;
         progress.advance(1);
     }
-    if there_and_back {
-        for k in (1..poses.len().saturating_sub(1)).rev() {
-            writer.push_gif(&render(k)?)?;
-        }
+    for k in writer.return_frames() {
+        writer.push_return(&render(k)?)?;
     }
     Ok(())
-}
-
-/// A GIF written to a temporary sibling and renamed when finished.
-struct GifStream {
-    encoder: GifEncoder<FileSink>,
-    sink: FileSink,
-    tmp: PathBuf,
-    path: PathBuf,
-    delay: Delay,
-    background: [f32; 3],
-}
-
-impl Drop for GifStream {
-    fn drop(&mut self) {
-        // Only an unfinished stream still has its temporary file.
-        let _ = std::fs::remove_file(&self.tmp);
-    }
 }
 
 impl<'o> AnimationWriter<'o> {
     /// Prepares to write `total` frames of `width` × `height` to `files`.
     ///
     /// # Errors
-    /// [`Error::Setting`] for no frames, an empty size or 0 sprite columns; [`Error::Limit`] if
-    /// one frame is wider or taller than a sheet page; [`Error::WouldOverwrite`] (nothing
-    /// written) if an output is in the way; [`Error::Io`] if the GIF cannot be created.
+    /// [`Error::Setting`] for no frames, an empty size, 0 sprite columns or an APNG frame time
+    /// past 65,535 ms; [`Error::Limit`] if one frame is wider or taller than a sheet page;
+    /// [`Error::WouldOverwrite`] (nothing written) if an output is in the way; [`Error::Io`] if
+    /// an animation file cannot be created.
     pub fn new(files: &AnimationFiles, total: usize, width: u32, height: u32, outputs: &'o Outputs) -> Result<Self> {
         if total == 0 || width == 0 || height == 0 {
             return Err(Error::setting(
@@ -154,27 +140,53 @@ impl<'o> AnimationWriter<'o> {
             paths.extend((0..total).map(|k| dir.join(format!("{prefix}_{k:0digits$}.png"))));
         }
         let sprites = match &files.sprites {
-            Some((path, columns)) => Some(SpritePages::plan(path, *columns, total, width, height)?),
+            Some((path, columns)) => Some(sheet::SpritePages::plan(
+                path,
+                *columns,
+                total,
+                (width, height),
+                files.delay_ms,
+                files.there_and_back,
+            )?),
             None => None,
         };
-        let claims = paths
-            .iter()
-            .chain(sprites.iter().flat_map(|s| &s.pages))
-            .chain(files.gif.iter().map(|g| &g.path));
-        for path in claims {
+        let sheet_files: Vec<PathBuf> = sprites.iter().flat_map(|s| s.files()).collect();
+        for path in paths.iter().chain(&sheet_files).chain(&files.gif).chain(&files.apng) {
             outputs.claim(path)?;
         }
-        let gif = files.gif.as_ref().map(GifStream::create).transpose()?;
+        let played = total + if files.there_and_back { total.saturating_sub(2) } else { 0 };
+        let gif = files
+            .gif
+            .as_deref()
+            .map(|path| gif::GifStream::create(path, files.delay_ms, files.background))
+            .transpose()?;
+        let apng = files
+            .apng
+            .as_deref()
+            .map(|path| apng::ApngStream::create(path, (width, height), played, files.delay_ms))
+            .transpose()?;
         Ok(AnimationWriter {
             outputs,
             files: files.clone(),
             size: (width, height),
             total,
             written: 0,
+            returned: 0,
             paths,
             sprites,
             gif,
+            apng,
         })
+    }
+
+    /// The frames of the way back, in the order to push them with
+    /// [`AnimationWriter::push_return`] (none unless the animation plays there and back).
+    pub fn return_frames(&self) -> Vec<usize> {
+        if self.files.there_and_back {
+            (1..self.total.saturating_sub(1)).rev().collect()
+        } else {
+            Vec::new()
+        }
     }
 
     /// Writes the next frame to every output.
@@ -188,27 +200,58 @@ impl<'o> AnimationWriter<'o> {
             return Err(Error::mismatch("the animation's frame count", self.written + 1, self.total));
         }
         let k = self.written;
+        let shown = self.on_background(frame);
         if self.files.frames.is_some() {
-            frame.save_png(&self.paths[k])?;
+            shown.save_png(&self.paths[k])?;
         }
         if let Some(sprites) = &mut self.sprites {
-            sprites.put(k, frame, self.total)?;
+            sprites.put(k, &shown)?;
         }
-        self.push_gif(frame)?;
+        self.animate(frame, &shown)?;
         self.written += 1;
         Ok(())
     }
 
-    /// Writes a frame to the GIF only (a loop's way back, which the other outputs do not repeat).
+    /// Writes a frame of the way back (see [`AnimationFiles::there_and_back`]) to the GIF and
+    /// APNG only.
     ///
     /// # Errors
-    /// As [`AnimationWriter::push`].
-    pub fn push_gif(&mut self, frame: &Picture) -> Result<()> {
+    /// As [`AnimationWriter::push`]; [`Error::Mismatch`] before the last frame forwards or past
+    /// the way back's length.
+    pub fn push_return(&mut self, frame: &Picture) -> Result<()> {
         self.check(frame)?;
-        match &mut self.gif {
-            Some(gif) => gif.push(frame),
-            None => Ok(()),
+        let back = self.return_frames().len();
+        if self.written != self.total || self.returned == back {
+            return Err(Error::mismatch(
+                "the animation's way back",
+                format!("frame {} after {} of {} forwards", self.returned + 1, self.written, self.total),
+                format!("{back} frames after all {} forwards", self.total),
+            ));
         }
+        let shown = self.on_background(frame);
+        self.animate(frame, &shown)?;
+        self.returned += 1;
+        Ok(())
+    }
+
+    /// `frame` on the chosen background.
+    fn on_background<'f>(&self, frame: &'f Picture) -> Cow<'f, Picture> {
+        match self.files.background {
+            Background::Transparent => Cow::Borrowed(frame),
+            Background::Colour(c) => Cow::Owned(flatten(frame, c)),
+        }
+    }
+
+    /// Writes a frame to the animations: the GIF takes the straight frame (it handles the
+    /// background itself), the APNG the frame on its background.
+    fn animate(&mut self, frame: &Picture, shown: &Picture) -> Result<()> {
+        if let Some(gif) = &mut self.gif {
+            gif.push(frame)?;
+        }
+        if let Some(apng) = &mut self.apng {
+            apng.push(shown)?;
+        }
+        Ok(())
     }
 
     fn check(&self, frame: &Picture) -> Result<()> {
@@ -222,14 +265,19 @@ impl<'o> AnimationWriter<'o> {
         Ok(())
     }
 
-    /// Finishes every output and returns the files written, PNG frames first.
+    /// Finishes every output and returns the files written: PNG frames, sheet pages each with
+    /// its atlas, the GIF, the APNG.
     ///
     /// # Errors
-    /// [`Error::Mismatch`] if fewer frames were pushed than announced; write errors naming the
-    /// file.
+    /// [`Error::Mismatch`] if fewer frames were pushed than announced (forwards or back); write
+    /// errors naming the file.
     pub fn finish(mut self) -> Result<Vec<PathBuf>> {
         if self.written != self.total {
             return Err(Error::mismatch("the animation's frame count", self.written, self.total));
+        }
+        let back = self.return_frames().len();
+        if self.returned != back {
+            return Err(Error::mismatch("the frames of the animation's way back", self.returned, back));
         }
         let mut written = if self.files.frames.is_some() {
             std::mem::take(&mut self.paths)
@@ -242,6 +290,9 @@ impl<'o> AnimationWriter<'o> {
         if let Some(gif) = self.gif.take() {
             written.push(gif.finish()?);
         }
+        if let Some(apng) = self.apng.take() {
+            written.push(apng.finish()?);
+        }
         for path in &written {
             record(path)?;
         }
@@ -250,164 +301,11 @@ impl<'o> AnimationWriter<'o> {
     }
 }
 
-impl SpritePages {
-    fn plan(path: &Path, columns: usize, total: usize, width: u32, height: u32) -> Result<Self> {
-        if columns == 0 {
-            return Err(Error::setting("sprite sheet columns", 0, "at least 1"));
-        }
-        if width > MAX_SHEET_SIDE || height > MAX_SHEET_SIDE {
-            return Err(Error::limit(
-                format!("a {width}×{height} frame on a sprite sheet"),
-                u64::from(width.max(height)),
-                u64::from(MAX_SHEET_SIDE),
-                "px",
-            ));
-        }
-        let columns = columns.min(total).min((MAX_SHEET_SIDE / width) as usize).max(1);
-        let rows_per_page = (MAX_SHEET_SIDE / height) as usize;
-        let per_page = columns * rows_per_page;
-        let count = total.div_ceil(per_page);
-        let stem = path
-            .file_stem()
-            .map_or_else(|| "sprites".into(), |s| s.to_string_lossy().into_owned());
-        let pages = (0..count)
-            .map(|p| {
-                if p == 0 {
-                    path.to_path_buf()
-                } else {
-                    path.with_file_name(format!("{stem}_{}.png", p + 1))
-                }
-            })
-            .collect();
-        Ok(SpritePages {
-            pages,
-            columns,
-            per_page,
-            cell: (width, height),
-            page: image::RgbaImage::new(0, 0),
-        })
-    }
-
-    /// Puts frame `k` in its cell, writing the previous page when `k` starts a new one; a page
-    /// is as large as the frames it will hold.
-    fn put(&mut self, k: usize, frame: &Picture, total: usize) -> Result<()> {
-        let (w, h) = self.cell;
-        if k % self.per_page == 0 {
-            if k > 0 {
-                self.write(k / self.per_page - 1)?;
-            }
-            let on_page = (total - k).min(self.per_page);
-            let columns = self.columns.min(on_page) as u32;
-            let rows = on_page.div_ceil(self.columns) as u32;
-            self.page = image::RgbaImage::new(columns * w, rows * h);
-        }
-        let cell = k % self.per_page;
-        let (ox, oy) = ((cell % self.columns) as u32 * w, (cell / self.columns) as u32 * h);
-        image::imageops::replace(&mut self.page, &frame.to_rgba8(), i64::from(ox), i64::from(oy));
-        Ok(())
-    }
-
-    fn write(&self, page: usize) -> Result<()> {
-        let path = &self.pages[page];
-        let mut bytes = Vec::new();
-        self.page
-            .write_to(&mut std::io::Cursor::new(&mut bytes), image::ImageFormat::Png)
-            .map_err(|e| Error::image(path, format!("cannot encode PNG: {e}")))?;
-        write_atomic(path, &bytes)
-    }
-
-    /// Writes the last page.
-    fn finish(self) -> Result<Vec<PathBuf>> {
-        self.write(self.pages.len() - 1)?;
-        Ok(self.pages)
-    }
-}
-
-impl GifStream {
-    fn create(settings: &GifSettings) -> Result<Self> {
-        let path = settings.path.clone();
-        let parent = path.parent().filter(|p| !p.as_os_str().is_empty()).unwrap_or(Path::new("."));
-        std::fs::create_dir_all(parent).map_err(|e| Error::io(parent, e))?;
-        let name = path
-            .file_name()
-            .map_or_else(|| "animation.gif".into(), |n| n.to_string_lossy().into_owned());
-        let tmp = parent.join(format!(".{name}.tmp{}", std::process::id()));
-        let file = std::fs::File::create(&tmp).map_err(|e| Error::io(&tmp, e))?;
-        let sink = FileSink {
-            file: Arc::new(file),
-            failure: Arc::new(Mutex::new(None)),
-        };
-        // Speed 1: NeuQuant learns the palette from every pixel. At 10 it samples a tenth and,
-        // on a rendered robot, lost the small yellow eye (drawn pink); frames here are small.
-        let mut encoder = GifEncoder::new_with_speed(sink.clone(), 1);
-        let stream = GifStream {
-            sink,
-            tmp,
-            path,
-            delay: Delay::from_numer_denom_ms(settings.delay_ms.max(1), 1),
-            background: settings.background,
-            encoder: {
-                encoder
-                    .set_repeat(Repeat::Infinite)
-                    .map_err(|e| Error::image(&settings.path, format!("cannot encode GIF: {e}")))?;
-                encoder
-            },
-        };
-        Ok(stream)
-    }
-
-    fn push(&mut self, frame: &Picture) -> Result<()> {
-        let frame = Frame::from_parts(flatten(frame, self.background).to_rgba8(), 0, 0, self.delay);
-        self.encoder
-            .encode_frame(frame)
-            .map_err(|e| Error::image(&self.path, format!("cannot encode GIF: {e}")))
-    }
-
-    fn finish(mut self) -> Result<PathBuf> {
-        // Dropping the encoder writes the GIF trailer; a write that failed then is kept by the
-        // sink, since a drop cannot report it.
-        let encoder = std::mem::replace(&mut self.encoder, GifEncoder::new(self.sink.clone()));
-        drop(encoder);
-        let failure = self.sink.failure.lock().unwrap_or_else(std::sync::PoisonError::into_inner).take();
-        if let Some(e) = failure {
-            return Err(Error::io(&self.tmp, e));
-        }
-        self.sink.file.sync_all().map_err(|e| Error::io(&self.tmp, e))?;
-        std::fs::rename(&self.tmp, &self.path).map_err(|e| Error::io(&self.path, e))?;
-        Ok(self.path.clone())
-    }
-}
-
-/// A file the GIF encoder writes to, which remembers the first write that failed.
-#[derive(Clone)]
-struct FileSink {
-    file: Arc<std::fs::File>,
-    failure: Arc<Mutex<Option<std::io::Error>>>,
-}
-
-impl std::io::Write for FileSink {
-    fn write(&mut self, buf: &[u8]) -> std::io::Result<usize> {
-        (&*self.file).write(buf).inspect_err(|e| self.remember(e))
-    }
-
-    fn flush(&mut self) -> std::io::Result<()> {
-        (&*self.file).flush().inspect_err(|e| self.remember(e))
-    }
-}
-
-impl FileSink {
-    fn remember(&self, e: &std::io::Error) {
-        let mut failure = self.failure.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
-        if failure.is_none() {
-            *failure = Some(std::io::Error::new(e.kind(), e.to_string()));
-        }
-    }
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
     use image::AnimationDecoder;
+    use std::path::Path;
 
     fn frames() -> Vec<Picture> {
         (0..5)
@@ -437,11 +335,8 @@ mod tests {
 
     fn gif(path: PathBuf) -> AnimationFiles {
         AnimationFiles {
-            gif: Some(GifSettings {
-                path,
-                delay_ms: 80,
-                background: [1.0; 3],
-            }),
+            gif: Some(path),
+            background: Background::Colour([1.0; 3]),
             ..AnimationFiles::default()
         }
     }
@@ -469,6 +364,89 @@ mod tests {
         }
         let names: Vec<_> = std::fs::read_dir(dir.path()).unwrap().map(|e| e.unwrap().file_name()).collect();
         assert_eq!(names.len(), 2, "the GIF and the manifest only: {names:?}");
+    }
+
+    /// Frames on a transparent background: an opaque red pixel, a half-transparent blue one
+    /// and a faint (alpha 0.3) green one, moving along the first row.
+    fn soft_frames() -> Vec<Picture> {
+        (0..4)
+            .map(|k| {
+                let mut p = Picture::filled(6, 4, [0.0; 4]);
+                p.pixels[k] = [1.0, 0.0, 0.0, 1.0];
+                p.pixels[12] = [0.0, 0.0, 1.0, 0.5];
+                p.pixels[18] = [0.0, 1.0, 0.0, 0.3];
+                p
+            })
+            .collect()
+    }
+
+    #[test]
+    fn transparent_apng_and_gif_keep_the_alpha_of_known_pixels_there_and_back() {
+        let dir = tempfile::tempdir().unwrap();
+        let frames = soft_frames();
+        let files = AnimationFiles {
+            gif: Some(dir.path().join("a.gif")),
+            apng: Some(dir.path().join("a.png")),
+            delay_ms: 120,
+            there_and_back: true,
+            ..AnimationFiles::default()
+        };
+        let outputs = Outputs::new(false);
+        let mut writer = AnimationWriter::new(&files, 4, 6, 4, &outputs).unwrap();
+        assert!(writer.push_return(&frames[2]).is_err(), "the way back starts after the last frame");
+        for f in &frames {
+            writer.push(f).unwrap();
+        }
+        assert_eq!(writer.return_frames(), [2, 1]);
+        for k in writer.return_frames() {
+            writer.push_return(&frames[k]).unwrap();
+        }
+        assert!(writer.push_return(&frames[0]).is_err(), "the way back has two frames");
+        writer.finish().unwrap();
+        let played = [0, 1, 2, 3, 2, 1];
+
+        let bytes = std::fs::read(dir.path().join("a.png")).unwrap();
+        let decoder = image::codecs::png::PngDecoder::new(std::io::Cursor::new(bytes)).unwrap();
+        let apng: Vec<image::Frame> = decoder.apng().unwrap().into_frames().collect_frames().unwrap();
+        assert_eq!(apng.len(), played.len());
+        for (frame, &k) in apng.iter().zip(&played) {
+            assert_eq!(frame.delay().numer_denom_ms(), (120, 1));
+            let px = |i: u32| frame.buffer().get_pixel(i % 6, i / 6).0;
+            assert_eq!(px(k as u32), [255, 0, 0, 255]);
+            assert_eq!(px(12), [0, 0, 255, 128]);
+            assert_eq!(px(18), [0, 255, 0, 77]);
+            assert_eq!(px(23), [0, 0, 0, 0]);
+        }
+
+        let gif = decode_gif(&dir.path().join("a.gif"));
+        assert_eq!(gif.len(), played.len());
+        for (frame, &k) in gif.iter().zip(&played) {
+            let px = |i: u32| frame.buffer().get_pixel(i % 6, i / 6).0;
+            assert_eq!(px(k as u32), [255, 0, 0, 255], "the drawn pixel");
+            assert_eq!(px(12), [0, 0, 255, 255], "alpha ½ is drawn, in its own colour");
+            assert_eq!(px(18)[3], 0, "alpha 0.3 is transparent");
+            assert_eq!(px(23)[3], 0, "the background is transparent");
+            // The previous frame's red pixel does not stay behind (each frame replaces the last).
+            let old = (0..4).filter(|&j| j != k).all(|j| px(j as u32)[3] == 0);
+            assert!(old, "frame {k} shows an earlier frame's pixel");
+        }
+    }
+
+    #[test]
+    fn a_background_colour_is_under_every_output() {
+        let dir = tempfile::tempdir().unwrap();
+        let files = AnimationFiles {
+            frames: Some((dir.path().to_path_buf(), "f".into())),
+            apng: Some(dir.path().join("a.png")),
+            background: Background::Colour([0.0, 0.0, 0.0]),
+            ..AnimationFiles::default()
+        };
+        let paths = write(&soft_frames(), &files);
+        let frame = Picture::load(&paths[0]).unwrap();
+        assert_eq!(frame.get(0, 2), [0.0, 0.0, 128.0 / 255.0, 1.0]);
+        assert_eq!(frame.get(5, 3), [0.0, 0.0, 0.0, 1.0]);
+        let first = Picture::load(&dir.path().join("a.png")).unwrap();
+        assert_eq!(first.pixels, frame.pixels, "the APNG's first frame is the first PNG");
     }
 
     #[test]
@@ -505,10 +483,10 @@ mod tests {
         let files = AnimationFiles {
             frames: Some((dir.path().join("seq"), "step".into())),
             sprites: Some((dir.path().join("sprites.png"), 2)),
-            gif: None,
+            ..AnimationFiles::default()
         };
         let paths = write(&frames, &files);
-        assert_eq!(paths.len(), 6);
+        assert_eq!(paths.len(), 7);
         assert!(paths[4].ends_with("step_004.png"));
         for (p, f) in paths.iter().zip(&frames) {
             let back = Picture::load(p).unwrap();
@@ -519,6 +497,12 @@ mod tests {
                 .all(|(a, b)| (0..4).all(|c| (a[c] - b[c]).abs() < 1.0 / 255.0)));
         }
         let sheet = Picture::load(&paths[5]).unwrap();
+        let atlas: serde_json::Value = serde_json::from_slice(&std::fs::read(&paths[6]).unwrap()).unwrap();
+        let third = &atlas["frames"]["sprites_003"];
+        assert_eq!(third["frame"], serde_json::json!({"x": 6, "y": 4, "w": 6, "h": 4}));
+        assert_eq!((third["sourceSize"]["w"].as_u64(), third["duration"].as_u64()), (Some(6), Some(80)));
+        assert_eq!(atlas["meta"]["size"], serde_json::json!({"w": 12, "h": 12}));
+        assert_eq!(atlas["meta"]["frameTags"][0]["direction"], "forward");
         assert_eq!((sheet.width, sheet.height), (12, 12));
         // Frame 3 is at column 1, row 1; its red pixel (3, 0) is sheet pixel (9, 4).
         assert_eq!(sheet.get(9, 4), [1.0, 0.0, 0.0, 1.0]);
@@ -541,9 +525,24 @@ mod tests {
             writer.push(&frame).unwrap();
         }
         let pages = writer.finish().unwrap();
-        assert_eq!(pages, [dir.path().join("sprites.png"), dir.path().join("sprites_2.png")]);
+        let [page1, atlas1, page2, atlas2] = [
+            dir.path().join("sprites.png"),
+            dir.path().join("sprites.json"),
+            dir.path().join("sprites_2.png"),
+            dir.path().join("sprites_2.json"),
+        ];
+        assert_eq!(pages, [page1, atlas1.clone(), page2, atlas2.clone()]);
+        let atlas = |p: &Path| -> serde_json::Value { serde_json::from_slice(&std::fs::read(p).unwrap()).unwrap() };
+        let (first, second) = (atlas(&atlas1), atlas(&atlas2));
+        assert_eq!(first["frames"].as_object().unwrap().len(), 16);
+        assert_eq!(
+            second["frames"]["sprites_016"]["frame"],
+            serde_json::json!({"x": 0, "y": 0, "w": 1000, "h": 1000})
+        );
+        assert_eq!(second["meta"]["image"], "sprites_2.png");
+        assert_eq!(first["animations"]["sprites"].as_array().unwrap().len(), 17);
         assert_eq!(Picture::file_size(&pages[0]).unwrap(), (4000, 4000));
-        assert_eq!(Picture::file_size(&pages[1]).unwrap(), (1000, 1000));
+        assert_eq!(Picture::file_size(&pages[2]).unwrap(), (1000, 1000));
     }
 
     #[test]
