@@ -16,7 +16,7 @@ const here = path.dirname(fileURLToPath(import.meta.url));
 const outDir = path.resolve(process.argv[2] || '/tmp/browser-demo');
 const screensDir = path.resolve(process.argv[3] || path.join(here, 'screens'));
 // ATLAS: the atlas to play (default the demo's walk in-between); ANIMATIONS: the stems of the
-// APNG/GIF pairs to show ('' for none).
+// APNG/GIF pairs to show ('' for none); START: the animation entry the sprites start at.
 const atlasName = process.env.ATLAS || 'inbetween_walk_sprites.json';
 const animations = (process.env.ANIMATIONS ?? 'inbetween_walk,drag').split(',').filter(Boolean);
 fs.mkdirSync(screensDir, { recursive: true });
@@ -73,19 +73,28 @@ async function open(urlPath, viewport) {
 
 // --- 1. the sprite sheet in PixiJS -------------------------------------------------------------
 {
-  const json = JSON.parse(fs.readFileSync(path.join(outDir, atlasName), 'utf8'));
-  const page = await open(`/sheet.html?atlas=/out/${atlasName}`, { width: 1000, height: 500 });
+  const readJson = (name) => JSON.parse(fs.readFileSync(path.join(outDir, name), 'utf8'));
+  const json = readJson(atlasName);
+  const pageJsons = [json, ...(json.meta.related_multi_packs || []).map(readJson)];
+  const allFrames = Object.assign({}, ...pageJsons.map((j) => j.frames));
+  const page = await open(`/sheet.html?atlas=/out/${atlasName}&start=${process.env.START || 0}`, { width: 1000, height: 500 });
   const r = await page.evaluate(() => window.__report);
   check('PixiJS loads the atlas as a Spritesheet', r.ready && !r.error, r.error || `PixiJS ${r.pixi}, renderer ${r.renderer}`);
   if (r.ready) {
     const animName = Object.keys(json.animations)[0];
     const list = json.animations[animName];
-    check('frame count', r.frameCount === Object.keys(json.frames).length, `PixiJS ${r.frameCount} textures, JSON ${Object.keys(json.frames).length} frames`);
+    check('pages', r.pages.length === pageJsons.length && r.pages.every((p, i) => p.image === pageJsons[i].meta.image
+      && same(p.size, [pageJsons[i].meta.size.w, pageJsons[i].meta.size.h]) && p.resolution === Number(pageJsons[i].meta.scale)
+      && p.frames === Object.keys(pageJsons[i].frames).length),
+      r.pages.map((p, i) => `${p.image} ${p.size.join('×')} @${p.resolution}: ${p.frames} textures (JSON ${Object.keys(pageJsons[i].frames).length}, meta.size ${pageJsons[i].meta.size.w}×${pageJsons[i].meta.size.h})`).join('; '));
+    check('frame count', r.frameCount === Object.keys(allFrames).length, `PixiJS ${r.frameCount} textures, JSON ${Object.keys(allFrames).length} frames`);
     check('animations', same(r.animations, Object.keys(json.animations)) && r.animationLength === list.length && same(r.totalFrames, [list.length, list.length]),
       `PixiJS ${JSON.stringify(r.animations)} ${r.animationLength} frames (AnimatedSprite totalFrames ${r.totalFrames}), JSON ${list.length}`);
-    check('page size', same(r.pageSize, [json.meta.size.w, json.meta.size.h]) && r.resolution === Number(json.meta.scale),
-      `texture ${r.pageSize.join('×')} at resolution ${r.resolution}, meta.size ${json.meta.size.w}×${json.meta.size.h} scale "${json.meta.scale}"`);
-    const bad = Object.entries(json.frames).filter(([n, f]) => {
+    if (r.pages.length > 1) {
+      check('first page\'s own animation textures (PixiJS sheet.animations; informational)', true,
+        `${r.ownAnimationTextures} of ${r.animationLength} entries are on the first page`);
+    }
+    const bad = Object.entries(allFrames).filter(([n, f]) => {
       const t = r.textures[n];
       return !t || !same(t.frame, [f.frame.x, f.frame.y, f.frame.w, f.frame.h]) || !same(t.orig, [f.sourceSize.w, f.sourceSize.h])
         || !same(t.anchor, [f.anchor.x, f.anchor.y]);
@@ -93,11 +102,11 @@ async function open(urlPath, viewport) {
     const sizes = [...new Set(Object.values(r.textures).map((t) => `${t.frame[2]}×${t.frame[3]}`))];
     check('texture rectangles, source sizes and anchors', bad.length === 0,
       bad.length ? `differ: ${bad.join(', ')}` : `all ${r.frameCount} as in the JSON: sizes ${sizes.join(', ')}, anchor ${JSON.stringify(Object.values(r.textures)[0].anchor)}, trim ${Object.values(r.textures)[0].trim}`);
-    const want = list.map((n) => json.frames[n].duration);
+    const want = list.map((n) => allFrames[n].duration);
     const mean = want.reduce((s, d) => s + d, 0) / want.length;
     check('durations read', same(r.durations, want) && Math.abs(r.animationSpeed - 1000 / 60 / mean) < 1e-9,
       `${[...new Set(r.durations)].join('/')} ms for all ${r.durations.length} entries → animationSpeed ${r.animationSpeed.toFixed(5)} (1000/60/${mean})`);
-    check('sprite anchor from the atlas', same(r.spriteAnchor, [json.frames[list[0]].anchor.x, json.frames[list[0]].anchor.y]), JSON.stringify(r.spriteAnchor));
+    check('sprite anchor from the atlas', same(r.spriteAnchor, [allFrames[list[0]].anchor.x, allFrames[list[0]].anchor.y]), JSON.stringify(r.spriteAnchor));
     check('playing', r.playing.every(Boolean), `A ${r.playing[0]}, B ${r.playing[1]}`);
 
     const shown = new Set();

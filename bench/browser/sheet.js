@@ -21,15 +21,25 @@ async function main() {
   const names = Object.keys(sheet.animations);
   if (names.length === 0) throw new Error('the atlas has no animations');
   const name = names[0];
-  const textures = sheet.animations[name];
+  // Every page: this one and those its meta.related_multi_packs made PixiJS load with it. As
+  // TexturePacker's multipack, the first page's `animations` names frames on all of them, so
+  // frames are looked up by name across the pages (sheet.animations holds this page's only).
+  const sheets = [sheet, ...sheet.linkedSheets];
+  const byName = {};
+  sheets.forEach((sh, page) => {
+    sh.textureSource.scaleMode = 'nearest';
+    for (const [n, t] of Object.entries(sh.textures)) byName[n] = { texture: t, page, data: sh.data.frames[n] };
+  });
   const frameNames = sheet.data.animations[name];
-  const missing = frameNames.filter((n, i) => !textures[i]);
-  if (missing.length) throw new Error(`animation frames without a texture: ${missing.join(', ')}`);
-  sheet.textureSource.scaleMode = 'nearest';
-  const durations = frameNames.map((n) => sheet.data.frames[n].duration);
+  const missing = frameNames.filter((n) => !byName[n]);
+  if (missing.length) throw new Error(`animation frames on no loaded page: ${missing.join(', ')}`);
+  const textures = frameNames.map((n) => byName[n].texture);
+  const durations = frameNames.map((n) => byName[n].data.duration);
 
   const pageW = sheet.textureSource.width;
-  const pageH = sheet.textureSource.height;
+  // A page taller than 512 px (a long animation's) is not shown.
+  const showPage = sheet.textureSource.height <= 512;
+  const pageH = showPage ? sheet.textureSource.height : -GAP;
   const cellW = textures[0].orig.width;
   const cellH = textures[0].orig.height;
   const width = Math.max(pageW, 2 * SCALE * cellW + GAP) + 2 * PAD;
@@ -48,9 +58,11 @@ async function main() {
   }
   app.stage.addChild(checker);
 
-  const page = new PIXI.Sprite(new PIXI.Texture({ source: sheet.textureSource }));
-  page.position.set(PAD, PAD);
-  app.stage.addChild(page);
+  if (showPage) {
+    const page = new PIXI.Sprite(new PIXI.Texture({ source: sheet.textureSource }));
+    page.position.set(PAD, PAD);
+    app.stage.addChild(page);
+  }
   const outline = new PIXI.Graphics();
   app.stage.addChild(outline);
 
@@ -72,13 +84,15 @@ async function main() {
     app.stage.addChild(s);
   });
 
+  const pageOf = new Map(Object.values(byName).map((v) => [v.texture, v.page]));
   const cellOf = (sprite) => {
     const f = sprite.texture.frame;
-    return { x: f.x, y: f.y, w: f.width, h: f.height };
+    return { page: pageOf.get(sprite.texture), x: f.x, y: f.y, w: f.width, h: f.height };
   };
   const drawOutline = () => {
     const c = cellOf(a);
-    outline.clear().rect(PAD + c.x + 1, PAD + c.y + 1, c.w - 2, c.h - 2).stroke({ width: 2, color: 0xff2020 });
+    outline.clear();
+    if (showPage && c.page === 0) outline.rect(PAD + c.x + 1, PAD + c.y + 1, c.w - 2, c.h - 2).stroke({ width: 2, color: 0xff2020 });
   };
 
   // When sprite A's frame changes, and how long since the last change (while playing).
@@ -91,24 +105,27 @@ async function main() {
     drawOutline();
   };
   drawOutline();
-  a.play();
-  b.play();
+  // ?start=N: begin at entry N of the animation (to see frames on a later page).
+  const start = Number(new URL(location.href).searchParams.get('start') || 0);
+  a.gotoAndPlay(start);
+  b.gotoAndPlay(start);
 
-  const sheetPixels = await pixelsOf(new URL(sheet.data.meta.image, new URL(atlasUrl, location.href)).href);
+  const base = new URL(atlasUrl, location.href);
+  const sheetPixels = await Promise.all(sheets.map((sh) => pixelsOf(new URL(sh.data.meta.image, base).href)));
 
   Object.assign(report, {
     ready: true,
     pixi: PIXI.VERSION,
     renderer: app.renderer.name,
     atlas: atlasUrl,
-    image: sheet.data.meta.image,
-    pageSize: [pageW, pageH],
-    resolution: sheet.resolution,
-    frameCount: Object.keys(sheet.textures).length,
+    pages: sheets.map((sh) => ({ image: sh.data.meta.image, size: [sh.textureSource.width, sh.textureSource.height],
+      resolution: sh.resolution, frames: Object.keys(sh.textures).length })),
+    frameCount: Object.keys(byName).length,
     animations: names,
     animationLength: textures.length,
+    ownAnimationTextures: sheet.animations[name].filter(Boolean).length,
     totalFrames: [a.totalFrames, b.totalFrames],
-    textures: Object.fromEntries(Object.entries(sheet.textures).map(([n, t]) => [n, {
+    textures: Object.fromEntries(Object.entries(byName).map(([n, { texture: t }]) => [n, {
       frame: [t.frame.x, t.frame.y, t.frame.width, t.frame.height],
       orig: [t.orig.width, t.orig.height],
       trim: t.trim ? [t.trim.x, t.trim.y, t.trim.width, t.trim.height] : null,
@@ -122,7 +139,7 @@ async function main() {
   });
   const show = () => {
     document.getElementById('state').textContent =
-      `PixiJS ${report.pixi} (${report.renderer}) · ${atlasUrl} · ${report.frameCount} textures ` +
+      `PixiJS ${report.pixi} (${report.renderer}) · ${atlasUrl} (${sheets.length} page${sheets.length > 1 ? 's' : ''}) · ${report.frameCount} textures ` +
       `${cellW}×${cellH} · animation "${name}": ${textures.length} frames, durations ` +
       `${[...new Set(durations)].join('/')} ms → animationSpeed ${a.animationSpeed.toFixed(4)} · ` +
       `A frame ${a.currentFrame} (${frameNames[a.currentFrame]}), B frame ${b.currentFrame} ` +
@@ -152,7 +169,7 @@ async function main() {
   // box from every cell composited over the checkerboard at SCALE×; best is the smallest.
   window.__match = async (b64) => {
     const shot = await screenshotPixels(b64);
-    const cells = [...new Set(frameNames)].map((n) => ({ name: n, ...cellOf({ texture: sheet.textures[n] }) }));
+    const cells = [...new Set(frameNames)].map((n) => ({ name: n, ...cellOf({ texture: byName[n].texture }) }));
     const out = {};
     for (const [key, box] of Object.entries(boxes)) {
       const diffs = cells.map((c) => {
@@ -161,7 +178,7 @@ async function main() {
           for (let dx = 0; dx < box.w; dx++) {
             const sx = box.x + dx;
             const sy = box.y + dy;
-            const src = rgbaAt(sheetPixels, c.x + Math.floor(dx / SCALE), c.y + Math.floor(dy / SCALE));
+            const src = rgbaAt(sheetPixels[c.page], c.x + Math.floor(dx / SCALE), c.y + Math.floor(dy / SCALE));
             const bg = checkerAt(sx, sy);
             const got = rgbaAt(shot, sx, sy);
             const al = src[3] / 255;

@@ -541,6 +541,9 @@ mod tests {
         );
         assert_eq!(second["meta"]["image"], "sprites_2.png");
         assert_eq!(first["animations"]["sprites"].as_array().unwrap().len(), 17);
+        // PixiJS loads the second page with the first (TexturePacker's multipack field).
+        assert_eq!(first["meta"]["related_multi_packs"], serde_json::json!(["sprites_2.json"]));
+        assert!(second["meta"].get("related_multi_packs").is_none());
         assert_eq!(Picture::file_size(&pages[0]).unwrap(), (4000, 4000));
         assert_eq!(Picture::file_size(&pages[2]).unwrap(), (1000, 1000));
     }

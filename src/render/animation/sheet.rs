@@ -3,7 +3,10 @@
 //! TexturePacker "JSON hash" form — what Phaser's `load.atlas`, PixiJS's `Spritesheet` and
 //! Godot's and Aseprite's importers read: each frame's rectangle, source size, pivot and
 //! duration, plus the animation's frame list (PixiJS `animations`) and its tag (Aseprite
-//! `frameTags`, with "pingpong" for an animation that plays there and back).
+//! `frameTags`, with "pingpong" for an animation that plays there and back). As TexturePacker's
+//! multipack does, the first page of several lists the other pages' atlases in
+//! `meta.related_multi_packs`, which PixiJS's `Assets.load` follows: loading the first atlas loads
+//! every page, and its `animations` entry names frames on all of them.
 
 use std::path::{Path, PathBuf};
 
@@ -147,10 +150,9 @@ impl SpritePages {
         };
         let name = self.animation_name();
         let played: Vec<String> = forward.iter().chain(&back).map(|&k| self.frame_name(k)).collect();
-        let image = self.pages[page]
-            .file_name()
-            .map_or_else(String::new, |n| n.to_string_lossy().into_owned());
-        json!({
+        let file_name = |p: &Path| p.file_name().map_or_else(String::new, |n| n.to_string_lossy().into_owned());
+        let image = file_name(&self.pages[page]);
+        let mut atlas = json!({
             "frames": frames,
             "animations": {name.clone(): played},
             "meta": {
@@ -167,7 +169,12 @@ impl SpritePages {
                     "direction": if self.there_and_back { "pingpong" } else { "forward" },
                 }],
             },
-        })
+        });
+        if page == 0 && self.pages.len() > 1 {
+            let others: Vec<String> = self.pages[1..].iter().map(|p| file_name(&atlas_path(p))).collect();
+            atlas["meta"]["related_multi_packs"] = json!(others);
+        }
+        atlas
     }
 
     fn write(&self, page: usize) -> Result<()> {
