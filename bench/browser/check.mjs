@@ -77,7 +77,7 @@ async function open(urlPath, viewport) {
   const json = readJson(atlasName);
   const pageJsons = [json, ...(json.meta.related_multi_packs || []).map(readJson)];
   const allFrames = Object.assign({}, ...pageJsons.map((j) => j.frames));
-  const page = await open(`/sheet.html?atlas=/out/${atlasName}&start=${process.env.START || 0}`, { width: 1000, height: 500 });
+  const page = await open(`/sheet.html?atlas=/out/${atlasName}&start=${process.env.START || 0}`, { width: 1000, height: 520 });
   const r = await page.evaluate(() => window.__report);
   check('PixiJS loads the atlas as a Spritesheet', r.ready && !r.error, r.error || `PixiJS ${r.pixi}, renderer ${r.renderer}`);
   if (r.ready) {
@@ -111,7 +111,7 @@ async function open(urlPath, viewport) {
 
     const shown = new Set();
     let changes = [];
-    for (const [i, waitMs] of [250, 700, 1150].entries()) {
+    for (const [i, waitMs] of [250, 450, 450].entries()) {
       await sleep(waitMs);
       const s = await page.evaluate(() => window.__snap());
       // The whole page for the first; the two sprites for the others (committed screenshots stay small).
@@ -130,9 +130,15 @@ async function open(urlPath, viewport) {
       check(`screenshot ${i + 1}: checkerboard beside the sprites`, same(m.checkerPoint.got.slice(0, 3), m.checkerPoint.expected), m.checkerPoint);
     }
     check('screenshots show different frames', shown.size >= 2, [...shown].join(', '));
-    const meanChange = changes.reduce((s, d) => s + d, 0) / (changes.length || 1);
-    check('frame changes come at the atlas duration (±25 %)', changes.length >= 5 && Math.abs(meanChange - mean) <= 0.25 * mean,
-      `${changes.length} changes of sprite A while playing, mean ${meanChange.toFixed(1)} ms (min ${Math.min(...changes).toFixed(1)}, max ${Math.max(...changes).toFixed(1)}) vs ${mean} ms`);
+    // Wall-clock intervals between sprite A's frame changes. The median is the check (a busy
+    // machine stalls requestAnimationFrame, and PixiJS's ticker counts at most 100 ms a tick);
+    // it may be off by one 60 Hz display frame.
+    const sorted = changes.slice().sort((x, y) => x - y);
+    const median = sorted.length ? sorted[sorted.length >> 1] : NaN;
+    const meanChange = changes.reduce((t, d) => t + d, 0) / (changes.length || 1);
+    check('frame changes come at the atlas duration (median within max(25 %, 16.7 ms))',
+      changes.length >= 5 && Math.abs(median - mean) <= Math.max(0.25 * mean, 1000 / 60),
+      `${changes.length} changes of sprite A while playing: median ${median.toFixed(1)} ms, mean ${meanChange.toFixed(1)} (min ${sorted[0].toFixed(1)}, max ${sorted[sorted.length - 1].toFixed(1)}) vs ${mean} ms`);
   }
   await page.close();
 }
@@ -163,7 +169,8 @@ if (animations.length) {
         g.edge === 0 ? 'the GIF has no transparent pixels, so no edges to judge' : `${g.edge} edge px (mean APNG α ${g.edgeMeanApngAlpha.toFixed(0)}): mean max|ΔRGB| vs APNG ${g.edgeMeanMaxDiff.toFixed(2)}, mean Δluma ${g.edgeMeanLumaGifMinusApng.toFixed(2)}; interior ${g.interior} px: mean max|ΔRGB| ${g.interiorMeanMaxDiff.toFixed(2)}`);
     }
     const shots = [];
-    for (const [i, waitMs] of [300, 450].entries()) {
+    // Three times (a ping-pong shows the same picture at mirrored times, so two could match).
+    for (const [i, waitMs] of [300, 450, 230].entries()) {
       await sleep(waitMs);
       const file = path.join(screensDir, 'alpha.png');
       const png = await page.screenshot();
@@ -185,8 +192,13 @@ if (animations.length) {
           c && `image px ${c.imagePixel} → page ${c.pagePixel}: ${c.got} (checker ${c.checker}; nearest frame colour Δ ${c.nearestFrameColourDiff})`);
       }
     }
-    const moved = await page.evaluate(([x, y]) => window.__changed(x, y), shots);
-    for (const m of moved) check(`${m.url}: plays (pixels differ between the two screenshots)`, m.changedPixels > 0, `${m.changedPixels} of ${m.of} px`);
+    const pairs = [[0, 1], [1, 2], [0, 2]];
+    const moved = await Promise.all(pairs.map(([x, y]) => page.evaluate(([s, t]) => window.__changed(s, t), [shots[x], shots[y]])));
+    moved[0].forEach((m, f) => {
+      const counts = moved.map((pair) => pair[f].changedPixels);
+      check(`${m.url}: plays (pixels differ between screenshots)`, Math.max(...counts) > 0,
+        `changed px between screenshots 1–2, 2–3, 1–3: ${counts.join(', ')} of ${m.of}`);
+    });
   }
   await page.close();
 }

@@ -32,4 +32,18 @@ else
 fi
 
 cd "$repo"
-node "$here/check.mjs" "$out" "$here/screens"
+status=0
+echo "== the demo: sprite sheet in PixiJS, APNG/GIF over a checkerboard (screenshots: bench/browser/screens/)"
+node "$here/check.mjs" "$out" "$here/screens" || status=1
+
+# A sheet of two pages: 302 in-betweens of the demo's model (96×128 frames: 256 a page).
+if [ -d "$out/model" ]; then
+  long=${TMPDIR:-/tmp}/puppet-browser-long
+  frames="$repo/data/kenney/male_adventurer/frames"
+  cargo run --release --quiet -- inbetween --quiet --force --model "$out/model" \
+    "$frames/maleAdventurer_walk0.png" "$frames/maleAdventurer_walk4.png" \
+    --steps 300 --latent-steps 0 --delay 40 -o "$long"
+  echo "== a two-page sheet ($long/sprites.json + sprites_2.json), started at entry 250 (screenshots: $long/screens/)"
+  ATLAS=sprites.json ANIMATIONS= START=250 node "$here/check.mjs" "$long" "$long/screens" || status=1
+fi
+exit $status

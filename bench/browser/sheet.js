@@ -137,13 +137,14 @@ async function main() {
     playing: [a.playing, b.playing],
     boxes,
   });
-  const show = () => {
+  const show = (paused = null) => {
     document.getElementById('state').textContent =
       `PixiJS ${report.pixi} (${report.renderer}) · ${atlasUrl} (${sheets.length} page${sheets.length > 1 ? 's' : ''}) · ${report.frameCount} textures ` +
       `${cellW}×${cellH} · animation "${name}": ${textures.length} frames, durations ` +
       `${[...new Set(durations)].join('/')} ms → animationSpeed ${a.animationSpeed.toFixed(4)} · ` +
       `A frame ${a.currentFrame} (${frameNames[a.currentFrame]}), B frame ${b.currentFrame} ` +
-      `(${frameNames[b.currentFrame]}) · playing ${a.playing}/${b.playing}`;
+      `(${frameNames[b.currentFrame]}) · ` +
+      (paused ? `stopped for this screenshot, was playing ${paused.join('/')}` : `playing ${a.playing}/${b.playing}`);
   };
   show();
   document.title = 'ready';
@@ -155,7 +156,7 @@ async function main() {
     b.stop();
     last = null;
     drawOutline();
-    show();
+    show(wasPlaying);
     app.render();
     const state = (s) => ({ currentFrame: s.currentFrame, name: frameNames[s.currentFrame], cell: cellOf(s) });
     return { wasPlaying, a: state(a), b: state(b), changesMs: changes.slice() };
