@@ -34,6 +34,7 @@ pub mod fit;
 // Layer 6, products.
 pub mod demo;
 pub mod eval;
+pub mod export;
 pub mod synth;
 
 #[cfg(test)]

@@ -110,6 +110,8 @@ fn inbetween_writes_steps_sheets_and_a_gif() {
             s(&out),
             "--gif",
             s(&gif),
+            "--apng",
+            s(&tmp.path().join("ib.apng")),
             "--training",
             s(&training),
         ],
@@ -133,6 +135,88 @@ fn inbetween_writes_steps_sheets_and_a_gif() {
     use image::AnimationDecoder;
     let decoder = image::codecs::gif::GifDecoder::new(std::io::BufReader::new(std::fs::File::open(&gif).unwrap())).unwrap();
     assert_eq!(decoder.into_frames().collect_frames().unwrap().len(), 8);
+    let apng =
+        image::codecs::png::PngDecoder::new(std::io::BufReader::new(std::fs::File::open(tmp.path().join("ib.apng")).unwrap())).unwrap();
+    let frames = apng.apng().unwrap().into_frames().collect_frames().unwrap();
+    assert_eq!(frames.len(), 8);
+    assert_eq!(frames[0].buffer().get_pixel(0, 0).0[3], 0, "a transparent background");
+    let atlas: serde_json::Value = serde_json::from_slice(&std::fs::read(out.join("sprites.json")).unwrap()).unwrap();
+    assert_eq!(atlas["frames"].as_object().unwrap().len(), 5);
+    assert_eq!(atlas["animations"]["sprites"].as_array().unwrap().len(), 8, "there and back");
+    assert_eq!(atlas["meta"]["image"], "sprites.png");
+}
+
+/// `puppet export spine` turns an in-between's poses and a dragged pose into one skeleton, and
+/// refuses a pose of another puppet naming the file, and an output it would overwrite.
+#[test]
+fn export_spine_writes_a_skeleton_of_inbetween_and_pose_files() {
+    let tmp = tempfile::tempdir().unwrap();
+    let (model, a, b) = setup(tmp.path());
+    let ib = tmp.path().join("ib");
+    puppet(
+        tmp.path(),
+        &["inbetween", "--model", s(&model), s(&a), s(&b), "--steps", "2", "-o", s(&ib)],
+    )
+    .assert_ok();
+    let posed = tmp.path().join("posed.png");
+    puppet(
+        tmp.path(),
+        &["pose", "--model", s(&model), s(&a), "--pin", "24,30:26,30", "-o", s(&posed)],
+    )
+    .assert_ok();
+    let out = tmp.path().join("spine");
+    let run = puppet(
+        tmp.path(),
+        &[
+            "export",
+            "spine",
+            "--model",
+            s(&model),
+            s(&ib.join("latent")),
+            s(&tmp.path().join("posed.json")),
+            "-o",
+            s(&out),
+            "--name",
+            "tiny",
+        ],
+    );
+    run.assert_ok();
+    assert!(run.stdout.contains("latent (4 keys), posed (1 keys)"), "{}", run.stdout);
+    let json: serde_json::Value = serde_json::from_slice(&std::fs::read(out.join("tiny.json")).unwrap()).unwrap();
+    assert_eq!(json["skeleton"]["spine"], "4.2.0");
+    let layers = json["slots"].as_array().unwrap().len();
+    assert_eq!(json["bones"].as_array().unwrap().len(), layers);
+    let walk = &json["animations"]["latent"];
+    let first_bone = json["bones"][0]["name"].as_str().unwrap();
+    assert_eq!(walk["bones"][first_bone]["rotate"].as_array().unwrap().len(), 4);
+    assert!(std::fs::read_to_string(out.join("tiny.atlas"))
+        .unwrap()
+        .starts_with("tiny.png\nsize: "));
+    assert!(image::open(out.join("tiny.png")).is_ok());
+
+    std::fs::write(tmp.path().join("other.json"), br#"{"vertices": [[1, 2], [3, 4]]}"#).unwrap();
+    let other = puppet(tmp.path(), &["export", "spine", "--model", s(&model), "other.json", "-o", "again"]);
+    other.assert_error(&["other.json", "2 vertices, but the puppet has"]);
+    assert!(!tmp.path().join("again").exists(), "a refused export writes nothing");
+    // A file of the user's where the skeleton would go is never replaced.
+    std::fs::write(out.join("mine.atlas"), b"user's").unwrap();
+    let clash = puppet(
+        tmp.path(),
+        &[
+            "export",
+            "spine",
+            "--model",
+            s(&model),
+            s(&ib.join("latent")),
+            "-o",
+            s(&out),
+            "--name",
+            "mine",
+        ],
+    );
+    clash.assert_error(&["mine.atlas", "--force"]);
+    assert_eq!(std::fs::read(out.join("mine.atlas")).unwrap(), b"user's");
+    assert!(!out.join("mine.json").exists(), "nothing is written when one output is in the way");
 }
 
 #[test]

@@ -12,6 +12,7 @@ mod correspond;
 mod demo;
 mod eval;
 mod eval_rig;
+mod export;
 mod fit;
 mod inbetween;
 mod info;
@@ -72,6 +73,7 @@ enum Command {
     Demo(demo::DemoArgs),
     Eval(eval::EvalArgs),
     EvalRig(eval_rig::EvalRigArgs),
+    Export(export::ExportArgs),
     Fit(fit::FitArgs),
     Inbetween(inbetween::InbetweenArgs),
     Info(info::InfoArgs),
@@ -98,6 +100,7 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
         Command::Demo(args) => demo::run(args, s),
         Command::Eval(args) => eval::run(args, s),
         Command::EvalRig(args) => eval_rig::run(args, s),
+        Command::Export(args) => export::run(args, s),
         Command::Fit(args) => fit::run(args, s),
         Command::Inbetween(args) => inbetween::run(args, s),
         Command::Info(args) => info::run(args, s),

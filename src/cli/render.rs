@@ -5,7 +5,7 @@ use std::path::PathBuf;
 use puppet::puppet::{format, pose_file::PoseFile};
 use puppet::render::{render_pose, Background};
 
-use super::args::{parse_colour, parse_size};
+use super::args::{parse_background, parse_size};
 use super::Session;
 
 /// Render a pose of a puppet (default: its rest pose) to a PNG through the soft rasterizer.
@@ -25,14 +25,13 @@ pub struct RenderArgs {
     /// Soft-rasterizer σ in px² (0 = crisp).
     #[arg(long, default_value_t = 0.0)]
     pub sigma: f32,
-    /// Background colour #rrggbb (default: transparent).
-    #[arg(long, value_parser = parse_colour, value_name = "#RRGGBB")]
-    pub background: Option<[f32; 3]>,
+    /// What the picture is drawn on: `transparent`, or an opaque colour #RRGGBB.
+    #[arg(long, default_value = "transparent", value_parser = parse_background, value_name = "transparent|#RRGGBB")]
+    pub background: Background,
 }
 
 /// Runs `puppet render`.
 pub fn run(args: RenderArgs, s: &Session) -> anyhow::Result<()> {
-    let background = args.background.map_or(Background::Transparent, Background::Colour);
     s.outputs.claim(&args.output)?;
     let puppet = format::load(&args.puppet)?;
     let vertices = match &args.pose {
@@ -42,7 +41,7 @@ pub fn run(args: RenderArgs, s: &Session) -> anyhow::Result<()> {
     let (w, h) = args.size.unwrap_or((puppet.width, puppet.height));
     let (sx, sy) = (w as f32 / puppet.width as f32, h as f32 / puppet.height as f32);
     let scaled: Vec<[f32; 2]> = vertices.iter().map(|v| [v[0] * sx, v[1] * sy]).collect();
-    let picture = render_pose(&puppet, &scaled, w, h, args.sigma, background)?;
+    let picture = render_pose(&puppet, &scaled, w, h, args.sigma, args.background)?;
     s.save_png(&args.output, &picture)?;
     s.ui.say(format!("rendered {w}×{h} (σ = {} px²) → {}", args.sigma, args.output.display()))
 }

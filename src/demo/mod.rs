@@ -18,6 +18,7 @@ use crate::edit::inbetween::{comparison_sheet, inbetween, steps_t, write_inbetwe
 use crate::edit::pin_overlay::pin_overlay;
 use crate::edit::pose::{Pin, PoseEditor, PoseOptions};
 use crate::error::{Error, FolderKind, Result};
+use crate::export::spine::{self, PoseAnimation};
 use crate::fit::{fit, fit_latents, FitOptions, DEFAULT_LATENT_STEPS, DEFAULT_VERTEX_STEPS};
 use crate::metrics::l2;
 use crate::model::Model;
@@ -104,6 +105,9 @@ const FILES: &[&str] = &[
     "pose_sheet.png",
     "drag.gif",
     "drag.apng",
+    "spine/puppet.json",
+    "spine/puppet.atlas",
+    "spine/puppet.png",
     "index.html",
 ];
 
@@ -219,6 +223,7 @@ pub fn run(options: &DemoOptions, progress: &dyn Progress) -> Result<DemoSummary
     // 4. In-betweens: walk0 → walk4 (half a cycle apart) and idle → jump; the first also in the
     // character's other outfit, if it has one.
     let mut inbetweens = Vec::new();
+    let mut exported = Vec::new();
     let mut outfit = None;
     for (a, b, stem) in [
         (pick("walk0", 0), pick("walk4", 1), "inbetween_walk"),
@@ -235,6 +240,10 @@ pub fn run(options: &DemoOptions, progress: &dyn Progress) -> Result<DemoSummary
         };
         write_inbetweens(&model, &ib, &[], &files, &outputs, progress)?;
         save(&format!("{stem}_sheet.png"), &comparison_sheet(&model, &ib, &frames.frames)?)?;
+        exported.push(PoseAnimation {
+            name: stem.to_string(),
+            poses: ib.latent.clone(),
+        });
         inbetweens.push(Inbetween {
             stem: stem.to_string(),
             from: names[a].clone(),
@@ -273,7 +282,21 @@ pub fn run(options: &DemoOptions, progress: &dyn Progress) -> Result<DemoSummary
     writer.finish()?;
     lap("dragged pose + ARAP comparison", &mut timings);
 
-    // 6. The page.
+    // 6. For game engines: the in-betweens and the drag (fit → dragged) as a Spine skeleton.
+    exported.push(PoseAnimation {
+        name: "drag".into(),
+        poses: vec![editor.fitted().to_vec(), dragged.vertices.clone()],
+    });
+    let skeleton = spine::skeleton(&model.puppet, &exported, "puppet", 0.09)?;
+    let mut engine_files = Vec::new();
+    for path in spine::write(&skeleton, &out.join("spine"), "puppet", &outputs)? {
+        let bytes = std::fs::metadata(&path).map_err(|e| Error::io(&path, e))?.len();
+        let name = path.strip_prefix(out).unwrap_or(&path).to_string_lossy().into_owned();
+        engine_files.push((name, bytes));
+    }
+    lap("Spine export", &mut timings);
+
+    // 7. The page.
     let seconds = started.elapsed().as_secs_f64();
     let html = page::render(&PageData {
         character: options
@@ -296,6 +319,8 @@ pub fn run(options: &DemoOptions, progress: &dyn Progress) -> Result<DemoSummary
         drag_ms,
         pose_steps: pose_options.steps,
         layer,
+        engine_files,
+        spine_animations: exported.iter().map(|a| a.name.clone()).collect(),
         timings,
         total: seconds,
     });

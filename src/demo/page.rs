@@ -69,6 +69,10 @@ pub struct PageData {
     pub layer: String,
     /// Wall time of each stage, seconds.
     pub timings: Vec<(String, f64)>,
+    /// The Spine export's files (relative to the page) and their sizes in bytes.
+    pub engine_files: Vec<(String, u64)>,
+    /// The animations in the Spine export.
+    pub spine_animations: Vec<String>,
     /// Wall time of the whole run, seconds.
     pub total: f64,
 }
@@ -180,6 +184,20 @@ pub fn render(d: &PageData) -> String {
         d.drag_ms,
         d.pin_error
     );
+    let files: Vec<String> = d
+        .engine_files
+        .iter()
+        .map(|(name, bytes)| format!("<a href=\"{0}\">{0}</a> ({1:.1} KB)", escape(name), *bytes as f64 / 1024.0))
+        .collect();
+    let _ = writeln!(
+        s,
+        "<h2>5. For game engines</h2><p>Each in-between is also a sprite sheet with a TexturePacker-style atlas (<code>*_sprites.png</code> + <code>*_sprites.json</code>: \
+         frame rectangles, pivot, durations, the animation — read by Phaser, PixiJS and Godot importers) and an APNG with full alpha. \
+         The puppet itself, with the animations {}, is a Spine 4.2 skeleton: one bone per layer at its joint, each layer a weighted mesh, \
+         keys of bone rotations and translations plus per-vertex deform offsets that reproduce our poses: {}.</p>",
+        d.spine_animations.iter().map(|a| escape(a)).collect::<Vec<_>>().join(", "),
+        files.join(", ")
+    );
     s.push_str("<h2>Time</h2><table>");
     for (what, secs) in &d.timings {
         let _ = write!(s, "<tr><th>{}</th><td>{secs:.1} s</td></tr>", escape(what));
@@ -229,6 +247,8 @@ mod tests {
             pose_steps: 5,
             layer: "hand".into(),
             timings: vec![("train".into(), 1.0)],
+            engine_files: vec![("spine/puppet.json".into(), 2048)],
+            spine_animations: vec!["inbetween_walk".into()],
             total: 2.0,
         });
         assert!(!page.contains("<script>") && page.contains("&lt;script&gt;") && page.contains("a&lt;b.png"));

@@ -34,7 +34,7 @@ use std::sync::Arc;
 use burn::tensor::{Device, Int, Tensor, TensorData};
 
 use super::bind::{bind, Binding};
-use super::pin_overlay::pin_overlay;
+use super::pin_overlay::draw_pins;
 use crate::error::{Error, Result};
 use crate::fit::{fit_latents, FitOptions};
 use crate::geom::ArapEnergy;
@@ -271,7 +271,7 @@ impl<'m> PoseEditor<'m> {
     ) -> Result<()> {
         let steps = self.drag_along(pins, frames, options)?;
         let poses: Vec<Vec<[f32; 2]>> = steps.iter().map(|(d, _)| drawn.pose_from(self.model, &d.vertices)).collect();
-        write_poses(&drawn.puppet, &poses, writer, |k, p| pin_overlay(&p, &steps[k].1), progress)
+        write_poses(&drawn.puppet, &poses, writer, |k, p| draw_pins(&p, &steps[k].1), progress)
     }
 
     /// Returns to the fitted latent (and forgets the adapted step size).

@@ -201,7 +201,7 @@ pub fn load_frame(path: &Path, check: &FrameCheck) -> Result<Picture> {
 }
 
 /// Natural order: digit runs compare as numbers, so `frame2` < `frame10`.
-fn natural_cmp(a: &str, b: &str) -> std::cmp::Ordering {
+pub(super) fn natural_cmp(a: &str, b: &str) -> std::cmp::Ordering {
     let (mut a, mut b) = (a.chars().peekable(), b.chars().peekable());
     loop {
         match (a.peek().copied(), b.peek().copied()) {

@@ -1,0 +1,122 @@
+//! `puppet export spine --model M <poses>... -o DIR`: a trained puppet and poses of it, for a
+//! game engine.
+
+use std::path::PathBuf;
+
+use puppet::export::spine::{self, PoseAnimation};
+use puppet::model::folder::ModelFolder;
+use puppet::puppet::{format, pose_file::load_poses};
+
+use super::args::{positive_f32, ModelArgs};
+use super::Session;
+
+/// Export a puppet and its animations to a game engine's format.
+#[derive(Debug, clap::Args)]
+pub struct ExportArgs {
+    #[command(subcommand)]
+    pub format: ExportFormat,
+}
+
+/// The formats.
+#[derive(Debug, clap::Subcommand)]
+pub enum ExportFormat {
+    Spine(SpineArgs),
+}
+
+/// Spine 4.2: NAME.json (one bone per layer at its joint, each layer a weighted mesh, one
+/// animation per pose source whose keys reproduce the poses: rotations and translations of the
+/// bones plus per-vertex deform offsets), NAME.atlas and NAME.png (the layers' textures), for
+/// Spine's runtimes in Unity, Godot, Unreal, Phaser, PixiJS and others.
+#[derive(Debug, clap::Args)]
+pub struct SpineArgs {
+    #[command(flatten)]
+    pub model: ModelArgs,
+    /// Pose sources, each one animation named after it: a folder of pose files (*.json, in
+    /// natural order — `inbetween`'s latent/, `fit`'s output folder) or one pose file (`pose`'s
+    /// OUTPUT.json).
+    #[arg(required = true, value_name = "POSES")]
+    pub sources: Vec<PathBuf>,
+    /// Output folder.
+    #[arg(short, long, value_name = "DIR")]
+    pub output: PathBuf,
+    /// The skeleton's file names (NAME.json, NAME.atlas, NAME.png).
+    #[arg(long, default_value = "puppet")]
+    pub name: String,
+    /// Poses per second in the animations.
+    #[arg(long, default_value_t = 12.0, value_parser = positive_f32)]
+    pub fps: f32,
+}
+
+/// Runs `puppet export`.
+pub fn run(args: ExportArgs, s: &Session) -> anyhow::Result<()> {
+    match args.format {
+        ExportFormat::Spine(args) => run_spine(args, s),
+    }
+}
+
+fn run_spine(args: SpineArgs, s: &Session) -> anyhow::Result<()> {
+    anyhow::ensure!(
+        !args.name.is_empty() && !args.name.contains(['/', '\\']) && !args.name.starts_with('.'),
+        "--name {:?}: give a plain file name",
+        args.name
+    );
+    let puppet = format::load(&ModelFolder::open(&args.model.model)?.puppet())?;
+    let mut animations = Vec::new();
+    for source in &args.sources {
+        let name = source
+            .file_stem()
+            .map_or_else(|| "animation".into(), |n| n.to_string_lossy().into_owned());
+        animations.push(PoseAnimation {
+            name,
+            poses: load_poses(source, &puppet, &s.ui)?,
+        });
+    }
+    let skeleton = spine::skeleton(&puppet, &animations, &args.name, 1.0 / f64::from(args.fps))?;
+    let written = spine::write(&skeleton, &args.output, &args.name, &s.outputs)?;
+    let sizes: Vec<String> = written
+        .iter()
+        .map(|p| {
+            let bytes = std::fs::metadata(p).map_or(0, |m| m.len());
+            format!("{} ({:.1} KB)", p.display(), bytes as f64 / 1024.0)
+        })
+        .collect();
+    let keys: Vec<String> = animations.iter().map(|a| format!("{} ({} keys)", a.name, a.poses.len())).collect();
+    s.ui.say(format!(
+        "Spine {}: {} bones, animations {} → {}",
+        spine::SPINE_VERSION,
+        puppet.layers.len(),
+        keys.join(", "),
+        sizes.join(", ")
+    ))
+}
+
+#[cfg(test)]
+mod tests {
+    use crate::cli::tests::parses;
+
+    #[test]
+    fn parses_sources_and_options() {
+        parses(&[
+            "export",
+            "spine",
+            "--model",
+            "m",
+            "ib/latent",
+            "pose.json",
+            "-o",
+            "out",
+            "--fps",
+            "24",
+            "--name",
+            "robot",
+        ]);
+        for bad in [
+            vec!["export", "spine", "--model", "m", "-o", "out"],
+            vec!["export", "spine", "--model", "m", "p", "-o", "out", "--fps", "0"],
+            vec!["export", "gltf", "--model", "m", "p", "-o", "out"],
+        ] {
+            let args = std::iter::once("puppet").chain(bad.iter().copied());
+            assert!(clap::Parser::try_parse_from(args).map(|_: crate::cli::Cli| ()).is_err(), "{bad:?}");
+        }
+    }
+}
