@@ -239,15 +239,31 @@ fn pose_writes_the_posed_frame_the_arap_comparison_and_the_drag_gif() {
             s(&out),
             "--gif",
             s(&gif),
-            "--gif-frames",
+            "--drag-frames",
             "3",
+            "--sprites",
+            s(&tmp.path().join("drag.png")),
         ],
     );
     run.assert_ok();
     assert!(run.stdout.contains("pin error"), "{}", run.stdout);
-    for f in ["posed.png", "posed_arap.png", "posed_sheet.png", "posed.json", "drag.gif"] {
+    for f in [
+        "posed.png",
+        "posed_arap.png",
+        "posed_sheet.png",
+        "posed.json",
+        "drag.gif",
+        "drag.png",
+        "drag.json",
+    ] {
         assert!(tmp.path().join(f).is_file(), "{f} missing");
     }
+    let atlas: serde_json::Value = serde_json::from_slice(&std::fs::read(tmp.path().join("drag.json")).unwrap()).unwrap();
+    assert_eq!(
+        atlas["animations"]["drag"].as_array().unwrap().len(),
+        3,
+        "one sheet cell per update"
+    );
     // The ARAP comparison moved the arm: its render differs from the input frame.
     let arap = puppet::picture::Picture::load(&tmp.path().join("posed_arap.png")).unwrap();
     let input = puppet::picture::Picture::load(&a).unwrap();

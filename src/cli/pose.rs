@@ -15,7 +15,7 @@ use puppet::model::Model;
 use puppet::picture::{contact_sheet, Picture};
 use puppet::progress::Progress;
 use puppet::puppet::pose_file::PoseFile;
-use puppet::render::animation::AnimationWriter;
+use puppet::render::animation::{AnimationFiles, AnimationWriter};
 use puppet::render::{render_crisp, render_pose};
 
 use super::args::{parse_pin, AnimationArgs, LatentFitArgs, ModelArgs, OutfitArgs};
@@ -26,7 +26,7 @@ use super::Session;
 ///
 /// Writes OUTPUT (the posed frame), OUTPUT_arap.png (the same pins solved directly by ARAP in
 /// vertex space), OUTPUT_sheet.png (input | fit | ours | ARAP, pins drawn) and OUTPUT.json (the
-/// posed vertices); with --gif / --apng, the drag as an editor runs it.
+/// posed vertices); with --gif / --apng / --sprites, the drag as an editor runs it.
 #[derive(Debug, clap::Args)]
 pub struct PoseArgs {
     #[command(flatten)]
@@ -54,6 +54,9 @@ pub struct PoseArgs {
     /// The drag's animation (--gif, --apng): updates along straight lines to the targets.
     #[command(flatten)]
     pub animation: AnimationArgs,
+    /// Also write the drag's updates as a sprite sheet with its atlas (FILE.png + FILE.json).
+    #[arg(long, value_name = "FILE")]
+    pub sprites: Option<PathBuf>,
     /// Updates in the drag's animation.
     #[arg(long, alias = "gif-frames", default_value_t = 12, value_name = "N")]
     pub drag_frames: usize,
@@ -86,7 +89,7 @@ pub fn run(args: PoseArgs, s: &Session) -> anyhow::Result<()> {
         "-o {}: the posed frame is a PNG (give a path ending in .png)",
         args.output.display()
     );
-    let animated = args.animation.gif.is_some() || args.animation.apng.is_some();
+    let animated = args.animation.gif.is_some() || args.animation.apng.is_some() || args.sprites.is_some();
     anyhow::ensure!(
         !animated || args.drag_frames >= 2,
         "--drag-frames {}: need at least 2",
@@ -112,7 +115,13 @@ pub fn run(args: PoseArgs, s: &Session) -> anyhow::Result<()> {
     let targets: Vec<[f32; 2]> = args.pins.iter().map(|p| p.to).collect();
     editor.set_pins(&sources).at_path(&args.image)?;
     let drag = animated
-        .then(|| AnimationWriter::new(&args.animation.files(false), args.drag_frames, w, h, &s.outputs))
+        .then(|| {
+            let files = AnimationFiles {
+                sprites: args.sprites.clone().map(|path| (path, args.drag_frames)),
+                ..args.animation.files(false)
+            };
+            AnimationWriter::new(&files, args.drag_frames, w, h, &s.outputs)
+        })
         .transpose()?;
     s.ui.stage("pose", 0);
     let started = std::time::Instant::now();
@@ -177,6 +186,8 @@ mod tests {
             "d.gif",
             "--apng",
             "d.png",
+            "--sprites",
+            "s.png",
             "--background",
             "#102030",
         ]);
