@@ -352,6 +352,35 @@ fn outfits_dress_inbetweens_fits_and_drags_of_a_bare_model() {
     run.assert_ok();
     assert!(hat_at(&posed, 32, 5) && hat_at(&tmp.path().join("posed_arap.png"), 32, 5));
     assert!(pose_len(&tmp.path().join("posed.json")) > bare);
+    // Poses of the model's own puppet exported in the outfit: the hat is a slot of its own;
+    // poses already dressed are not poses of the model's puppet.
+    let bare_fit = tmp.path().join("bare_fit");
+    puppet(tmp.path(), &["fit", "--model", s(&model), s(&a), "--one-pass", "-o", s(&bare_fit)]).assert_ok();
+    let spine = tmp.path().join("spine");
+    let export = |poses: &Path| {
+        puppet(
+            tmp.path(),
+            &[
+                "export",
+                "spine",
+                "--model",
+                s(&model),
+                s(poses),
+                "-o",
+                s(&spine),
+                "--dress",
+                s(&outfit),
+            ],
+        )
+    };
+    export(&bare_fit).assert_ok();
+    let json: serde_json::Value = serde_json::from_slice(&std::fs::read(spine.join("puppet.json")).unwrap()).unwrap();
+    assert!(
+        json["slots"].as_array().unwrap().iter().any(|slot| slot["name"] == "hat"),
+        "{}",
+        json["slots"]
+    );
+    export(&ib.join("latent")).assert_error(&["vertices, but the puppet has"]);
 
     // What cannot be worn is refused, naming it; nothing is written.
     let out = tmp.path().join("refused");

@@ -5,9 +5,10 @@ use std::path::PathBuf;
 
 use puppet::export::spine::{self, PoseAnimation};
 use puppet::model::folder::ModelFolder;
+use puppet::model::Model;
 use puppet::puppet::{format, pose_file::load_poses};
 
-use super::args::{positive_f32, ModelArgs};
+use super::args::{positive_f32, ModelArgs, OutfitArgs};
 use super::Session;
 
 /// Export a puppet and its animations to a game engine's format.
@@ -45,6 +46,10 @@ pub struct SpineArgs {
     /// Poses per second in the animations.
     #[arg(long, default_value_t = 12.0, value_parser = positive_f32)]
     pub fps: f32,
+    /// The character in another outfit (mix and match): the poses (of the model's own puppet)
+    /// are exported with these accessories, placed by their rig.
+    #[command(flatten)]
+    pub outfit: OutfitArgs,
 }
 
 /// Runs `puppet export`.
@@ -60,7 +65,7 @@ fn run_spine(args: SpineArgs, s: &Session) -> anyhow::Result<()> {
         "--name {:?}: give a plain file name",
         args.name
     );
-    let puppet = format::load(&ModelFolder::open(&args.model.model)?.puppet())?;
+    let own = format::load(&ModelFolder::open(&args.model.model)?.puppet())?;
     let mut animations = Vec::new();
     for source in &args.sources {
         let name = source
@@ -68,9 +73,31 @@ fn run_spine(args: SpineArgs, s: &Session) -> anyhow::Result<()> {
             .map_or_else(|| "animation".into(), |n| n.to_string_lossy().into_owned());
         animations.push(PoseAnimation {
             name,
-            poses: load_poses(source, &puppet, &s.ui)?,
+            poses: load_poses(source, &own, &s.ui)?,
         });
     }
+    // Another outfit needs the model (its rig map of the body); the model's own needs only the
+    // puppet.
+    let model = if args.outfit.dress.is_some() || !args.outfit.undress.is_empty() {
+        Some(Model::load(&args.model.model, &puppet::backend::device())?)
+    } else {
+        None
+    };
+    let worn = match &model {
+        Some(model) => args.outfit.model(model, &s.ui)?,
+        None => None,
+    };
+    let puppet = match (&model, &worn) {
+        (Some(model), Some(worn)) => {
+            for animation in &mut animations {
+                for pose in &mut animation.poses {
+                    *pose = worn.pose_from(model, pose);
+                }
+            }
+            worn.puppet.clone()
+        }
+        _ => own,
+    };
     let skeleton = spine::skeleton(&puppet, &animations, &args.name, 1.0 / f64::from(args.fps))?;
     let written = spine::write(&skeleton, &args.output, &args.name, &s.outputs)?;
     let sizes: Vec<String> = written
@@ -109,6 +136,8 @@ mod tests {
             "24",
             "--name",
             "robot",
+            "--dress",
+            "outfit",
         ]);
         for bad in [
             vec!["export", "spine", "--model", "m", "-o", "out"],
