@@ -5,7 +5,7 @@ translate keys, parents first; weighted mesh vertices plus deform offsets; mesh 
 atlas region), and compares each render with puppet's own PNG of that pose.
 
     python3 bench/spine_render.py out/robot-spine/robot.json latent out/robot-walk/latent/step_*.png \
-        -o out/robot-spine/check.png
+        -o out/robot-spine/check.png [--skin NAME]
 
 Writes a sheet (rows: Spine-rule render, puppet's render, |difference| ×4) and prints, per key,
 the share of pixels whose alpha differs by more than ½ and the mean |ΔRGBA| (0–255). Needs numpy
@@ -67,7 +67,7 @@ def read_atlas(path):
     return page, regions
 
 
-def world_vertices(skel, animation, time):
+def world_vertices(skel, animation, time, skin="default"):
     anim = skel["animations"][animation]
     bones, world = {}, []
     for bone in skel["bones"]:
@@ -85,13 +85,17 @@ def world_vertices(skel, animation, time):
                  pa * x + pb * y + px, pc * x + pd * y + py)
         bones[bone["name"]] = m
         world.append(m)
-    skin = next(s for s in skel["skins"] if s["name"] == "default")["attachments"]
+    skins = {s["name"]: s["attachments"] for s in skel["skins"]}
     out = []
     for slot in skel["slots"]:
         att = slot["attachment"]
-        mesh = skin[slot["name"]][att]
+        # The active skin first, then the default skin; a slot in neither is not drawn.
+        found = next((k for k in (skin, "default") if att in skins.get(k, {}).get(slot["name"], {})), None)
+        if found is None:
+            continue
+        mesh = skins[found][slot["name"]][att]
         raw = mesh["vertices"]
-        keys = anim.get("attachments", {}).get("default", {}).get(slot["name"], {}).get(att, {}).get("deform")
+        keys = anim.get("attachments", {}).get(found, {}).get(slot["name"], {}).get(att, {}).get("deform")
         n_weights = 0
         i = 0
         while i < len(raw):
@@ -112,11 +116,11 @@ def world_vertices(skel, animation, time):
     return out
 
 
-def render(skel, animation, time, page, regions, size):
+def render(skel, animation, time, page, regions, size, skin="default"):
     w, h = size
     img = np.zeros((h, w, 4), np.float64)
     tex = np.asarray(page, np.float64) / 255.0
-    for name, mesh, pts in world_vertices(skel, animation, time):
+    for name, mesh, pts in world_vertices(skel, animation, time, skin):
         rx, ry, rw, rh = regions[name]
         uv = np.array(mesh["uvs"]).reshape(-1, 2)
         # Spine space (origin bottom centre, y up) to frame pixels.
@@ -158,6 +162,7 @@ def main():
     ap.add_argument("renders", nargs="+", help="puppet's PNG of each key, in order")
     ap.add_argument("-o", "--output", required=True)
     ap.add_argument("--fps", type=float, default=12.0)
+    ap.add_argument("--skin", default="default", help="the skin to draw (default: the default skin)")
     args = ap.parse_args()
     skel = json.load(open(args.skeleton))
     atlas = os.path.splitext(args.skeleton)[0] + ".atlas"
@@ -167,7 +172,7 @@ def main():
     h, w = ours[0].shape[:2]
     rows = [[], [], []]
     for k, theirs in enumerate(ours):
-        spine = render(skel, args.animation, k / args.fps, page, regions, (w, h))
+        spine = render(skel, args.animation, k / args.fps, page, regions, (w, h), args.skin)
         diff = np.abs(spine.astype(int) - theirs.astype(int))
         alpha_off = float(np.mean(diff[..., 3] > 127))
         print(f"key {k}: alpha differs on {100 * alpha_off:.2f} % of pixels, mean |ΔRGBA| {diff.mean():.2f}")

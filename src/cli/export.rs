@@ -3,10 +3,13 @@
 
 use std::path::PathBuf;
 
-use puppet::export::spine::{self, PoseAnimation};
+use anyhow::Context as _;
+use puppet::export::spine::{self, OutfitSkin, PoseAnimation};
 use puppet::model::folder::ModelFolder;
 use puppet::model::Model;
-use puppet::puppet::{format, pose_file::load_poses};
+use puppet::puppet::{artwork, build::BuildOptions, format, pose_file::load_poses};
+use puppet::rig::outfit::dress;
+use puppet::rig::RigOptions;
 
 use super::args::{positive_f32, ModelArgs, OutfitArgs};
 use super::Session;
@@ -50,6 +53,11 @@ pub struct SpineArgs {
     /// are exported with these accessories, placed by their rig.
     #[command(flatten)]
     pub outfit: OutfitArgs,
+    /// Another outfit as a Spine skin (accessory layers drawn for the same rest body: PNG
+    /// layers with character.toml, or .ora): its accessories get bones and slots of their own,
+    /// and an engine switches outfits by setting the skin. Repeat for more.
+    #[arg(long = "skin", value_name = "ARTWORK")]
+    pub skins: Vec<PathBuf>,
 }
 
 /// Runs `puppet export`.
@@ -76,29 +84,46 @@ fn run_spine(args: SpineArgs, s: &Session) -> anyhow::Result<()> {
             poses: load_poses(source, &own, &s.ui)?,
         });
     }
-    // Another outfit needs the model (its rig map of the body); the model's own needs only the
+    // Other outfits need the model (its rig map of the body); the model's own needs only the
     // puppet.
-    let model = if args.outfit.dress.is_some() || !args.outfit.undress.is_empty() {
+    let dressed = args.outfit.dress.is_some() || !args.outfit.undress.is_empty();
+    let model = if dressed || !args.skins.is_empty() {
         Some(Model::load(&args.model.model, &puppet::backend::device())?)
     } else {
         None
     };
-    let worn = match &model {
-        Some(model) => args.outfit.model(model, &s.ui)?,
-        None => None,
+    let mut skins = Vec::new();
+    if let Some(model) = &model {
+        for dir in &args.skins {
+            let art = artwork::load(dir, &artwork::ImportOptions::default()).with_context(|| format!("--skin {}", dir.display()))?;
+            let puppet = dress(&model.puppet, &art, &BuildOptions::default(), &RigOptions::default(), &s.ui)?;
+            let worn = model.wearing(puppet).with_context(|| format!("--skin {}", dir.display()))?;
+            skins.push(OutfitSkin {
+                name: art.name.clone(),
+                poses: animations
+                    .iter()
+                    .map(|a| a.poses.iter().map(|p| worn.pose_from(model, p)).collect())
+                    .collect(),
+                puppet: worn.puppet,
+            });
+        }
+    }
+    let worn = match (&model, dressed) {
+        (Some(model), true) => args.outfit.model(model, &s.ui)?,
+        _ => None,
     };
-    let puppet = match (&model, &worn) {
+    let puppet = match (&model, worn) {
         (Some(model), Some(worn)) => {
             for animation in &mut animations {
                 for pose in &mut animation.poses {
                     *pose = worn.pose_from(model, pose);
                 }
             }
-            worn.puppet.clone()
+            worn.puppet
         }
         _ => own,
     };
-    let skeleton = spine::skeleton(&puppet, &animations, &args.name, 1.0 / f64::from(args.fps))?;
+    let skeleton = spine::skeleton(&puppet, &animations, &skins, &args.name, 1.0 / f64::from(args.fps))?;
     let written = spine::write(&skeleton, &args.output, &args.name, &s.outputs)?;
     let sizes: Vec<String> = written
         .iter()
@@ -108,11 +133,21 @@ fn run_spine(args: SpineArgs, s: &Session) -> anyhow::Result<()> {
         })
         .collect();
     let keys: Vec<String> = animations.iter().map(|a| format!("{} ({} keys)", a.name, a.poses.len())).collect();
+    let skin_names: Vec<String> = skins.iter().map(|k| format!("{:?}", k.name)).collect();
     s.ui.say(format!(
-        "Spine {}: {} bones, animations {} → {}",
+        "Spine {}: {} bones, animations {}{} → {}",
         spine::SPINE_VERSION,
-        puppet.layers.len(),
+        skeleton.json["bones"].as_array().map_or(0, Vec::len),
         keys.join(", "),
+        if skins.is_empty() {
+            String::new()
+        } else {
+            format!(
+                ", skins {} and {:?} (the model's own accessories)",
+                skin_names.join(", "),
+                spine::OWN_SKIN
+            )
+        },
         sizes.join(", ")
     ))
 }
@@ -138,6 +173,10 @@ mod tests {
             "robot",
             "--dress",
             "outfit",
+            "--skin",
+            "a",
+            "--skin",
+            "b",
         ]);
         for bad in [
             vec!["export", "spine", "--model", "m", "-o", "out"],

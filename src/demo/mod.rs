@@ -18,7 +18,7 @@ use crate::edit::inbetween::{comparison_sheet, inbetween, steps_t, write_inbetwe
 use crate::edit::pin_overlay::pin_overlay;
 use crate::edit::pose::{Pin, PoseEditor, PoseOptions};
 use crate::error::{Error, FolderKind, Result};
-use crate::export::spine::{self, PoseAnimation};
+use crate::export::spine::{self, OutfitSkin, PoseAnimation};
 use crate::fit::{fit, fit_latents, FitOptions, DEFAULT_LATENT_STEPS, DEFAULT_VERTEX_STEPS};
 use crate::metrics::l2;
 use crate::model::Model;
@@ -287,7 +287,19 @@ pub fn run(options: &DemoOptions, progress: &dyn Progress) -> Result<DemoSummary
         name: "drag".into(),
         poses: vec![editor.fitted().to_vec(), dragged.vertices.clone()],
     });
-    let skeleton = spine::skeleton(&model.puppet, &exported, "puppet", 0.09)?;
+    // The other outfit, if any, as a skin: the same keys in its accessories.
+    let skins: Vec<OutfitSkin> = outfit
+        .iter()
+        .map(|(o, worn)| OutfitSkin {
+            name: o.name.clone(),
+            puppet: worn.puppet.clone(),
+            poses: exported
+                .iter()
+                .map(|a| a.poses.iter().map(|p| worn.pose_from(&model, p)).collect())
+                .collect(),
+        })
+        .collect();
+    let skeleton = spine::skeleton(&model.puppet, &exported, &skins, "puppet", 0.09)?;
     let mut engine_files = Vec::new();
     for path in spine::write(&skeleton, &out.join("spine"), "puppet", &outputs)? {
         let bytes = std::fs::metadata(&path).map_err(|e| Error::io(&path, e))?.len();
@@ -303,7 +315,7 @@ pub fn run(options: &DemoOptions, progress: &dyn Progress) -> Result<DemoSummary
             .character
             .file_name()
             .map_or_else(String::new, |n| n.to_string_lossy().into_owned()),
-        outfit,
+        outfit: outfit.map(|(o, _)| o),
         accessories: accessory_names(&model.puppet),
         layer_names: model.puppet.layers.iter().map(|l| l.name.clone()).collect(),
         vertices: model.puppet.vertex_count(),
@@ -364,7 +376,7 @@ fn redress(
     (out, stem): (&Path, &str),
     outputs: &Outputs,
     progress: &dyn Progress,
-) -> Result<page::Outfit> {
+) -> Result<(page::Outfit, Model)> {
     let started = Instant::now();
     let art = artwork::load(dir, &artwork::ImportOptions::default())?;
     let puppet = dress(&model.puppet, &art, &BuildOptions::default(), &RigOptions::default(), progress)?;
@@ -383,12 +395,13 @@ fn redress(
     let sheet = out.join(format!("{stem}_dressed_sheet.png"));
     comparison_sheet(&worn, &dressed, frames)?.save_png(&sheet)?;
     record(&sheet)?;
-    Ok(page::Outfit {
+    let outfit = page::Outfit {
         name: dir.file_name().map_or_else(String::new, |n| n.to_string_lossy().into_owned()),
         accessories: accessory_names(&worn.puppet),
         stem: stem.to_string(),
         rig_ms,
-    })
+    };
+    Ok((outfit, worn))
 }
 
 /// The short training run: the robot at 64×64 working pixels, batch 8, cosine decay.

@@ -194,7 +194,7 @@ pub fn render(d: &PageData) -> String {
         "<h2>5. For game engines</h2><p>Each in-between is also a sprite sheet with a TexturePacker-style atlas (<code>*_sprites.png</code> + <code>*_sprites.json</code>: \
          frame rectangles, pivot, durations, the animation — read by Phaser, PixiJS and Godot importers) and an APNG with full alpha. \
          The puppet itself, with the animations {}, is a Spine 4.2 skeleton: one bone per layer at its joint, each layer a weighted mesh, \
-         keys of bone rotations and translations plus per-vertex deform offsets that reproduce our poses: {}.</p>",
+         keys of bone rotations and translations plus per-vertex deform offsets that reproduce our poses; another outfit, if the character has one, is a skin: {}.</p>",
         d.spine_animations.iter().map(|a| escape(a)).collect::<Vec<_>>().join(", "),
         files.join(", ")
     );

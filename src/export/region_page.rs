@@ -4,7 +4,7 @@
 
 use crate::error::{Error, Result};
 use crate::picture::Picture;
-use crate::puppet::Puppet;
+use crate::puppet::Layer;
 use crate::render::animation::MAX_SHEET_SIDE;
 
 /// Pixels kept around each region's UV rectangle, and between regions on the page.
@@ -30,18 +30,18 @@ impl Region {
     }
 }
 
-/// The page and each layer's region on it (in layer order).
+/// The page and each layer's region on it (in the order given).
 pub(super) struct RegionPage {
     pub regions: Vec<Region>,
     pub page: Picture,
 }
 
-/// Packs every layer of `puppet` onto one page.
+/// Packs `layers` onto one page.
 ///
 /// # Errors
 /// [`Error::Limit`] if the page would pass [`MAX_SHEET_SIDE`] on a side.
-pub(super) fn pack(puppet: &Puppet) -> Result<RegionPage> {
-    let cuts: Vec<((u32, u32), (u32, u32))> = puppet.layers.iter().map(|l| used_rectangle(&l.uvs, &l.texture)).collect();
+pub(super) fn pack(layers: &[&Layer]) -> Result<RegionPage> {
+    let cuts: Vec<((u32, u32), (u32, u32))> = layers.iter().map(|l| used_rectangle(&l.uvs, &l.texture)).collect();
     let area: u64 = cuts.iter().map(|(_, (w, h))| u64::from(w + MARGIN) * u64::from(h + MARGIN)).sum();
     let widest = cuts.iter().map(|(_, (w, _))| *w).max().unwrap_or(1);
     let width = widest.max((area as f64).sqrt().ceil() as u32).max(1);
@@ -68,7 +68,7 @@ pub(super) fn pack(puppet: &Puppet) -> Result<RegionPage> {
         ));
     }
     let mut page = Picture::filled(width, height, [0.0; 4]);
-    for (k, layer) in puppet.layers.iter().enumerate() {
+    for (k, layer) in layers.iter().enumerate() {
         let ((sx, sy), (w, h)) = cuts[k];
         let (px, py) = at[k];
         for y in 0..h {

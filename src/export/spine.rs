@@ -244,14 +244,142 @@ fn check_name(name: &str) -> Result<()> {
     Ok(())
 }
 
-/// Builds the skeleton of `puppet` with `animations`, keys `seconds_per_pose` apart; the atlas
-/// names its page `<name>.png`.
+/// Another outfit of the same body, written as a Spine skin of its own: its accessories get
+/// bones, slots and attachments; the animations carry their poses too.
+#[derive(Clone, Debug, PartialEq)]
+pub struct OutfitSkin {
+    /// The skin's name.
+    pub name: String,
+    /// The character in that outfit: the same body layers, other accessories.
+    pub puppet: Puppet,
+    /// For each animation of the skeleton, in order, the same keys as poses of `puppet`.
+    pub poses: Vec<Vec<Vec<[f32; 2]>>>,
+}
+
+/// One mesh of the skeleton: its bone, slot, attachment and atlas region share `name`.
+struct Part<'p> {
+    name: String,
+    skin: String,
+    /// Where its poses come from: 0 the main puppet, `i + 1` outfit `i`.
+    source: usize,
+    /// Its layer's index in that puppet.
+    layer: usize,
+    mesh: &'p crate::puppet::Layer,
+    parent: Option<usize>,
+    rest: [f64; 2],
+    /// Its rest vertices in Spine space.
+    vertices: Vec<[f64; 2]>,
+}
+
+/// The skin the main puppet's accessories go in when outfits have skins of their own (in the
+/// default skin they would show under every skin).
+pub const OWN_SKIN: &str = "own";
+
+/// The parts of the skeleton, parents first (the main puppet's bones, then each outfit's
+/// accessories), and the draw order as part indices.
+fn parts<'p>(puppet: &'p Puppet, outfits: &'p [OutfitSkin]) -> Result<(Vec<Part<'p>>, Vec<usize>)> {
+    let (bones, bone_of) = bones(puppet);
+    let space = |p: &Puppet, l: usize| -> Vec<[f64; 2]> { p.layers[l].mesh.vertices.iter().map(|&v| spine_point(v, p)).collect() };
+    let main_skin = |l: usize| {
+        if outfits.is_empty() || puppet.layers[l].kind == LayerKind::Body {
+            "default".to_string()
+        } else {
+            OWN_SKIN.to_string()
+        }
+    };
+    let mut parts: Vec<Part> = bones
+        .iter()
+        .map(|b| Part {
+            name: puppet.layers[b.layer].name.clone(),
+            skin: main_skin(b.layer),
+            source: 0,
+            layer: b.layer,
+            mesh: &puppet.layers[b.layer],
+            parent: b.parent,
+            rest: b.rest,
+            vertices: space(puppet, b.layer),
+        })
+        .collect();
+    let mut order: Vec<usize> = (0..puppet.layers.len()).map(|l| bone_of[l]).collect();
+    for (i, outfit) in outfits.iter().enumerate() {
+        let worn = &outfit.puppet;
+        let of_outfit = |parts: &[Part], name: &str| parts.iter().position(|p| p.source == i + 1 && p.mesh.name == name);
+        let mut rig_order: Vec<usize> = worn.rig.iter().flat_map(|r| r.accessories.iter().map(|a| a.layer)).collect();
+        rig_order.extend(0..worn.layers.len());
+        let mut placed = vec![false; worn.layers.len()];
+        for l in rig_order {
+            if placed[l] || worn.layers[l].kind != LayerKind::Accessory {
+                continue;
+            }
+            placed[l] = true;
+            let parent_layer = worn
+                .rig
+                .as_ref()
+                .and_then(|r| r.edges.iter().find(|e| e.child == l))
+                .map(|e| e.parent);
+            let parent = parent_layer.and_then(|p| {
+                let name = &worn.layers[p].name;
+                match worn.layers[p].kind {
+                    LayerKind::Body => parts
+                        .iter()
+                        .position(|q| q.source == 0 && q.mesh.kind == LayerKind::Body && &q.mesh.name == name),
+                    LayerKind::Accessory => of_outfit(&parts, name),
+                }
+            });
+            let vertices = space(worn, l);
+            parts.push(Part {
+                name: format!("{}-{}", outfit.name, worn.layers[l].name),
+                skin: outfit.name.clone(),
+                source: i + 1,
+                layer: l,
+                mesh: &worn.layers[l],
+                parent: Some(parent.unwrap_or(0)),
+                rest: centroid(&vertices),
+                vertices,
+            });
+        }
+        // Each accessory is drawn just after the body layer below it in the outfit's order.
+        let mut at = 0;
+        for (l, layer) in worn.layers.iter().enumerate() {
+            if layer.kind == LayerKind::Body {
+                if let Some(p) = parts.iter().position(|q| q.source == 0 && q.mesh.name == layer.name) {
+                    at = order.iter().position(|&o| o == p).map_or(at, |k| k + 1);
+                }
+            } else if let Some(p) = parts.iter().position(|q| q.source == i + 1 && q.layer == l) {
+                order.insert(at, p);
+                at += 1;
+            }
+        }
+    }
+    let mut names = std::collections::HashSet::new();
+    for part in &parts {
+        check_name(&part.name)?;
+        if !names.insert(part.name.as_str()) {
+            return Err(Error::setting(
+                "a bone name in a Spine export",
+                format!("{:?}", part.name),
+                "a name no other layer or outfit accessory has",
+            ));
+        }
+    }
+    Ok((parts, order))
+}
+
+/// Builds the skeleton of `puppet` with `animations`, keys `seconds_per_pose` apart, and each
+/// of `outfits` as a skin; the atlas names its page `<name>.png`.
 ///
 /// # Errors
-/// [`Error::Setting`] for no animation, an animation without poses, two with one name, or a
-/// layer name a Spine file cannot carry; [`Error::Mismatch`] for a pose of another puppet;
-/// [`Error::Limit`] if the texture page would be too large.
-pub fn skeleton(puppet: &Puppet, animations: &[PoseAnimation], name: &str, seconds_per_pose: f64) -> Result<SpineSkeleton> {
+/// [`Error::Setting`] for no animation, an animation without poses, two with one name, a layer
+/// name a Spine file cannot carry or two parts with one name; [`Error::Mismatch`] for a pose of
+/// another puppet or an outfit without the same keys; [`Error::Limit`] if the texture page would
+/// be too large.
+pub fn skeleton(
+    puppet: &Puppet,
+    animations: &[PoseAnimation],
+    outfits: &[OutfitSkin],
+    name: &str,
+    seconds_per_pose: f64,
+) -> Result<SpineSkeleton> {
     if animations.is_empty() {
         return Err(Error::setting("Spine animations", 0, "at least one"));
     }
@@ -272,23 +400,33 @@ pub fn skeleton(puppet: &Puppet, animations: &[PoseAnimation], name: &str, secon
             ));
         }
     }
-    for layer in &puppet.layers {
-        check_name(&layer.name)?;
+    for outfit in outfits {
+        let keys = |poses: &[Vec<Vec<[f32; 2]>>]| poses.iter().map(Vec::len).collect::<Vec<_>>();
+        let want: Vec<usize> = animations.iter().map(|a| a.poses.len()).collect();
+        if keys(&outfit.poses) != want {
+            return Err(Error::mismatch(
+                format!("the keys of outfit {:?}", outfit.name),
+                format!("{:?}", keys(&outfit.poses)),
+                format!("{want:?}"),
+            ));
+        }
+        if let Some(p) = outfit.poses.iter().flatten().find(|p| p.len() != outfit.puppet.vertex_count()) {
+            return Err(Error::mismatch(
+                format!("the vertices of a pose of outfit {:?}", outfit.name),
+                p.len(),
+                outfit.puppet.vertex_count(),
+            ));
+        }
     }
     if !(seconds_per_pose.is_finite() && seconds_per_pose > 0.0) {
         return Err(Error::setting("seconds per pose", seconds_per_pose, "a positive number"));
     }
-    let (bones, bone_of) = bones(puppet);
-    let RegionPage { regions, page } = pack(puppet)?;
-    let layer_rest: Vec<Vec<[f64; 2]>> = puppet
-        .layers
-        .iter()
-        .map(|l| l.mesh.vertices.iter().map(|&v| spine_point(v, puppet)).collect())
-        .collect();
-    let setup: Vec<Rigid> = bones
+    let (parts, order) = parts(puppet, outfits)?;
+    let RegionPage { regions, page } = pack(&parts.iter().map(|p| p.mesh).collect::<Vec<_>>())?;
+    let setup: Vec<Rigid> = parts
         .iter()
         .map(|b| {
-            let parent = b.parent.map_or([0.0; 2], |p| bones[p].rest);
+            let parent = b.parent.map_or([0.0; 2], |p| parts[p].rest);
             Rigid {
                 degrees: 0.0,
                 at: [round(b.rest[0] - parent[0]), round(b.rest[1] - parent[1])],
@@ -296,40 +434,46 @@ pub fn skeleton(puppet: &Puppet, animations: &[PoseAnimation], name: &str, secon
         })
         .collect();
     // The setup world positions as a runtime composes them from the rounded local ones.
-    let mut setup_world: Vec<Rigid> = Vec::with_capacity(bones.len());
-    for (k, b) in bones.iter().enumerate() {
+    let mut setup_world: Vec<Rigid> = Vec::with_capacity(parts.len());
+    for (k, b) in parts.iter().enumerate() {
         let world = b.parent.map_or(setup[k], |p| setup_world[p].then(&setup[k]));
         setup_world.push(world);
     }
-    let local_rest: Vec<Vec<[f64; 2]>> = (0..puppet.layers.len())
-        .map(|l| {
-            let w = setup_world[bone_of[l]];
-            layer_rest[l].iter().map(|&p| w.local(p).map(round)).collect()
-        })
+    let local_rest: Vec<Vec<[f64; 2]>> = parts
+        .iter()
+        .zip(&setup_world)
+        .map(|(part, w)| part.vertices.iter().map(|&p| w.local(p).map(round)).collect())
         .collect();
 
-    let bones_json: Vec<Value> = bones
+    let bones_json: Vec<Value> = parts
         .iter()
         .zip(&setup)
         .map(|(b, s)| {
             let mut bone = Map::new();
-            bone.insert("name".into(), json!(puppet.layers[b.layer].name));
+            bone.insert("name".into(), json!(b.name));
             if let Some(p) = b.parent {
-                bone.insert("parent".into(), json!(puppet.layers[bones[p].layer].name));
+                bone.insert("parent".into(), json!(parts[p].name));
             }
             bone.insert("x".into(), json!(s.at[0]));
             bone.insert("y".into(), json!(s.at[1]));
             Value::Object(bone)
         })
         .collect();
-    let slots: Vec<Value> = puppet
-        .layers
+    let slots: Vec<Value> = order
         .iter()
-        .map(|l| json!({"name": l.name, "bone": l.name, "attachment": l.name}))
+        .map(|&p| json!({"name": parts[p].name, "bone": parts[p].name, "attachment": parts[p].name}))
         .collect();
-    let mut attachments = Map::new();
-    for (l, layer) in puppet.layers.iter().enumerate() {
-        let region = &regions[l];
+    let mut skins: Vec<(String, Map<String, Value>)> = Vec::new();
+    let skin_of = |skins: &mut Vec<(String, Map<String, Value>)>, name: &str| -> usize {
+        skins.iter().position(|(n, _)| n == name).unwrap_or_else(|| {
+            skins.push((name.to_string(), Map::new()));
+            skins.len() - 1
+        })
+    };
+    skin_of(&mut skins, "default");
+    for (p, part) in parts.iter().enumerate() {
+        let layer = part.mesh;
+        let region = &regions[p];
         let texture = (layer.texture.width, layer.texture.height);
         // UVs to 10⁻⁶: a 250th of a pixel on the largest page.
         let uvs: Vec<f64> = layer
@@ -338,10 +482,9 @@ pub fn skeleton(puppet: &Puppet, animations: &[PoseAnimation], name: &str, secon
             .flat_map(|&uv| region.uv(uv, texture))
             .map(|u| (u * 1e6).round() / 1e6)
             .collect();
-        let bone = bone_of[l];
-        let vertices: Vec<Value> = local_rest[l]
+        let vertices: Vec<Value> = local_rest[p]
             .iter()
-            .flat_map(|p| [json!(1), json!(bone), json!(p[0]), json!(p[1]), json!(1)])
+            .flat_map(|v| [json!(1), json!(p), json!(v[0]), json!(v[1]), json!(1)])
             .collect();
         let triangles: Vec<u32> = layer.mesh.triangles.iter().flatten().copied().collect();
         let mesh = json!({
@@ -353,32 +496,46 @@ pub fn skeleton(puppet: &Puppet, animations: &[PoseAnimation], name: &str, secon
             "width": region.size.0,
             "height": region.size.1,
         });
-        attachments.insert(layer.name.clone(), json!({ layer.name.clone(): mesh }));
+        let s = skin_of(&mut skins, &part.skin);
+        skins[s].1.insert(part.name.clone(), json!({ part.name.clone(): mesh }));
     }
 
-    let offsets = puppet.vertex_offsets();
+    let sources: Vec<(&Puppet, Vec<usize>)> = std::iter::once(puppet)
+        .chain(outfits.iter().map(|o| &o.puppet))
+        .map(|p| (p, p.vertex_offsets()))
+        .collect();
     let mut animations_json = Map::new();
-    for animation in animations {
-        let mut rotate = vec![Vec::new(); bones.len()];
-        let mut translate = vec![Vec::new(); bones.len()];
-        let mut deform = vec![Vec::new(); puppet.layers.len()];
-        let mut last_degrees = vec![0.0f64; bones.len()];
-        for (k, pose) in animation.poses.iter().enumerate() {
+    for (a, animation) in animations.iter().enumerate() {
+        let mut rotate = vec![Vec::new(); parts.len()];
+        let mut translate = vec![Vec::new(); parts.len()];
+        let mut deform = vec![Vec::new(); parts.len()];
+        let mut last_degrees = vec![0.0f64; parts.len()];
+        for k in 0..animation.poses.len() {
             let time = round(k as f64 * seconds_per_pose);
-            let posed: Vec<Vec<[f64; 2]>> = (0..puppet.layers.len())
-                .map(|l| {
-                    let range = offsets[l]..offsets[l] + puppet.layers[l].mesh.vertices.len();
-                    pose[range].iter().map(|&v| spine_point(v, puppet)).collect()
+            let posed: Vec<Vec<[f64; 2]>> = parts
+                .iter()
+                .map(|part| {
+                    let (source, offsets) = &sources[part.source];
+                    let pose = if part.source == 0 {
+                        &animation.poses[k]
+                    } else {
+                        &outfits[part.source - 1].poses[a][k]
+                    };
+                    let start = offsets[part.layer];
+                    pose[start..start + part.vertices.len()]
+                        .iter()
+                        .map(|&v| spine_point(v, source))
+                        .collect()
                 })
                 .collect();
-            let mut world: Vec<Rigid> = Vec::with_capacity(bones.len());
-            for (b, bone) in bones.iter().enumerate() {
-                let fit = rigid_fit(&layer_rest[bone.layer], &posed[bone.layer]);
+            let mut world: Vec<Rigid> = Vec::with_capacity(parts.len());
+            for (b, part) in parts.iter().enumerate() {
+                let fit = rigid_fit(&part.vertices, &posed[b]);
                 let target = Rigid {
                     degrees: fit.degrees,
-                    at: fit.apply(bone.rest),
+                    at: fit.apply(part.rest),
                 };
-                let parent = bone.parent.map(|p| world[p]);
+                let parent = part.parent.map(|p| world[p]);
                 let relative = match parent {
                     Some(p) => Rigid {
                         degrees: target.degrees - p.degrees,
@@ -401,41 +558,42 @@ pub fn skeleton(puppet: &Puppet, animations: &[PoseAnimation], name: &str, secon
                     at: [setup[b].at[0] + local.at[0], setup[b].at[1] + local.at[1]],
                 };
                 world.push(parent.map_or(placed, |p| p.then(&placed)));
-            }
-            for (l, vertices) in posed.iter().enumerate() {
-                let w = world[bone_of[l]];
-                let moved: Vec<f64> = vertices
+                let moved: Vec<f64> = posed[b]
                     .iter()
-                    .zip(&local_rest[l])
+                    .zip(&local_rest[b])
                     .flat_map(|(&p, r)| {
-                        let q = w.local(p);
+                        let q = world[b].local(p);
                         [round(q[0] - r[0]), round(q[1] - r[1])]
                     })
                     .collect();
-                deform[l].push(json!({"time": time, "vertices": moved}));
+                deform[b].push(json!({"time": time, "vertices": moved}));
             }
         }
         let mut bone_timelines = Map::new();
-        for (b, bone) in bones.iter().enumerate() {
-            bone_timelines.insert(
-                puppet.layers[bone.layer].name.clone(),
-                json!({"rotate": rotate[b], "translate": translate[b]}),
-            );
-        }
-        let mut deform_timelines = Map::new();
-        for (l, layer) in puppet.layers.iter().enumerate() {
-            deform_timelines.insert(layer.name.clone(), json!({ layer.name.clone(): {"deform": deform[l]} }));
+        let mut deform_timelines: Map<String, Value> = Map::new();
+        for (b, part) in parts.iter().enumerate() {
+            bone_timelines.insert(part.name.clone(), json!({"rotate": rotate[b], "translate": translate[b]}));
+            let skin = deform_timelines.entry(part.skin.clone()).or_insert_with(|| json!({}));
+            skin[part.name.as_str()] = json!({ part.name.clone(): {"deform": deform[b]} });
         }
         animations_json.insert(
             animation.name.clone(),
-            json!({"bones": bone_timelines, "attachments": {"default": deform_timelines}}),
+            json!({"bones": bone_timelines, "attachments": deform_timelines}),
         );
     }
 
-    let all: Vec<[f64; 2]> = layer_rest.iter().flatten().copied().collect();
+    let all: Vec<[f64; 2]> = parts
+        .iter()
+        .filter(|p| p.source == 0)
+        .flat_map(|p| p.vertices.iter().copied())
+        .collect();
     let (lo, hi) = all.iter().fold(([f64::MAX; 2], [f64::MIN; 2]), |(lo, hi), p| {
         ([lo[0].min(p[0]), lo[1].min(p[1])], [hi[0].max(p[0]), hi[1].max(p[1])])
     });
+    let skins: Vec<Value> = skins
+        .into_iter()
+        .map(|(name, attachments)| json!({"name": name, "attachments": attachments}))
+        .collect();
     let json = json!({
         "skeleton": {
             "hash": "",
@@ -449,17 +607,17 @@ pub fn skeleton(puppet: &Puppet, animations: &[PoseAnimation], name: &str, secon
         },
         "bones": bones_json,
         "slots": slots,
-        "skins": [{"name": "default", "attachments": attachments}],
+        "skins": skins,
         "animations": animations_json,
     });
     let mut atlas = format!(
         "{name}.png\nsize: {}, {}\nformat: RGBA8888\nfilter: Linear, Linear\nrepeat: none\npma: false\n",
         page.width, page.height
     );
-    for (layer, region) in puppet.layers.iter().zip(&regions) {
+    for (part, region) in parts.iter().zip(&regions) {
         atlas.push_str(&format!(
             "{}\nbounds: {}, {}, {}, {}\n",
-            layer.name, region.at.0, region.at.1, region.size.0, region.size.1
+            part.name, region.at.0, region.at.1, region.size.0, region.size.1
         ));
     }
     Ok(SpineSkeleton { json, atlas, page })
@@ -490,7 +648,9 @@ mod tests {
     /// Spine's documented rules, read from the JSON alone: bone world transforms from setup
     /// values plus linearly interpolated keys, weighted mesh vertices plus deform offsets.
     /// Returns each slot's world vertices at `time`, in frame pixels of a `size` frame.
-    fn evaluate(json: &Value, animation: &str, time: f64, size: (u32, u32)) -> Vec<(String, Vec<[f64; 2]>)> {
+    /// With `skin`, a slot's attachment is looked up in that skin, then in the default skin (a
+    /// slot with neither is not drawn).
+    fn evaluate(json: &Value, animation: &str, skin: &str, time: f64, size: (u32, u32)) -> Vec<(String, Vec<[f64; 2]>)> {
         let num = |v: &Value, key: &str| v.get(key).and_then(Value::as_f64).unwrap_or(0.0);
         let keyed = |keys: Option<&Value>, fields: &[&str]| -> Vec<f64> {
             let Some(keys) = keys.and_then(Value::as_array) else {
@@ -535,17 +695,23 @@ mod tests {
             };
             world.push((name, m));
         }
-        let skin = &json["skins"][0]["attachments"];
+        let skins = json["skins"].as_array().unwrap();
+        let attachments = |name: &str| skins.iter().find(|k| k["name"] == name).map(|k| &k["attachments"]);
         json["slots"]
             .as_array()
             .unwrap()
             .iter()
-            .map(|slot| {
+            .filter_map(|slot| {
                 let name = slot["name"].as_str().unwrap();
                 let attachment = slot["attachment"].as_str().unwrap();
-                let mesh = &skin[name][attachment];
+                let (found_in, mesh) = [skin, "default"].into_iter().find_map(|k| {
+                    attachments(k)
+                        .and_then(|a| a.get(name))
+                        .and_then(|a| a.get(attachment))
+                        .map(|m| (k, m))
+                })?;
                 let raw: Vec<f64> = mesh["vertices"].as_array().unwrap().iter().map(|v| v.as_f64().unwrap()).collect();
-                let deform_keys = anim["attachments"]["default"][name][attachment].get("deform");
+                let deform_keys = anim["attachments"][found_in][name][attachment].get("deform");
                 let weights = raw.len() / 5;
                 let fields: Vec<String> = (0..2 * weights).map(|i| i.to_string()).collect();
                 // Deform keys hold arrays; spread them into numbered fields for `keyed`.
@@ -585,7 +751,7 @@ mod tests {
                     }
                     out.push([p[0] + f64::from(size.0) / 2.0, f64::from(size.1) - p[1]]);
                 }
-                (name.to_string(), out)
+                Some((name.to_string(), out))
             })
             .collect()
     }
@@ -641,14 +807,14 @@ mod tests {
                     poses: vec![poses[1].clone()],
                 },
             ];
-            let skeleton = skeleton(&puppet, &animations, "t", 0.1).unwrap();
+            let skeleton = skeleton(&puppet, &animations, &[], "t", 0.1).unwrap();
             // Through text, as a runtime reads it.
             let json: Value = serde_json::from_slice(&serde_json::to_vec(&skeleton.json).unwrap()).unwrap();
             let offsets = puppet.vertex_offsets();
             let mut worst = 0.0f64;
             for animation in &animations {
                 for (k, pose) in animation.poses.iter().enumerate() {
-                    let slots = evaluate(&json, &animation.name, k as f64 * 0.1, (puppet.width, puppet.height));
+                    let slots = evaluate(&json, &animation.name, "default", k as f64 * 0.1, (puppet.width, puppet.height));
                     assert_eq!(slots.len(), puppet.layers.len());
                     for (l, (name, vertices)) in slots.iter().enumerate() {
                         assert_eq!(name, &puppet.layers[l].name, "slots keep the draw order");
@@ -663,12 +829,89 @@ mod tests {
             assert!(worst < 0.01, "a vertex is {worst} px from its pose");
             // Between keys the runtime interpolates; halfway between the rest and the turned
             // arm, the arm's bone is turned halfway.
-            let half = evaluate(&json, "walk", 0.05, (puppet.width, puppet.height));
+            let half = evaluate(&json, "walk", "default", 0.05, (puppet.width, puppet.height));
             let arm = puppet.layer_index("arm_front").unwrap();
             let rest_arm = &puppet.layers[arm].mesh.vertices;
             let moved = half[arm].1.iter().zip(rest_arm).any(|(v, r)| (v[0] - f64::from(r[0])).abs() > 0.5);
             assert!(moved, "halfway, the arm has moved");
         }
+    }
+
+    /// Poses of `puppet` shifted by `dx` px.
+    fn shifted(poses: &[Vec<[f32; 2]>], dx: f32) -> Vec<Vec<[f32; 2]>> {
+        poses.iter().map(|p| p.iter().map(|v| [v[0] + dx, v[1]]).collect()).collect()
+    }
+
+    #[test]
+    fn an_outfit_is_a_skin_whose_accessories_replace_the_models_own() {
+        let puppet = dressed_puppet();
+        let size = (puppet.width, puppet.height);
+        let main = poses(&puppet);
+        let sleeve = OutfitSkin {
+            name: "sleeve".into(),
+            puppet: dressed_puppet(),
+            poses: vec![shifted(&main, 2.0)],
+        };
+        let exported = skeleton(
+            &puppet,
+            &[PoseAnimation {
+                name: "a".into(),
+                poses: main.clone(),
+            }],
+            std::slice::from_ref(&sleeve),
+            "t",
+            0.1,
+        )
+        .unwrap();
+        let json: Value = serde_json::from_slice(&serde_json::to_vec(&exported.json).unwrap()).unwrap();
+        let names: Vec<&str> = json["slots"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .map(|s| s["name"].as_str().unwrap())
+            .collect();
+        assert_eq!(
+            names,
+            ["arm_back", "torso", "head", "sleeve-arm_front", "arm_front"],
+            "the outfit's accessory drawn where the outfit draws it"
+        );
+        let offsets = puppet.vertex_offsets();
+        let arm = puppet.layer_index("arm_front").unwrap();
+        for (k, pose) in main.iter().enumerate() {
+            let time = k as f64 * 0.1;
+            let own = evaluate(&json, "a", OWN_SKIN, time, size);
+            let worn = evaluate(&json, "a", "sleeve", time, size);
+            let drawn = |slots: &[(String, Vec<[f64; 2]>)]| slots.iter().map(|(n, _)| n.clone()).collect::<Vec<_>>();
+            assert_eq!(drawn(&own), ["arm_back", "torso", "head", "arm_front"]);
+            assert_eq!(drawn(&worn), ["arm_back", "torso", "head", "sleeve-arm_front"]);
+            let near = |got: &[[f64; 2]], pose: &[[f32; 2]], start: usize| {
+                got.iter()
+                    .enumerate()
+                    .all(|(i, v)| (v[0] - f64::from(pose[start + i][0])).hypot(v[1] - f64::from(pose[start + i][1])) < 0.01)
+            };
+            assert!(near(&own[3].1, pose, offsets[arm]), "key {k}: the model's own sleeve");
+            assert!(near(&worn[3].1, &sleeve.poses[0][k], offsets[arm]), "key {k}: the outfit's sleeve");
+            assert!(
+                near(&worn[1].1, pose, offsets[puppet.layer_index("torso").unwrap()]),
+                "key {k}: the body"
+            );
+        }
+        let uneven = OutfitSkin {
+            poses: vec![main[..2].to_vec()],
+            ..sleeve
+        };
+        let err = skeleton(
+            &puppet,
+            &[PoseAnimation {
+                name: "a".into(),
+                poses: main,
+            }],
+            &[uneven],
+            "t",
+            0.1,
+        )
+        .unwrap_err();
+        assert!(matches!(err, Error::Mismatch { .. }), "{err}");
     }
 
     #[test]
@@ -693,6 +936,7 @@ mod tests {
                 name: "a".into(),
                 poses: poses(&hinged),
             }],
+            &[],
             "t",
             0.1,
         )
@@ -716,6 +960,7 @@ mod tests {
                 name: "a".into(),
                 poses: vec![puppet.rest_vertices()],
             }],
+            &[],
             "t",
             0.1,
         )
@@ -764,18 +1009,20 @@ mod tests {
             name: "a".into(),
             poses: vec![vec![[0.0; 2]; 3]],
         };
-        assert!(matches!(skeleton(&puppet, &[short], "t", 0.1), Err(Error::Mismatch { .. })));
-        assert!(skeleton(&puppet, &[], "t", 0.1).is_err());
+        assert!(matches!(skeleton(&puppet, &[short], &[], "t", 0.1), Err(Error::Mismatch { .. })));
+        assert!(skeleton(&puppet, &[], &[], "t", 0.1).is_err());
         let mut named = puppet.clone();
         named.layers[0].name = "arm\nback".into();
         let rest = PoseAnimation {
             name: "a".into(),
             poses: vec![named.rest_vertices()],
         };
-        let err = skeleton(&named, std::slice::from_ref(&rest), "t", 0.1).unwrap_err().to_string();
+        let err = skeleton(&named, std::slice::from_ref(&rest), &[], "t", 0.1)
+            .unwrap_err()
+            .to_string();
         assert!(err.contains("arm\\nback"), "{err}");
         assert!(
-            skeleton(&puppet, &[rest.clone(), rest], "t", 0.1).is_err(),
+            skeleton(&puppet, &[rest.clone(), rest], &[], "t", 0.1).is_err(),
             "two animations named a"
         );
     }
