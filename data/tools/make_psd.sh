@@ -12,6 +12,7 @@
 #   that the import must skip;
 # - psd-tools also writes bad/: 16- and 32-bit, CMYK and grayscale documents, one with no layers,
 #   one whose layer extends past the canvas.
+# It also writes the PSD fuzz seeds (fuzz/seeds/psd/).
 # Needs: apt-get install krita xvfb xauth; pip install psd-tools (with Pillow).
 set -euo pipefail
 data="$(cd "$(dirname "$0")/.." && pwd)"
@@ -92,5 +93,37 @@ doc("L").save(out / "bad/grayscale.psd")
 doc("RGBA", layer=False).save(out / "bad/no_layers.psd")
 doc("RGBA", left=3).save(out / "bad/past_canvas.psd")
 PY
+# Fuzz seeds (fuzz/seeds/psd/): the files above, and one small character (12×10: a torso, an arm
+# at half opacity, a star in "accessories"; psd-tools adds a multiply layer and a hidden one and
+# stores one layer raw) from each writer.
+seeds="$data/../fuzz/seeds/psd"
+mkdir -p "$seeds"
+cp "$out"/robot_*.psd "$out"/bad/*.psd "$seeds/"
+python3 - "$seeds" "$work" <<'PY'
+import sys, zipfile, io
+from PIL import Image
+from psd_tools import PSDImage
+from psd_tools.constants import BlendMode, Compression
+seeds, work = sys.argv[1:]
+torso, arm, star = Image.new("RGBA", (8, 8), (40, 120, 200, 255)), Image.new("RGBA", (4, 3), (200, 50, 50, 255)), Image.new("RGBA", (3, 2), (250, 220, 0, 255))
+psd = PSDImage.new("RGBA", (12, 10), color=(0, 0, 0, 0))
+psd.create_pixel_layer(torso, name="torso", left=2, top=1)
+psd.create_pixel_layer(arm, name="arm", left=7, top=4, compression=Compression.RAW, opacity=128)
+psd.create_group(name="accessories").create_pixel_layer(star, name="étoile", left=4, top=0)
+psd.create_pixel_layer(Image.new("RGBA", (2, 2), (0, 0, 0, 128)), name="shade", left=3, top=3, blend_mode=BlendMode.MULTIPLY)
+psd.create_pixel_layer(Image.new("RGBA", (2, 2), (9, 9, 9, 255)), name="sketch").visible = False
+psd._record.image_data.compression = Compression.RLE
+psd.save(f"{seeds}/psd_tools_small.psd")
+z = zipfile.ZipFile(f"{work}/small.ora", "w")
+z.writestr(zipfile.ZipInfo("mimetype"), "image/openraster")
+for i, image in enumerate([torso, arm, star]):
+    buf = io.BytesIO()
+    image.save(buf, "PNG")
+    z.writestr(f"data/{i}.png", buf.getvalue())
+z.writestr("stack.xml", '<image w="12" h="10"><stack><stack name="accessories"><layer name="étoile" src="data/2.png" x="4" y="0"/></stack>'
+           '<layer name="arm" src="data/1.png" x="7" y="4" opacity="0.5"/><layer name="torso" src="data/0.png" x="2" y="1"/></stack></image>')
+z.close()
+PY
+xvfb-run -a -s "-screen 0 640x480x24" krita "$work/small.ora" --export --export-filename "$seeds/krita_small.psd"
 rm -rf "$work"
-ls -l "$out" "$out/bad"
+ls -l "$out" "$out/bad" "$seeds"

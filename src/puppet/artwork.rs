@@ -1,4 +1,4 @@
-//! Artwork import: the three forms of DESIGN.md "Formats", all turned into same-size layer images.
+//! Artwork import: the forms of DESIGN.md "Formats", all turned into same-size layer images.
 //!
 //! - a folder with `character.toml` and one RGBA PNG per layer;
 //! - a label map (one flat colour per part) + the reference image + a legend in `character.toml`;

@@ -37,7 +37,7 @@ const MAX_CHANNELS: u16 = 56;
 /// The longest `.psd` file read: every layer at the most the import allows
 /// ([`ImportOptions::max_total_pixels`]) as uncompressed RGBA plus the worst case of RLE over it
 /// (one header byte per 128 and two bytes of row count per row, under 1/16 more), plus a merged
-/// image and 16 MiB for resources and masks — 1.1 GiB by default (real files are far smaller:
+/// image and 16 MiB for resources and masks — 432 MiB by default (real files are far smaller:
 /// `data/psd/robot_krita.psd`, ten layers of at most 96×128, is 44 KB).
 pub fn max_file_bytes(opts: &ImportOptions) -> u64 {
     let layers = opts.max_total_pixels.saturating_mul(4);
@@ -471,8 +471,12 @@ fn blend_name(key: &[u8; 4]) -> String {
 /// channels; a missing transparency channel means opaque.
 fn pixels(record: &Record, bytes: &[u8]) -> std::result::Result<Picture, String> {
     let [top, left, bottom, right] = record.bounds;
-    // Checked by the caller against the canvas: 0 ≤ left ≤ right ≤ width, same for y.
-    let (w, h) = ((right - left).max(0) as usize, (bottom - top).max(0) as usize);
+    // The caller checked 0 ≤ left, right ≤ width (same for y), not left ≤ right: a right of
+    // -2³¹ below a left ≥ 0 would overflow a plain subtraction (found by fuzz/, target psd).
+    let (w, h) = (
+        right.saturating_sub(left).max(0) as usize,
+        bottom.saturating_sub(top).max(0) as usize,
+    );
     let mut planes: [Option<Vec<u8>>; 4] = [None, None, None, None];
     for (id, range) in &record.channels {
         let slot = match id {
@@ -794,6 +798,18 @@ mod tests {
         bytes[first + 1] = 2;
         let err = import(&bytes).0.unwrap_err().to_string();
         assert!(err.contains("channel -1: ZIP-compressed channel data is not supported"), "{err}");
+    }
+
+    /// Found by fuzz/ (psd, after ~30 s): bounds with the bottom at -2³¹ under a top of 1 passed
+    /// the canvas check and overflowed when the layer's height was taken.
+    #[test]
+    fn inverted_bounds_are_an_empty_layer_not_an_overflow() {
+        let mut bytes = doc(2, 2, &[layer(b"arm", [1, 0, 1, 1], [255; 4])]);
+        // The first record's bottom, after the header (26), four lengths (16), the count (2),
+        // its top and left.
+        bytes[52..56].copy_from_slice(&i32::MIN.to_be_bytes());
+        let err = import(&bytes).0.unwrap_err().to_string();
+        assert_eq!(err, "c.psd: layer \"arm\": fully transparent (no pixel has alpha > 0)");
     }
 
     #[test]
