@@ -29,7 +29,7 @@ pub enum FolderKind {
 impl fmt::Display for FolderKind {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         f.write_str(match self {
-            FolderKind::Artwork => "character artwork (PNG layers with character.toml, a label map, or an .ora file)",
+            FolderKind::Artwork => "character artwork (PNG layers with character.toml, a label map, or an .ora or .psd file)",
             FolderKind::Puppet => "a puppet folder (puppet.json and textures/)",
             FolderKind::Model => "a model folder (net.json, weights.bpk, puppet/, train.toml)",
             FolderKind::Sequence => "a sequence of frames (PNG files, or a folder holding frames/)",

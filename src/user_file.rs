@@ -10,8 +10,8 @@
 //! | [`CONFIG`] 1 MiB | `character.toml`, training configs, `train.toml`, eval-rig edits, `net.json`, `rig_truth.json`, a checkpoint's `state.json` and `latest` | under 4 KB |
 //! | [`DATA`] 256 MiB | `puppet.json`, `truth.json`, pose files, points files, `split.json`, `log.csv`, the output manifest | `truth.json` of 16 frames: 208 KB; the robot's `puppet.json`: 254 KB, 3.7 MB after two rounds of subdivision (about 86 bytes a vertex) |
 //!
-//! Images, `.ora` archives and network weights have limits derived from what they must hold:
-//! the pixel limits (`ImageLimits::max_file_bytes`, `ora::max_file_bytes`) and the network's
+//! Images, `.ora` archives, `.psd` files and network weights have limits derived from what they must hold:
+//! the pixel limits (`ImageLimits::max_file_bytes`, `ora::max_file_bytes`, `psd::max_file_bytes`) and the network's
 //! parameter count (`bundle::max_weights_bytes`).
 
 use std::fs::File;

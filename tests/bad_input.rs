@@ -179,3 +179,40 @@ fn puppet_json_that_is_not_json() {
     std::fs::write(tmp.path().join("p/puppet.json"), "{ nope").unwrap();
     puppet(tmp.path(), &["info", "p"]).assert_error(&["p/puppet.json", "not a puppet file"]);
 }
+
+/// Issue 17: the bad documents psd-tools wrote (data/tools/make_psd.sh), each a clear error
+/// naming the file and what is wrong.
+#[test]
+fn psd_that_is_not_8_bit_rgb_or_has_no_layers_or_a_layer_past_the_canvas() {
+    let tmp = tempfile::tempdir().unwrap();
+    for (file, expected) in [
+        ("depth16.psd", "16-bit channels: only 8 bits per channel are supported"),
+        ("depth32.psd", "32-bit channels: only 8 bits per channel are supported"),
+        ("cmyk.psd", "CMYK colour mode (4): only RGB documents are supported"),
+        ("grayscale.psd", "grayscale colour mode (1): only RGB documents are supported"),
+        ("no_layers.psd", "no layers (the document holds only a flattened image"),
+        (
+            "past_canvas.psd",
+            "layer \"part\": its bounds, x 3..5 and y 0..2, extend past the 4×4 canvas",
+        ),
+    ] {
+        std::fs::copy(crate::util::repo().join("data/psd/bad").join(file), tmp.path().join(file)).unwrap();
+        build(tmp.path(), file).assert_error(&[file, expected]);
+    }
+}
+
+/// Issue 17: a .psd cut short anywhere in its header or layers says it is truncated and where.
+#[test]
+fn psd_truncated() {
+    let tmp = tempfile::tempdir().unwrap();
+    let whole = std::fs::read(crate::util::repo().join("data/psd/robot_krita.psd")).unwrap();
+    for (len, expected) in [
+        (20, "truncated: the width needs 4 bytes at offset 18, but the file ends at 20"),
+        (whole.len() / 2, "truncated: the layer and mask information needs"),
+    ] {
+        std::fs::write(tmp.path().join("cut.psd"), &whole[..len]).unwrap();
+        build(tmp.path(), "cut.psd").assert_error(&["cut.psd", expected]);
+    }
+    std::fs::write(tmp.path().join("png.psd"), b"\x89PNG\r\n\x1a\n").unwrap();
+    build(tmp.path(), "png.psd").assert_error(&["png.psd", "not a Photoshop document (no 8BPS signature)"]);
+}

@@ -98,14 +98,8 @@ fn unconnected_body_layer_is_reported() {
         format!("{toml}[[layer]]\nname = \"tail\"\nfile = \"tail.png\"\n"),
     )
     .unwrap();
-    let run = puppet(tmp.path(), &["build", "c", "-o", "out"]);
-    run.assert_ok();
-    assert!(
-        run.stderr
-            .contains("warning: c/character.toml: no joint connects these body layers to the root \"torso\": tail"),
-        "{}",
-        run.stderr
-    );
+    puppet(tmp.path(), &["build", "c", "-o", "out"])
+        .assert_ok_warning("c/character.toml: no joint connects these body layers to the root \"torso\": tail");
 }
 
 /// The bundled Kenney characters: every part meshed, joints where parts meet.
@@ -151,6 +145,30 @@ fn build_the_ora_that_gimp_wrote() {
     let labels = puppet::puppet::artwork::load(&repo().join("data/kenney/robot"), &Default::default()).unwrap();
     let p = build_and_check(tmp.path(), &ora, labels.layers.len());
     assert!(!p.joints.is_empty());
+}
+
+/// Issue 17: `puppet build` on the .psd Krita wrote: the robot's nine parts and the star, which
+/// the `accessories` group makes an accessory and the build rigs.
+#[test]
+fn build_the_psd_that_krita_wrote() {
+    let tmp = tempfile::tempdir().unwrap();
+    let p = build_and_check(tmp.path(), &repo().join("data/psd/robot_krita.psd"), 10);
+    assert!(!p.joints.is_empty());
+    assert_eq!(p.rig.as_ref().map(|r| r.accessories.len()), Some(1));
+}
+
+/// Issue 17: a blend mode the import cannot reproduce is a warning on stderr naming the file,
+/// the layer and the mode, and the build goes on with the layer drawn as normal.
+#[test]
+fn build_warns_of_a_psd_layer_in_multiply_mode() {
+    let tmp = tempfile::tempdir().unwrap();
+    let mut bytes = std::fs::read(repo().join("data/psd/robot_psd_tools.psd")).unwrap();
+    // The first layer record's blend mode (the handle, bottom first).
+    let at = bytes.windows(8).position(|w| w == b"8BIMnorm").unwrap();
+    bytes[at + 4..at + 8].copy_from_slice(b"mul ");
+    std::fs::write(tmp.path().join("robot.psd"), bytes).unwrap();
+    puppet(tmp.path(), &["build", "robot.psd", "-o", "out"])
+        .assert_ok_warning("robot.psd: layer \"handle\": blend mode \"multiply\" is not supported; drawn as normal");
 }
 
 #[test]

@@ -130,3 +130,40 @@ fn puppet_json_with_a_broken_mesh_names_the_layer() {
     let err = format::load(tmp.path()).unwrap_err().to_string();
     assert!(err.contains("puppet.json: layer \"body\": triangle 1"), "{err}");
 }
+
+/// Issue 17: the robot written as .psd by Krita and by psd-tools (data/tools/make_psd.sh) builds
+/// the same puppet as the same layers as PNGs: same names, kinds, meshes, joints, root and rig,
+/// and textures that are byte-identical once written. The psd-tools file also holds a hidden
+/// layer, which is skipped, and the accessory's non-ASCII name comes through both writers.
+#[test]
+fn psd_from_krita_and_psd_tools_builds_the_same_puppet_as_the_png_layers() {
+    use puppet::progress::Silent;
+    use puppet::puppet::build::BuildOptions;
+    use puppet::rig::{build_rigged, RigOptions};
+    let data = crate::util::repo().join("data/psd");
+    let build = |path: &std::path::Path| {
+        let art = artwork::load(path, &ImportOptions::default()).unwrap();
+        build_rigged(&art, &BuildOptions::default(), &RigOptions::default(), &Silent).unwrap()
+    };
+    let folder = build(&data.join("robot_layers"));
+    let names: Vec<&str> = folder.layers.iter().map(|l| l.name.as_str()).collect();
+    assert_eq!(
+        names,
+        ["handle", "leg_l", "leg_r", "torso", "arm_l", "arm_r", "hand_l", "hand_r", "head", "étoile"]
+    );
+    assert_eq!(folder.layers[9].kind, LayerKind::Accessory);
+    assert!(folder.rig.is_some(), "the star is rigged to the body");
+    for file in ["robot_krita.psd", "robot_psd_tools.psd"] {
+        let psd = build(&data.join(file));
+        for (a, b) in folder.layers.iter().zip(&psd.layers) {
+            assert_eq!((&a.name, a.kind, &a.mesh, &a.uvs), (&b.name, b.kind, &b.mesh, &b.uvs), "{file}");
+            assert_eq!(
+                a.texture.to_rgba8().into_raw(),
+                b.texture.to_rgba8().into_raw(),
+                "{file}: {:?}",
+                a.name
+            );
+        }
+        assert_eq!(psd, folder, "{file}");
+    }
+}

@@ -31,6 +31,13 @@ impl Run {
     pub fn assert_ok(&self) {
         assert_eq!(self.code, 0, "expected success\nstdout: {}\nstderr: {}", self.stdout, self.stderr);
     }
+
+    /// Asserts the run succeeded and warned `warning` (the text after `warning: `) on stderr.
+    pub fn assert_ok_warning(&self, warning: &str) {
+        self.assert_ok();
+        let line = format!("warning: {warning}");
+        assert!(self.stderr.contains(&line), "no {line:?} on stderr:\n{}", self.stderr);
+    }
 }
 
 /// Runs the `puppet` binary with `args` in `cwd`.

@@ -84,7 +84,7 @@ impl FitArgs {
 #[derive(Debug, Default, clap::Args)]
 pub struct OutfitArgs {
     /// Draw the results in the accessories of this artwork instead (PNG layers + character.toml,
-    /// or .ora): the same body in another outfit, rigged against the model's body on the spot.
+    /// .ora or .psd): the same body in another outfit, rigged against the model's body on the spot.
     /// Needs a model trained with the rig (or one without accessories).
     #[arg(long, value_name = "ARTWORK")]
     pub dress: Option<PathBuf>,
@@ -104,7 +104,7 @@ impl OutfitArgs {
         let started = std::time::Instant::now();
         let mut puppet = model.puppet.clone();
         if let Some(path) = &self.dress {
-            let art = artwork::load(path, &artwork::ImportOptions::default())?;
+            let art = artwork::load_reporting(path, &artwork::ImportOptions::default(), ui)?;
             puppet = dress(&puppet, &art, &BuildOptions::default(), &RigOptions::default(), ui).context("--dress")?;
         }
         if !self.undress.is_empty() {

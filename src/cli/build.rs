@@ -14,7 +14,8 @@ use super::Session;
 #[derive(Debug, clap::Args)]
 pub struct BuildArgs {
     /// The artwork: a folder with character.toml (layer PNGs or a label map), a character.toml,
-    /// or an OpenRaster .ora file.
+    /// an OpenRaster .ora file or a Photoshop .psd file (a group named "accessories" marks
+    /// accessory layers).
     pub artwork: PathBuf,
     /// Output folder for puppet.json, textures/ and preview.png.
     #[arg(short, long)]
@@ -62,7 +63,7 @@ pub fn run(args: BuildArgs, s: &Session) -> anyhow::Result<()> {
     let preview_path = args.output.join("preview.png");
     s.outputs.claim(&preview_path)?;
 
-    let art = artwork::load(&args.artwork, &import)?;
+    let art = artwork::load_reporting(&args.artwork, &import, &s.ui)?;
     let puppet = build_rigged(&art, &opts, &RigOptions::default(), &s.ui)?;
     s.ui.finish();
     format::save(&puppet, &args.output)?;

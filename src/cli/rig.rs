@@ -61,7 +61,7 @@ fn rigged(path: &std::path::Path, s: &Session) -> anyhow::Result<Puppet> {
     if path.join(format::PUPPET_FILE).is_file() {
         return Ok(format::load(path)?);
     }
-    let art = artwork::load(path, &artwork::ImportOptions::default())?;
+    let art = artwork::load_reporting(path, &artwork::ImportOptions::default(), &s.ui)?;
     Ok(build_rigged(&art, &build::BuildOptions::default(), &RigOptions::default(), &s.ui)?)
 }
 

@@ -1,8 +1,8 @@
-//! Artwork import: the three forms of DESIGN.md "Formats", all turned into same-size layer images.
+//! Artwork import: the forms of DESIGN.md "Formats", all turned into same-size layer images.
 //!
 //! - a folder with `character.toml` and one RGBA PNG per layer;
 //! - a label map (one flat colour per part) + the reference image + a legend in `character.toml`;
-//! - an OpenRaster `.ora` file (see [`super::ora`]).
+//! - an OpenRaster `.ora` file (see [`super::ora`]) or a Photoshop `.psd` file (see [`super::psd`]).
 //!
 //! Every bad layer of an import is reported at once ([`Error::Partial`]). Sizes are checked
 //! against [`ImportOptions`]' limits from image headers, before any layer is decoded.
@@ -14,6 +14,7 @@ use super::rig_data::RigOverrides;
 use super::LayerKind;
 use crate::error::{Context, Error, Result};
 use crate::picture::{ImageLimits, Picture};
+use crate::progress::Progress;
 use crate::user_file;
 
 /// One layer of imported artwork, full reference-frame size, straight alpha.
@@ -130,13 +131,25 @@ pub fn over(top: [f32; 4], bottom: [f32; 4]) -> [f32; 4] {
     [mix(0), mix(1), mix(2), a]
 }
 
-/// Reads artwork from a folder holding `character.toml`, a `character.toml` file, or a `.ora`.
+/// Reads artwork from a folder holding `character.toml`, a `character.toml` file, a `.ora` or a
+/// `.psd`, dropping warnings (see [`load_reporting`]).
+///
+/// # Errors
+/// As [`load_reporting`].
+pub fn load(path: &Path, opts: &ImportOptions) -> Result<Artwork> {
+    load_reporting(path, opts, &crate::progress::Silent)
+}
+
+/// Reads artwork from a folder holding `character.toml`, a `character.toml` file, a `.ora` or a
+/// `.psd`; what the import cannot reproduce but goes on without (a Photoshop blend mode other than
+/// normal, a layer mask) is reported to `progress` as a warning.
 ///
 /// # Errors
 /// A missing or unreadable file, a bad `character.toml`, layers of different sizes, a fully
 /// transparent layer, label-map colours missing from the legend or legend colours missing from
-/// the map, unlabelled opaque pixels, or a corrupt `.ora` — each naming the file and layer.
-pub fn load(path: &Path, opts: &ImportOptions) -> Result<Artwork> {
+/// the map, unlabelled opaque pixels, or a corrupt or unsupported `.ora` / `.psd` — each naming
+/// the file and layer.
+pub fn load_reporting(path: &Path, opts: &ImportOptions, progress: &dyn Progress) -> Result<Artwork> {
     if !path.exists() {
         return Err(Error::WrongFolder {
             path: path.to_path_buf(),
@@ -146,6 +159,9 @@ pub fn load(path: &Path, opts: &ImportOptions) -> Result<Artwork> {
     }
     if path.extension().is_some_and(|e| e.eq_ignore_ascii_case("ora")) {
         return super::ora::load(path, opts);
+    }
+    if path.extension().is_some_and(|e| e.eq_ignore_ascii_case("psd")) {
+        return super::psd::load(path, opts, progress);
     }
     let toml_path = if path.is_dir() {
         path.join("character.toml")
@@ -178,6 +194,62 @@ pub fn load(path: &Path, opts: &ImportOptions) -> Result<Artwork> {
         root: character.root_index(),
         joint_pairs,
         rig: character.rig,
+    })
+}
+
+/// Draws a layer image whose top-left corner sits at `offset` on a `width`×`height` canvas, its
+/// alpha scaled by `opacity` (layered files store each layer at its own bounds).
+pub(super) fn place(pic: &Picture, offset: [i64; 2], opacity: f32, width: u32, height: u32) -> Picture {
+    let mut out = Picture::filled(width, height, [0.0; 4]);
+    for y in 0..pic.height as i64 {
+        for x in 0..pic.width as i64 {
+            // Saturating: an offset far outside the canvas (`x="1e300"`) leaves the layer off it.
+            let (cx, cy) = (x.saturating_add(offset[0]), y.saturating_add(offset[1]));
+            if (0..width as i64).contains(&cx) && (0..height as i64).contains(&cy) {
+                let mut p = pic.pixels[(y * pic.width as i64 + x) as usize];
+                p[3] *= opacity;
+                out.pixels[(cy * width as i64 + cx) as usize] = p;
+            }
+        }
+    }
+    out
+}
+
+/// Finishes the import of a layered file (`.ora`, `.psd`) whose canvas-sized `layers` are back →
+/// front: reports fully transparent layers and duplicate names together with the `problems`
+/// found while reading, takes the body layer with the most opaque pixels as the root and the
+/// file's stem as the name, and joins every overlapping pair.
+///
+/// # Errors
+/// Every problem at once ([`Error::collect`]); [`Error::Format`] if no body layer is left.
+pub(super) fn assemble(path: &Path, layers: Vec<ArtLayer>, mut problems: Vec<Error>) -> Result<Artwork> {
+    let mut names = std::collections::HashSet::new();
+    for layer in &layers {
+        if layer.picture.pixels.iter().all(|p| p[3] == 0.0) {
+            problems.push(Error::layer(path, &layer.name, "fully transparent (no pixel has alpha > 0)"));
+        }
+        if !names.insert(layer.name.as_str()) {
+            problems.push(Error::layer(path, &layer.name, "duplicate layer name (rename it in the editor)"));
+        }
+    }
+    Error::collect(problems)?;
+    let root = layers
+        .iter()
+        .enumerate()
+        .filter(|(_, l)| l.kind == LayerKind::Body)
+        .max_by_key(|(_, l)| l.picture.pixels.iter().filter(|p| p[3] > 0.5).count())
+        .map(|(i, _)| i)
+        .ok_or_else(|| Error::format(path, "no body layer (every layer is hidden or an accessory)"))?;
+    let name = path
+        .file_stem()
+        .map_or_else(|| "character".into(), |s| s.to_string_lossy().into_owned());
+    Ok(Artwork {
+        source: path.to_path_buf(),
+        name,
+        layers,
+        root,
+        joint_pairs: None,
+        rig: Default::default(),
     })
 }
 

@@ -14,6 +14,7 @@ pub mod joints;
 pub mod mesh;
 pub mod ora;
 pub mod pose_file;
+pub mod psd;
 pub mod rig_data;
 pub mod sequence;
 

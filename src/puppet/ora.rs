@@ -17,7 +17,7 @@ use std::path::Path;
 
 use quick_xml::events::Event;
 
-use super::artwork::{ArtLayer, Artwork, ImportOptions};
+use super::artwork::{assemble, place, ArtLayer, Artwork, ImportOptions};
 use super::LayerKind;
 use crate::error::{Error, Result};
 use crate::picture::Picture;
@@ -92,45 +92,17 @@ pub fn from_reader(reader: impl Read + Seek, path: &Path, opts: &ImportOptions) 
         let inner = path.join(&entry.src);
         match Picture::decode_within(&bytes, &inner, &opts.image) {
             Ok(pic) => {
-                let picture = place(&pic, entry, width, height);
-                if picture.pixels.iter().all(|p| p[3] == 0.0) {
-                    problems.push(Error::layer(path, &entry.name, "fully transparent (no pixel has alpha > 0)"));
-                }
                 let kind = if entry.accessory { LayerKind::Accessory } else { LayerKind::Body };
                 layers.push(ArtLayer {
                     name: entry.name.clone(),
                     kind,
-                    picture,
+                    picture: place(&pic, [entry.x, entry.y], entry.opacity, width, height),
                 });
             }
             Err(e) => problems.push(Error::layer(path, &entry.name, e.to_string())),
         }
     }
-    let mut names = std::collections::HashSet::new();
-    for layer in &layers {
-        if !names.insert(layer.name.as_str()) {
-            problems.push(Error::layer(path, &layer.name, "duplicate layer name (rename it in the editor)"));
-        }
-    }
-    Error::collect(problems)?;
-    let root = layers
-        .iter()
-        .enumerate()
-        .filter(|(_, l)| l.kind == LayerKind::Body)
-        .max_by_key(|(_, l)| l.picture.pixels.iter().filter(|p| p[3] > 0.5).count())
-        .map(|(i, _)| i)
-        .ok_or_else(|| Error::format(path, "no body layer (every layer is hidden or an accessory)"))?;
-    let name = path
-        .file_stem()
-        .map_or_else(|| "character".into(), |s| s.to_string_lossy().into_owned());
-    Ok(Artwork {
-        source: path.to_path_buf(),
-        name,
-        layers,
-        root,
-        joint_pairs: None,
-        rig: Default::default(),
-    })
+    assemble(path, layers, problems)
 }
 
 /// The entry `name` inflated, at most `limit` bytes; `None` if the archive has no such entry.
@@ -150,23 +122,6 @@ fn read_entry(zip: &mut zip::ZipArchive<impl Read + Seek>, name: &str, limit: u6
         return Err(Error::limit(format!("{name} inflated"), bytes.len() as u64, limit, "bytes").with_path(path));
     }
     Ok(Some(bytes))
-}
-
-/// Draws a layer PNG at its offset on a `width`×`height` canvas, scaled by its opacity.
-fn place(pic: &Picture, entry: &StackLayer, width: u32, height: u32) -> Picture {
-    let mut out = Picture::filled(width, height, [0.0; 4]);
-    for y in 0..pic.height as i64 {
-        for x in 0..pic.width as i64 {
-            // Saturating: an offset far outside the canvas (`x="1e300"`) leaves the layer off it.
-            let (cx, cy) = (x.saturating_add(entry.x), y.saturating_add(entry.y));
-            if (0..width as i64).contains(&cx) && (0..height as i64).contains(&cy) {
-                let mut p = pic.pixels[(y * pic.width as i64 + x) as usize];
-                p[3] *= entry.opacity;
-                out.pixels[(cy * width as i64 + cx) as usize] = p;
-            }
-        }
-    }
-    out
 }
 
 /// Parses `stack.xml` into the image size and its layers, top first.

@@ -58,7 +58,7 @@ pub use crate::objective::LossWeights;
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct TrainConfig {
-    /// A puppet folder, or character artwork (folder with character.toml, or .ora) to build one
+    /// A puppet folder, or character artwork (folder with character.toml, .ora or .psd) to build one
     /// from with the default build options.
     pub puppet: PathBuf,
     /// The frame sequence (all frames; the split picks the held-out ones).

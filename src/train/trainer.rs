@@ -122,7 +122,7 @@ pub fn load_or_build_puppet(path: &Path, limits: &ImageLimits, rig: bool, progre
             image: *limits,
             ..artwork::ImportOptions::default()
         };
-        let art = artwork::load(path, &options)?;
+        let art = artwork::load_reporting(path, &options, progress)?;
         if rig {
             build_rigged(&art, &build::BuildOptions::default(), &RigOptions::default(), progress)
         } else {
