@@ -167,3 +167,63 @@ fn psd_from_krita_and_psd_tools_builds_the_same_puppet_as_the_png_layers() {
         assert_eq!(psd, folder, "{file}");
     }
 }
+
+/// A `character.toml` beside a layered file sets its layers' kinds, root, name and joints; one of
+/// another form (a label map's, as beside data/kenney/robot/robot.ora) is not applied; a layer the
+/// file lacks is an error naming both files.
+#[test]
+fn a_character_toml_beside_a_psd_or_ora_overrides_kinds_root_and_joints() {
+    let tmp = tempfile::tempdir().unwrap();
+    let data = crate::util::repo().join("data");
+    for (file, from) in [("robot.psd", "psd/robot_psd_tools.psd"), ("robot.ora", "kenney/robot/robot.ora")] {
+        let dir = tmp.path().join(file.replace('.', "_"));
+        std::fs::create_dir_all(&dir).unwrap();
+        let path = dir.join(file);
+        std::fs::copy(data.join(from), &path).unwrap();
+        let plain = artwork::load(&path, &ImportOptions::default()).unwrap();
+        let toml =
+            "name = \"bot\"\nroot = \"torso\"\njoints = [[\"torso\", \"head\"]]\n[[layer]]\nname = \"handle\"\nkind = \"accessory\"\n";
+        std::fs::write(dir.join("character.toml"), toml).unwrap();
+        let art = artwork::load(&path, &ImportOptions::default()).unwrap();
+        let index = |name: &str| art.layers.iter().position(|l| l.name == name).unwrap();
+        assert_eq!(art.name, "bot", "{file}");
+        assert_eq!(art.root, index("torso"), "{file}");
+        assert_eq!(art.layers[index("handle")].kind, LayerKind::Accessory, "{file}");
+        assert_eq!(art.joint_pairs, Some(vec![[index("torso"), index("head")]]), "{file}");
+        assert_eq!(art.layers.len(), plain.layers.len());
+
+        std::fs::write(
+            dir.join("character.toml"),
+            "root = \"torso\"\n[[layer]]\nname = \"nope\"\nkind = \"accessory\"\n",
+        )
+        .unwrap();
+        let err = artwork::load(&path, &ImportOptions::default()).unwrap_err().to_string();
+        assert!(
+            err.contains("character.toml") && err.contains("nope") && err.contains(file),
+            "{err}"
+        );
+        std::fs::write(
+            dir.join("character.toml"),
+            "root = \"handle\"\n[[layer]]\nname = \"handle\"\nkind = \"accessory\"\n",
+        )
+        .unwrap();
+        let err = artwork::load(&path, &ImportOptions::default()).unwrap_err().to_string();
+        assert!(err.contains("root must be a body layer"), "{err}");
+        std::fs::write(dir.join("character.toml"), "root = \"torso\"\nlabel = 3\n").unwrap();
+        assert!(
+            artwork::load(&path, &ImportOptions::default())
+                .unwrap_err()
+                .to_string()
+                .contains("label"),
+            "a misspelt key is an error"
+        );
+
+        std::fs::copy(data.join("kenney/robot/character.toml"), dir.join("character.toml")).unwrap();
+        let labelled = artwork::load(&path, &ImportOptions::default()).unwrap();
+        assert_eq!(
+            (labelled.root, &labelled.name),
+            (plain.root, &plain.name),
+            "a label map's character.toml is not this file's"
+        );
+    }
+}

@@ -9,7 +9,7 @@
 
 use std::path::{Path, PathBuf};
 
-use super::character::{parse_color, Character};
+use super::character::{parse_color, Character, LayeredOverrides};
 use super::rig_data::RigOverrides;
 use super::LayerKind;
 use crate::error::{Context, Error, Result};
@@ -217,12 +217,16 @@ pub(super) fn place(pic: &Picture, offset: [i64; 2], opacity: f32, width: u32, h
 
 /// Finishes the import of a layered file (`.ora`, `.psd`) whose canvas-sized `layers` are back →
 /// front: reports fully transparent layers and duplicate names together with the `problems`
-/// found while reading, takes the body layer with the most opaque pixels as the root and the
-/// file's stem as the name, and joins every overlapping pair.
+/// found while reading, then applies the `character.toml` beside the file if it is one of
+/// [`LayeredOverrides`] (kinds, root, name, joints, rig); otherwise takes the body layer with the
+/// most opaque pixels as the root and the file's stem as the name, and joins every overlapping
+/// pair.
 ///
 /// # Errors
-/// Every problem at once ([`Error::collect`]); [`Error::Format`] if no body layer is left.
-pub(super) fn assemble(path: &Path, layers: Vec<ArtLayer>, mut problems: Vec<Error>) -> Result<Artwork> {
+/// Every problem at once ([`Error::collect`]); [`Error::Format`] if no body layer is left;
+/// [`Error::Layer`] naming the `character.toml` for a layer, root or joint it names that the
+/// file does not have, or an accessory root.
+pub(super) fn assemble(path: &Path, mut layers: Vec<ArtLayer>, mut problems: Vec<Error>) -> Result<Artwork> {
     let mut names = std::collections::HashSet::new();
     for layer in &layers {
         if layer.picture.pixels.iter().all(|p| p[3] == 0.0) {
@@ -233,23 +237,62 @@ pub(super) fn assemble(path: &Path, layers: Vec<ArtLayer>, mut problems: Vec<Err
         }
     }
     Error::collect(problems)?;
-    let root = layers
-        .iter()
-        .enumerate()
-        .filter(|(_, l)| l.kind == LayerKind::Body)
-        .max_by_key(|(_, l)| l.picture.pixels.iter().filter(|p| p[3] > 0.5).count())
-        .map(|(i, _)| i)
-        .ok_or_else(|| Error::format(path, "no body layer (every layer is hidden or an accessory)"))?;
-    let name = path
-        .file_stem()
-        .map_or_else(|| "character".into(), |s| s.to_string_lossy().into_owned());
+    let toml_path = path.parent().unwrap_or(Path::new(".")).join("character.toml");
+    let overrides = LayeredOverrides::load_beside(&toml_path)?;
+    let index = |layers: &[ArtLayer], name: &str| -> Result<usize> {
+        layers
+            .iter()
+            .position(|l| l.name == name)
+            .ok_or_else(|| Error::layer(&toml_path, name, format!("{} has no such layer", path.display())))
+    };
+    let mut joint_pairs = None;
+    let mut chosen_root = None;
+    let mut rig = RigOverrides::default();
+    let mut name = None;
+    if let Some(o) = &overrides {
+        for spec in &o.layers {
+            let l = index(&layers, &spec.name)?;
+            layers[l].kind = spec.kind;
+        }
+        if let Some(root) = &o.root {
+            let l = index(&layers, root)?;
+            if layers[l].kind != LayerKind::Body {
+                return Err(Error::layer(&toml_path, root, "the root must be a body layer, not an accessory"));
+            }
+            chosen_root = Some(l);
+        }
+        if let Some(pairs) = &o.joints {
+            joint_pairs = Some(
+                pairs
+                    .iter()
+                    .map(|[a, b]| Ok([index(&layers, a)?, index(&layers, b)?]))
+                    .collect::<Result<Vec<_>>>()?,
+            );
+        }
+        rig = o.rig.clone();
+        name = o.name.clone();
+    }
+    let root = match chosen_root {
+        Some(root) => root,
+        None => layers
+            .iter()
+            .enumerate()
+            .filter(|(_, l)| l.kind == LayerKind::Body)
+            .max_by_key(|(_, l)| l.picture.pixels.iter().filter(|p| p[3] > 0.5).count())
+            .map(|(i, _)| i)
+            .ok_or_else(|| Error::format(path, "no body layer (every layer is hidden or an accessory)"))?,
+    };
+    let name = name.unwrap_or_else(|| {
+        path.file_stem()
+            .map_or_else(|| "character".into(), |s| s.to_string_lossy().into_owned())
+    });
     Ok(Artwork {
         source: path.to_path_buf(),
         name,
         layers,
         root,
-        joint_pairs: None,
-        rig: Default::default(),
+        joint_pairs,
+        rig,
     })
 }
 

@@ -19,6 +19,12 @@
 //! ```
 //!
 //! Unknown keys are errors, so a misspelt key is never silently ignored.
+//!
+//! Beside a layered file (`.ora`, `.psd`), a `character.toml` with neither `[labels]` nor any
+//! layer's `file` or `color` is that file's [`LayeredOverrides`]: its `[[layer]]` entries name
+//! layers of the file and set their `kind`, and `name`, `root`, `joints` and `[rig]` apply as
+//! above; the file keeps its pixels and order. (A `character.toml` of the other forms describes
+//! other artwork in the same folder and is not applied.)
 
 use std::collections::HashSet;
 use std::path::{Path, PathBuf};
@@ -179,6 +185,76 @@ impl Character {
             .iter()
             .position(|l| l.name == root)
             .expect("validated: root names a layer")
+    }
+}
+
+/// What a `character.toml` beside a `.ora` or `.psd` says of its layers (module doc).
+#[derive(Clone, Debug, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct LayeredOverrides {
+    /// Display name.
+    pub name: Option<String>,
+    /// Name of the root body layer.
+    pub root: Option<String>,
+    /// Pairs of layer names to join; `None` joins every overlapping pair.
+    pub joints: Option<Vec<[String; 2]>>,
+    /// Layers whose kind is set.
+    #[serde(rename = "layer", default)]
+    pub layers: Vec<LayerKindSpec>,
+    /// Overrides of the automatic accessory rig.
+    #[serde(default)]
+    pub rig: RigOverrides,
+}
+
+/// One `[[layer]]` entry of [`LayeredOverrides`].
+#[derive(Clone, Debug, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct LayerKindSpec {
+    /// The layer's name in the file.
+    pub name: String,
+    /// Body part or accessory.
+    pub kind: LayerKind,
+}
+
+impl LayeredOverrides {
+    /// Reads the `character.toml` at `path` beside a layered file: `None` if there is none or it
+    /// is of another form (module doc).
+    ///
+    /// # Errors
+    /// As [`Character::load`] for an unreadable file or bad TOML; [`Error::Format`] naming the
+    /// file for unknown keys or a layer named twice.
+    pub fn load_beside(path: &Path) -> Result<Option<Self>> {
+        if !path.is_file() {
+            return Ok(None);
+        }
+        Self::parse(&user_file::read_text(path, user_file::CONFIG)?, path)
+    }
+
+    /// Parses TOML text as [`LayeredOverrides::load_beside`] does; `path` names the file.
+    ///
+    /// # Errors
+    /// As [`LayeredOverrides::load_beside`].
+    pub fn parse(text: &str, path: &Path) -> Result<Option<Self>> {
+        let table: toml::Table =
+            toml::from_str(text).map_err(|e| Error::format(path, format!("invalid character.toml: {}", e.message())))?;
+        let layer_has = |key: &str| {
+            table
+                .get("layer")
+                .and_then(toml::Value::as_array)
+                .is_some_and(|layers| layers.iter().any(|l| l.get(key).is_some()))
+        };
+        if table.contains_key("labels") || layer_has("file") || layer_has("color") {
+            return Ok(None);
+        }
+        let overrides: LayeredOverrides =
+            toml::from_str(text).map_err(|e| Error::format(path, format!("invalid character.toml: {}", e.message())))?;
+        let mut seen = HashSet::new();
+        for layer in &overrides.layers {
+            if !seen.insert(layer.name.as_str()) {
+                return Err(Error::layer(path, &layer.name, "named twice"));
+            }
+        }
+        Ok(Some(overrides))
     }
 }
 
