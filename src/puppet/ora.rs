@@ -5,7 +5,8 @@
 //! PNG is placed at its `x`, `y` offset on an image-sized canvas and multiplied by its `opacity`.
 //! Hidden layers (`visibility="hidden"`) are skipped. Layers inside a stack named `accessories`
 //! are accessories; all others are body parts. The root is the body layer with the most opaque
-//! pixels. Every overlapping pair of layers is joined.
+//! pixels. Every overlapping pair of layers is joined. A `character.toml` beside the file may say
+//! otherwise ([`super::character::LayeredOverrides`]).
 //!
 //! A zip can declare anything: the archive itself may be at most [`max_file_bytes`] long (the
 //! zip index in memory grows with it), `stack.xml` is read to at most [`MAX_STACK_XML`] bytes,

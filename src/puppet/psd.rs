@@ -11,7 +11,8 @@
 //! the group's name, visibility, opacity and blend mode; a hidden group hides its layers and a
 //! group's opacity multiplies theirs. Layers inside a group named `accessories` are accessories;
 //! all others are body parts. The root is the body layer with the most opaque pixels. Every
-//! overlapping pair of layers is joined.
+//! overlapping pair of layers is joined. A `character.toml` beside the file may say otherwise
+//! ([`super::character::LayeredOverrides`]).
 //!
 //! The reader is our own rather than the `psd` crate's: that crate slices by lengths read from
 //! the file without checking them (chinedufn/psd#70, an open RustSec draft, and index panics in
