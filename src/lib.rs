@@ -35,6 +35,7 @@ pub mod fit;
 pub mod demo;
 pub mod eval;
 pub mod export;
+pub mod serve;
 pub mod synth;
 
 #[cfg(test)]

@@ -628,3 +628,56 @@ fn frames_of_the_wrong_size_or_without_alpha_and_zero_steps_are_refused() {
     assert!(run.stderr.contains("is not a pin"), "{}", run.stderr);
     assert!(!o.exists(), "nothing written on error");
 }
+
+/// `puppet serve` without a model says what to run first; with a puppet folder it says that is
+/// not a model; with a model it prints its address and answers the API over a real socket.
+#[test]
+fn serve_finds_its_model_or_says_what_to_run_and_answers_on_its_port() {
+    use std::io::{BufRead, Read, Write};
+    let tmp = tempfile::tempdir().unwrap();
+    let run = puppet(tmp.path(), &["serve"]);
+    assert_eq!(run.code, 1, "{}", run.stderr);
+    assert!(run.stderr.contains("run `puppet demo` first"), "{}", run.stderr);
+    let (model, a, _) = setup(tmp.path());
+    let run = puppet(tmp.path(), &["serve", "--model", s(&tmp.path().join("built"))]);
+    assert!(run.stderr.contains("not a trained model"), "{}", run.stderr);
+    let run = puppet(tmp.path(), &["serve", "--model", s(&model), "--frames", "nowhere"]);
+    assert!(run.code == 1 && run.stderr.contains("--frames"), "{}", run.stderr);
+    // The frames beside a.png: a.png and b.png, both 64×64.
+    let frames = a.parent().unwrap();
+    let mut child = std::process::Command::new(env!("CARGO_BIN_EXE_puppet"))
+        .args([
+            "serve",
+            "--model",
+            s(&model),
+            "--frames",
+            s(frames),
+            "--port",
+            "0",
+            "--latent-steps",
+            "0",
+        ])
+        .current_dir(tmp.path())
+        .stdout(std::process::Stdio::piped())
+        .stderr(std::process::Stdio::null())
+        .spawn()
+        .unwrap();
+    let mut line = String::new();
+    std::io::BufReader::new(child.stdout.take().unwrap()).read_line(&mut line).unwrap();
+    let answer = (|| {
+        let address = line.split("http://").nth(1)?.split('/').next()?.to_string();
+        let mut stream = std::net::TcpStream::connect(&address).ok()?;
+        write!(stream, "GET /api/frames HTTP/1.1\r\nHost: {address}\r\nConnection: close\r\n\r\n").ok()?;
+        let mut answer = String::new();
+        stream.read_to_string(&mut answer).ok()?;
+        Some(answer)
+    })();
+    child.kill().unwrap();
+    child.wait().unwrap();
+    let answer = answer.unwrap_or_else(|| panic!("no answer from the server that said {line:?}"));
+    assert!(answer.starts_with("HTTP/1.1 200"), "{answer}");
+    assert!(
+        answer.contains(r#""name":"a.png""#) && answer.contains(r#""name":"b.png""#),
+        "{answer}"
+    );
+}

@@ -19,6 +19,7 @@ mod info;
 mod pose;
 mod render;
 mod rig;
+mod serve;
 mod synth;
 mod train;
 mod ui;
@@ -80,6 +81,7 @@ enum Command {
     Pose(pose::PoseArgs),
     Render(render::RenderArgs),
     Rig(rig::RigArgs),
+    Serve(serve::ServeArgs),
     Synth(synth::SynthArgs),
     Train(train::TrainArgs),
 }
@@ -107,6 +109,7 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
         Command::Pose(args) => pose::run(args, s),
         Command::Render(args) => render::run(args, s),
         Command::Rig(args) => rig::run(args, s),
+        Command::Serve(args) => serve::run(args, s),
         Command::Synth(args) => synth::run(args, s),
         Command::Train(args) => train::run(args, s),
     };
@@ -181,6 +184,7 @@ mod tests {
             "pose",
             "render",
             "rig",
+            "serve",
             "synth",
             "train",
         ] {

@@ -174,7 +174,9 @@ pub fn render(d: &PageData) -> String {
         "<h2>4. A dragged pose (§4.2)</h2><p>The point ({:.0}, {:.0}) on layer “{}” is pinned and dragged to ({:.0}, {:.0}); \
          {} gradient steps on the latent (eq. 7–9, α1 = 25, α2 = 50) took {:.1} ms and leave the pin {:.1} px from its target.</p>\
          <div class=\"row\"><figure><img src=\"pose_sheet.png\" width=\"800\"><figcaption>input | fit | ours (latent) | direct vertex-space ARAP</figcaption></figure>\
-         <figure><img src=\"drag.apng\" width=\"192\"><figcaption>the drag as an editor would run it: 12 updates, each continuing from the last (<a href=\"drag.gif\">GIF</a>)</figcaption></figure></div>",
+         <figure><img src=\"drag.apng\" width=\"192\"><figcaption>the drag as an editor would run it: 12 updates, each continuing from the last (<a href=\"drag.gif\">GIF</a>)</figcaption></figure></div>\
+         <p>To drag it yourself, the web editor serves this model to the browser: <code>puppet serve</code> (run where <code>out/demo</code> is, \
+         or name this folder's <code>model</code>), then open <a href=\"http://127.0.0.1:8080/\">http://127.0.0.1:8080/</a>.</p>",
         d.pin.from[0],
         d.pin.from[1],
         escape(&d.layer),

@@ -18,13 +18,33 @@ pub use correspond::{correspond, Correspondence};
 pub use inbetween::{inbetween, nearest_frame, Inbetweens, Interpolator};
 pub use pose::{Pin, PoseEditor, PoseOptions};
 
-/// Helpers shared by this module's unit tests.
+/// Helpers shared by this module's unit tests (and the web editor's).
 #[cfg(test)]
 pub(crate) mod test_support {
     use burn::module::{Module, ModuleMapper, Param};
-    use burn::tensor::{Distribution, Tensor};
+    use burn::tensor::{Device, Distribution, Tensor};
 
-    use crate::model::deformation::DeformationNet;
+    use crate::model::deformation::{DeformationNet, DeformationNetConfig};
+    use crate::model::Model;
+    use crate::test_util::layered_puppet;
+
+    /// A small model of the tiny layered character (48 × 40 frames) whose decoder's last layer
+    /// is random in `[-scale, scale]` ([`randomise_last_layer`]), so a drag can move it.
+    pub fn small_model(scale: f64) -> (Model, Device) {
+        let device = crate::backend::device();
+        // Seeded: with fresh random weights the fit sometimes missed the pin's point or a latent
+        // shift moved it under 0.5 px (1 run in ~10 failed).
+        device.seed(7);
+        let puppet = layered_puppet();
+        let config = DeformationNetConfig::new(puppet.vertex_count())
+            .with_input_size(48)
+            .with_encoder_hidden([32, 16])
+            .with_latent(16)
+            .with_decoder_hidden([32, 32]);
+        let mut model = Model::new(config, puppet, &device).expect("the tiny character makes a model");
+        model.net = randomise_last_layer(model.net, scale);
+        (model, device)
+    }
 
     /// Replaces every all-zero weight tensor (the decoder's last layer, which starts at zero so
     /// an untrained net predicts the rest pose) by uniform noise in `[-scale, scale]`, so that

@@ -134,9 +134,27 @@ struct Regularisers {
     joints: Option<(Tensor<1, Int>, Tensor<1, Int>)>,
 }
 
+/// The model an editor works with: borrowed by a command that owns it for its run, or shared
+/// behind an `Arc` by a long-lived owner (the web editor's sessions), which cannot lend a borrow.
+enum HeldModel<'m> {
+    Borrowed(&'m Model),
+    Shared(Arc<Model>),
+}
+
+impl std::ops::Deref for HeldModel<'_> {
+    type Target = Model;
+
+    fn deref(&self) -> &Model {
+        match self {
+            HeldModel::Borrowed(m) => m,
+            HeldModel::Shared(m) => m,
+        }
+    }
+}
+
 /// The fitted state of one frame under user pins (module doc).
 pub struct PoseEditor<'m> {
-    model: &'m Model,
+    model: HeldModel<'m>,
     device: Device,
     z0: Tensor<2>,
     z: Tensor<2>,
@@ -159,6 +177,21 @@ impl<'m> PoseEditor<'m> {
     /// [`Error::Mismatch`] if the frame is not the puppet's size, [`Error::Geometry`] if a
     /// template layer is degenerate (no ARAP energy).
     pub fn new(model: &'m Model, frame: &Picture, fit: &FitOptions, device: &Device) -> Result<Self> {
+        Self::with_model(HeldModel::Borrowed(model), frame, fit, device)
+    }
+
+    /// Encodes and fits `frame`, the editor sharing `model` (for an owner that keeps editors
+    /// longer than any borrow, such as the web editor's sessions).
+    ///
+    /// # Errors
+    /// As [`PoseEditor::new`].
+    pub fn shared(model: Arc<Model>, frame: &Picture, fit: &FitOptions, device: &Device) -> Result<PoseEditor<'static>> {
+        PoseEditor::with_model(HeldModel::Shared(model), frame, fit, device)
+    }
+
+    /// [`PoseEditor::new`] for either way of holding the model.
+    fn with_model(held: HeldModel<'m>, frame: &Picture, fit: &FitOptions, device: &Device) -> Result<Self> {
+        let model: &Model = &held;
         let z0 = fit_latents(model, &[frame], fit, device)?;
         let fitted = model.to_frame_vertices(model.decode(z0.clone(), device)).pop().unwrap_or_default();
         let half = model.letterbox.size as f32 / 2.0;
@@ -174,12 +207,13 @@ impl<'m> PoseEditor<'m> {
             Tensor::<1, Int>::from_data(TensorData::new(v.clone(), [v.len()]), device)
         };
         let joints = (!puppet.joints.is_empty()).then(|| (index(|j| j.a), index(|j| j.b)));
+        let decoder = model.decoder(device);
         Ok(PoseEditor {
-            model,
+            model: held,
             device: device.clone(),
             z: z0.clone(),
             z0,
-            decoder: model.decoder(device),
+            decoder,
             fitted,
             bindings: Vec::new(),
             weights: None,
@@ -270,7 +304,7 @@ impl<'m> PoseEditor<'m> {
         progress: &dyn Progress,
     ) -> Result<()> {
         let steps = self.drag_along(pins, frames, options)?;
-        let poses: Vec<Vec<[f32; 2]>> = steps.iter().map(|(d, _)| drawn.pose_from(self.model, &d.vertices)).collect();
+        let poses: Vec<Vec<[f32; 2]>> = steps.iter().map(|(d, _)| drawn.pose_from(&self.model, &d.vertices)).collect();
         write_poses(&drawn.puppet, &poses, writer, |k, p| draw_pins(&p, &steps[k].1), progress)
     }
 
@@ -380,24 +414,7 @@ impl<'m> PoseEditor<'m> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::model::deformation::DeformationNetConfig;
-    use crate::test_util::layered_puppet;
-
-    fn small_model(scale: f64) -> (Model, Device) {
-        let device = crate::backend::device();
-        // Seeded: with fresh random weights the fit sometimes missed the pin's point or a latent
-        // shift moved it under 0.5 px (1 run in ~10 failed).
-        device.seed(7);
-        let puppet = layered_puppet();
-        let config = DeformationNetConfig::new(puppet.vertex_count())
-            .with_input_size(48)
-            .with_encoder_hidden([32, 16])
-            .with_latent(16)
-            .with_decoder_hidden([32, 32]);
-        let mut model = Model::new(config, puppet, &device).unwrap();
-        model.net = crate::edit::test_support::randomise_last_layer(model.net, scale);
-        (model, device)
-    }
+    use crate::edit::test_support::small_model;
 
     #[test]
     fn gradient_steps_decrease_the_loss_and_move_the_pin_towards_its_target() {
