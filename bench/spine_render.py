@@ -20,19 +20,24 @@ import numpy as np
 from PIL import Image
 
 
-def keyed(keys, time, fields):
+def interpolate(keys, time, values, default):
+    """A timeline's value at `time`: `values(key)` of the keys around it, linearly interpolated
+    (held before the first key and after the last); `default` without keys."""
     if not keys:
-        return [0.0] * len(fields)
-    at = lambda k: [k.get(f, 0.0) for f in fields]
+        return default
     later = [i for i, k in enumerate(keys) if k.get("time", 0.0) > time]
     if not later:
-        return at(keys[-1])
+        return values(keys[-1])
     i = later[0]
     if i == 0:
-        return at(keys[0])
+        return values(keys[0])
     t0, t1 = keys[i - 1].get("time", 0.0), keys[i].get("time", 0.0)
     s = (time - t0) / (t1 - t0)
-    return [a + (b - a) * s for a, b in zip(at(keys[i - 1]), at(keys[i]))]
+    return [a + (b - a) * s for a, b in zip(values(keys[i - 1]), values(keys[i]))]
+
+
+def keyed(keys, time, fields):
+    return interpolate(keys, time, lambda k: [k.get(f, 0.0) for f in fields], [0.0] * len(fields))
 
 
 def deform(keys, time, length):
@@ -43,17 +48,7 @@ def deform(keys, time, length):
         for i, x in enumerate(k.get("vertices", [])):
             v[o + i] = x
         return v
-    if not keys:
-        return [0.0] * length
-    later = [i for i, k in enumerate(keys) if k.get("time", 0.0) > time]
-    if not later:
-        return full(keys[-1])
-    i = later[0]
-    if i == 0:
-        return full(keys[0])
-    t0, t1 = keys[i - 1].get("time", 0.0), keys[i].get("time", 0.0)
-    s = (time - t0) / (t1 - t0)
-    return [a + (b - a) * s for a, b in zip(full(keys[i - 1]), full(keys[i]))]
+    return interpolate(keys, time, full, [0.0] * length)
 
 
 def read_atlas(path):

@@ -56,7 +56,8 @@ pub fn load_poses(path: &Path, puppet: &Puppet, progress: &dyn Progress) -> Resu
             progress.warn(&format!("{}: not a pose file (no \"vertices\"), passed over", file.display()));
             continue;
         }
-        poses.push(PoseFile::parse(&bytes, &file, puppet)?.vertices);
+        let pose: PoseFile = serde_json::from_value(value).map_err(|e| Error::format(&file, format!("not a pose file: {e}")))?;
+        poses.push(pose.checked(&file, puppet)?.vertices);
     }
     if poses.is_empty() {
         return Err(Error::format(path, "no pose files (*.json with \"vertices\") in this folder"));
@@ -81,20 +82,25 @@ impl PoseFile {
     /// As [`PoseFile::load`].
     pub fn parse(bytes: &[u8], path: &Path, puppet: &Puppet) -> Result<Self> {
         let pose: PoseFile = serde_json::from_slice(bytes).map_err(|e| Error::format(path, format!("not a pose file: {e}")))?;
-        if pose.vertices.len() != puppet.vertex_count() {
+        pose.checked(path, puppet)
+    }
+
+    /// The pose, if it fits `puppet` (vertex count, finite coordinates).
+    fn checked(self, path: &Path, puppet: &Puppet) -> Result<Self> {
+        if self.vertices.len() != puppet.vertex_count() {
             return Err(Error::format(
                 path,
                 format!(
                     "{} vertices, but the puppet has {} (a pose of another puppet?)",
-                    pose.vertices.len(),
+                    self.vertices.len(),
                     puppet.vertex_count()
                 ),
             ));
         }
-        if let Some(i) = pose.vertices.iter().position(|v| !v[0].is_finite() || !v[1].is_finite()) {
+        if let Some(i) = self.vertices.iter().position(|v| !v[0].is_finite() || !v[1].is_finite()) {
             return Err(Error::format(path, format!("vertex {i} is not finite")));
         }
-        Ok(pose)
+        Ok(self)
     }
 
     /// The pose as JSON bytes.
