@@ -630,7 +630,8 @@ fn frames_of_the_wrong_size_or_without_alpha_and_zero_steps_are_refused() {
 }
 
 /// `puppet serve` without a model says what to run first; with a puppet folder it says that is
-/// not a model; with a model it prints its address and answers the API over a real socket.
+/// not a model; with a model it prints its address and answers the API over a real socket, and
+/// 1,000 malformed requests leave it serving with flat memory.
 #[test]
 fn serve_finds_its_model_or_says_what_to_run_and_answers_on_its_port() {
     use std::io::{BufRead, Read, Write};
@@ -643,6 +644,8 @@ fn serve_finds_its_model_or_says_what_to_run_and_answers_on_its_port() {
     assert!(run.stderr.contains("not a trained model"), "{}", run.stderr);
     let run = puppet(tmp.path(), &["serve", "--model", s(&model), "--frames", "nowhere"]);
     assert!(run.code == 1 && run.stderr.contains("--frames"), "{}", run.stderr);
+    let run = puppet(tmp.path(), &["serve", "--model", s(&model), "--outfit", "no_such_outfit"]);
+    assert!(run.code == 1 && run.stderr.contains("--outfit no_such_outfit"), "{}", run.stderr);
     // The frames beside a.png: a.png and b.png, both 64×64.
     let frames = a.parent().unwrap();
     let mut child = std::process::Command::new(env!("CARGO_BIN_EXE_puppet"))
@@ -664,16 +667,113 @@ fn serve_finds_its_model_or_says_what_to_run_and_answers_on_its_port() {
         .unwrap();
     let mut line = String::new();
     std::io::BufReader::new(child.stdout.take().unwrap()).read_line(&mut line).unwrap();
-    let answer = (|| {
-        let address = line.split("http://").nth(1)?.split('/').next()?.to_string();
-        let mut stream = std::net::TcpStream::connect(&address).ok()?;
-        write!(stream, "GET /api/frames HTTP/1.1\r\nHost: {address}\r\nConnection: close\r\n\r\n").ok()?;
+    let address = line
+        .split("http://")
+        .nth(1)
+        .and_then(|rest| rest.split('/').next())
+        .map(str::to_string);
+    // One request on its own connection: the whole answer, or None if the server is gone.
+    let ask = |method: &str, path: &str, body: &str| -> Option<String> {
+        let address = address.as_deref()?;
+        let mut stream = std::net::TcpStream::connect(address).ok()?;
+        write!(
+            stream,
+            "{method} {path} HTTP/1.1\r\nHost: {address}\r\nContent-Type: application/json\r\nContent-Length: {}\r\nConnection: close\r\n\r\n{body}",
+            body.len()
+        )
+        .ok()?;
         let mut answer = String::new();
         stream.read_to_string(&mut answer).ok()?;
         Some(answer)
-    })();
+    };
+    let resident_kb = || {
+        std::fs::read_to_string(format!("/proc/{}/status", child.id()))
+            .ok()?
+            .lines()
+            .find_map(|l| l.strip_prefix("VmRSS:"))?
+            .trim()
+            .trim_end_matches("kB")
+            .trim()
+            .parse::<u64>()
+            .ok()
+    };
+    let answer = ask("GET", "/api/frames", "");
+    // 1,000 malformed requests over real sockets (bad JSON, NaN, points off the character, huge
+    // counts, unknown fields, unknown sessions and routes): each a 4xx with a message, the server
+    // still serving, its memory flat (measured after a first round, so allocator warm-up and
+    // lazily built state are not counted as growth).
+    let session = ask("POST", "/api/session", r#"{"frame": 0}"#).unwrap_or_default();
+    let id = session
+        .split(r#""session":""#)
+        .nth(1)
+        .and_then(|r| r.split('"').next())
+        .unwrap_or("none")
+        .to_string();
+    let malformed: Vec<(&str, &str, String)> = vec![
+        ("POST", "/api/drag", "{not json".into()),
+        (
+            "POST",
+            "/api/drag",
+            format!(r#"{{"session": "{id}", "pins": [{{"from": [NaN, 1], "to": [1, 1]}}]}}"#),
+        ),
+        (
+            "POST",
+            "/api/drag",
+            format!(r#"{{"session": "{id}", "pins": [{{"from": [0.5, 0.5], "to": [1, 1]}}]}}"#),
+        ),
+        (
+            "POST",
+            "/api/drag",
+            format!(r#"{{"session": "{id}", "pins": [{{"from": [1e39, 1], "to": [1, 1]}}]}}"#),
+        ),
+        (
+            "POST",
+            "/api/drag",
+            format!(r#"{{"session": "{id}", "pins": [], "steps": 100000}}"#),
+        ),
+        (
+            "POST",
+            "/api/drag",
+            r#"{"session": "nope", "pins": [{"from": [30, 30], "to": [1, 1]}]}"#.into(),
+        ),
+        ("POST", "/api/session", r#"{"frame": 0, "model": "other"}"#.into()),
+        ("POST", "/api/session", r#"{"frame": 99999999}"#.into()),
+        ("POST", "/api/inbetween", r#"{"from": 0, "to": 1, "count": 1000000000}"#.into()),
+        ("POST", "/api/latent", format!(r#"{{"session": "{id}", "latent": [1, 2, 3]}}"#)),
+        ("POST", "/api/export", format!(r#"{{"format": "exe", "session": "{id}"}}"#)),
+        ("GET", "/api/texture/0/999.png", String::new()),
+        ("GET", "/api/nowhere", String::new()),
+    ];
+    let round = |rounds: usize| -> Vec<String> {
+        let mut wrong = Vec::new();
+        for k in 0..rounds {
+            let (method, path, body) = &malformed[k % malformed.len()];
+            let answer = ask(method, path, body).unwrap_or_default();
+            let status = answer.get(9..12).and_then(|s| s.parse::<u16>().ok()).unwrap_or(0);
+            if !(400..500).contains(&status) || !answer.contains(r#"{"error":""#) {
+                wrong.push(format!("{method} {path} {body:.60}: {answer:.200}"));
+            }
+        }
+        wrong
+    };
+    let warm_up = round(malformed.len() * 8);
+    let before = resident_kb();
+    let wrong = round(1000);
+    let after = resident_kb();
+    let still = ask("GET", "/api/frames", "").unwrap_or_default();
     child.kill().unwrap();
     child.wait().unwrap();
+    assert!(
+        warm_up.is_empty() && wrong.is_empty(),
+        "answers that are not a 4xx with a message: {wrong:#?} {warm_up:#?}"
+    );
+    assert!(
+        still.starts_with("HTTP/1.1 200"),
+        "the server still serves after 1,000 bad requests: {still:.200}"
+    );
+    let (before, after) = (before.unwrap(), after.unwrap());
+    println!("server resident memory over 1,000 malformed requests: {before} kB → {after} kB");
+    assert!(after <= before + 4096, "memory grew from {before} kB to {after} kB");
     let answer = answer.unwrap_or_else(|| panic!("no answer from the server that said {line:?}"));
     assert!(answer.starts_with("HTTP/1.1 200"), "{answer}");
     assert!(

@@ -52,7 +52,8 @@ try {
   await page.goto(url);
   await page.waitForFunction(() => window.puppetEditor && !window.puppetEditor.busy(), null, { timeout: 120000 });
   const st = await page.evaluate(() => window.puppetEditor.state());
-  const P = st.puppet;
+  // The puppet as the outfit drawn (outfit 0 on loading: the model's own).
+  const P = { ...st.puppet, ...st.puppet.outfits[st.outfit] };
   const geo = await page.evaluate(() => {
     const c = document.getElementById('stage'), r = c.getBoundingClientRect();
     return { left: r.left + c.clientLeft, top: r.top + c.clientTop };
@@ -106,7 +107,7 @@ try {
   }
   const tr = trips.slice().sort((a, b) => a - b);
   if (tr.length) {
-    console.log(`drag requests: ${tr.length} for ${total} moves and ${Math.ceil(total / perDrag)} presses; round trip median ${f(q(tr, 0.5))} ms, p95 ${f(q(tr, 0.95))} ms, max ${f(tr[tr.length - 1])} ms`);
+    console.log(`drag requests: ${tr.length} for ${total} moves and ${Math.ceil(total / perDrag)} releases (each settles the pose with 40 steps); round trip median ${f(q(tr, 0.5))} ms, p95 ${f(q(tr, 0.95))} ms, max ${f(tr[tr.length - 1])} ms`);
   }
   console.log(`${f(seconds)} s; load average after ${load()}`);
 } catch (e) {

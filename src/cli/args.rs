@@ -196,20 +196,7 @@ impl AnimationArgs {
 
 /// Parses `transparent` or `#rrggbb`.
 pub fn parse_background(s: &str) -> Result<Background, String> {
-    if s.eq_ignore_ascii_case("transparent") {
-        Ok(Background::Transparent)
-    } else {
-        parse_colour(s)
-            .map(Background::Colour)
-            .map_err(|e| format!("{e} (or \"transparent\")"))
-    }
-}
-
-/// Parses `#rrggbb` into RGB in [0, 1].
-pub fn parse_colour(s: &str) -> Result<[f32; 3], String> {
-    puppet::puppet::character::parse_color(s)
-        .map(|rgb| rgb.map(|c| c as f32 / 255.0))
-        .map_err(|e| format!("{s:?}: {e}"))
+    s.parse()
 }
 
 /// Parses a positive, finite number.
@@ -237,8 +224,8 @@ mod tests {
         for bad in ["40,60", "40:60", "a,b:c,d", "1,2:3", "nan,1:2,3"] {
             assert!(parse_pin(bad).unwrap_err().contains("is not a pin"), "{bad}");
         }
-        assert_eq!(parse_colour("#ff0000"), Ok([1.0, 0.0, 0.0]));
-        assert!(parse_colour("red").is_err());
+        assert_eq!(parse_background("#ff0000"), Ok(Background::Colour([1.0, 0.0, 0.0])));
+        assert!(parse_background("red").is_err());
         assert_eq!(parse_background("Transparent"), Ok(Background::Transparent));
         assert_eq!(parse_background("#000000"), Ok(Background::Colour([0.0; 3])));
         assert!(parse_background("none").unwrap_err().contains("transparent"));

@@ -1,5 +1,6 @@
-//! `puppet serve [--model DIR] [--port 8080] [--host 127.0.0.1]`: the web editor (issue 18) —
-//! a local HTTP server with a page that poses the model's puppet by drag pins.
+//! `puppet serve [--model DIR] [--port 8080] [--host 127.0.0.1] [--outfit ARTWORK]… [--open]`:
+//! the web editor (issue 18) — a local HTTP server with a page that poses the model's puppet by
+//! drag pins and sliders, plays in-betweens, swaps outfits and downloads what it shows.
 
 use std::net::IpAddr;
 use std::path::PathBuf;
@@ -8,7 +9,12 @@ use std::sync::Arc;
 use anyhow::Context as _;
 use puppet::model::Model;
 use puppet::progress::Progress as _;
+use puppet::puppet::artwork;
+use puppet::puppet::build::BuildOptions;
+use puppet::rig::outfit::dress;
+use puppet::rig::RigOptions;
 use puppet::serve::{folder_frames, model_frames, App, ServeOptions};
+use puppet::train::trainer::SplitRecord;
 
 use super::args::LatentFitArgs;
 use super::Session;
@@ -16,9 +22,12 @@ use super::Session;
 /// Where `puppet demo` leaves its model: the editor's model when none is given.
 const DEMO_MODEL: &str = "out/demo/model";
 
-/// Serve the web editor: a page that draws the model's puppet from its meshes and textures and
-/// poses it by drag pins (click the character to pin a point, drag it; right-click removes it).
-/// The frames to pose are those the model trained on (from its split.json) or --frames.
+/// Serve the web editor: a page that draws the model's puppet from its meshes and textures,
+/// poses it by drag pins (click the character to pin a point, drag it; right-click removes it)
+/// and sliders, plays in-betweens of two frames, swaps outfits and downloads PNG, GIF, APNG,
+/// sprite sheets and Spine skeletons. The frames to pose are those the model trained on (from
+/// its split.json) or --frames; the outfits are --outfit, or the outfits/ folder beside the
+/// frames the model trained on.
 #[derive(Debug, clap::Args)]
 pub struct ServeArgs {
     /// The model folder written by `puppet train` (default: out/demo/model, from `puppet demo`).
@@ -35,8 +44,37 @@ pub struct ServeArgs {
     /// to the network (the editor has no login).
     #[arg(long, default_value = "127.0.0.1")]
     pub host: IpAddr,
+    /// Another outfit the page can swap to (PNG layers + character.toml, .ora or .psd of the
+    /// same body in other accessories); repeat for more. Default: each folder in the outfits/
+    /// folder beside the frames the model trained on, if there is one.
+    #[arg(long = "outfit", value_name = "ARTWORK")]
+    pub outfits: Vec<PathBuf>,
+    /// Open the page in the default web browser once the server is listening.
+    #[arg(long)]
+    pub open: bool,
     #[command(flatten)]
     pub fit: LatentFitArgs,
+}
+
+/// The outfits to offer: those given, or every folder of `outfits/` beside the frames the model
+/// in `dir` trained on.
+fn outfit_paths(args: &ServeArgs, dir: &std::path::Path) -> anyhow::Result<Vec<PathBuf>> {
+    if !args.outfits.is_empty() {
+        return Ok(args.outfits.clone());
+    }
+    let Some(split) = SplitRecord::load(dir)? else {
+        return Ok(Vec::new());
+    };
+    let Some(folder) = split.frames.parent().map(|p| p.join("outfits")).filter(|p| p.is_dir()) else {
+        return Ok(Vec::new());
+    };
+    let mut found: Vec<PathBuf> = std::fs::read_dir(&folder)
+        .with_context(|| format!("cannot list {}", folder.display()))?
+        .filter_map(|e| e.ok().map(|e| e.path()))
+        .filter(|p| p.is_dir())
+        .collect();
+    found.sort();
+    Ok(found)
 }
 
 /// Runs `puppet serve` until interrupted.
@@ -67,7 +105,23 @@ pub fn run(args: ServeArgs, s: &Session) -> anyhow::Result<()> {
     } else {
         format!("{} frames", frames.len())
     };
-    let app = Arc::new(App::new(model, frames, ServeOptions::new(fit), &device)?);
+    let explicit = !args.outfits.is_empty();
+    let mut outfits = Vec::new();
+    for path in outfit_paths(&args, &dir)? {
+        let name = path
+            .file_stem()
+            .map_or_else(|| path.display().to_string(), |n| n.to_string_lossy().into_owned());
+        let dressed = artwork::load_reporting(&path, &artwork::ImportOptions::default(), &s.ui)
+            .and_then(|art| dress(&model.puppet, &art, &BuildOptions::default(), &RigOptions::default(), &s.ui));
+        match dressed {
+            Ok(puppet) => outfits.push((name, puppet)),
+            // Outfits given by hand must load; those found beside the frames are a courtesy.
+            Err(e) if explicit => return Err(anyhow::Error::new(e).context(format!("--outfit {}", path.display()))),
+            Err(e) => s.ui.warn(&format!("outfit {}: {e} (left out of the editor)", path.display())),
+        }
+    }
+    let outfit_count = outfits.len();
+    let app = Arc::new(App::new(model, frames, outfits, ServeOptions::new(fit), &device)?);
     let runtime = tokio::runtime::Builder::new_multi_thread()
         .enable_io()
         .build()
@@ -77,10 +131,20 @@ pub fn run(args: ServeArgs, s: &Session) -> anyhow::Result<()> {
             .await
             .with_context(|| format!("cannot listen on {}:{} (--host, --port)", args.host, args.port))?;
         let address = listener.local_addr().context("the server's address")?;
+        let url = format!("http://{address}/");
+        let worn = match outfit_count {
+            0 => String::new(),
+            n => format!(", {n} more outfits"),
+        };
         s.ui.print(format!(
-            "puppet editor for {} ({offered}) at http://{address}/ — Ctrl-C stops it",
+            "puppet editor for {} ({offered}{worn}) at {url} — Ctrl-C stops it",
             dir.display()
         ))?;
+        if args.open {
+            if let Err(e) = webbrowser::open(&url) {
+                s.ui.warn(&format!("cannot open a web browser ({e}): open {url} yourself"));
+            }
+        }
         puppet::serve::serve(listener, app).await.context("the server stopped")
     })
 }
@@ -104,6 +168,11 @@ mod tests {
             "f",
             "--latent-steps",
             "0",
+            "--outfit",
+            "a",
+            "--outfit",
+            "b.ora",
+            "--open",
         ]);
         for bad in [vec!["serve", "--port", "70000"], vec!["serve", "--host", "localhost:1"]] {
             let args = std::iter::once("puppet").chain(bad.iter().copied());

@@ -48,14 +48,20 @@ impl Interpolator {
     /// [`Error::Mismatch`] if a frame is not the puppet's size (see [`Model::check_frame`]).
     pub fn new(model: &Model, a: &Picture, b: &Picture, fit: &FitOptions, device: &Device) -> Result<Self> {
         let z = fit_latents(model, &[a, b], fit, device)?;
-        let fitted = model.to_frame_vertices(model.decode(z.clone(), device));
+        Ok(Self::between(model, z.clone().narrow(0, 0, 1), z.narrow(0, 1, 1), device))
+    }
+
+    /// The interpolation between two latents `[1, Z]` fitted earlier (by `model`, or by the same
+    /// body in another outfit), decoded by `model`.
+    pub fn between(model: &Model, z_a: Tensor<2>, z_b: Tensor<2>, device: &Device) -> Self {
+        let fitted = model.to_frame_vertices(model.decode(Tensor::cat(vec![z_a.clone(), z_b.clone()], 0), device));
         let mut it = fitted.into_iter();
         let (va, vb) = (it.next().unwrap_or_default(), it.next().unwrap_or_default());
-        Ok(Interpolator {
-            z_a: z.clone().narrow(0, 0, 1),
-            z_b: z.narrow(0, 1, 1),
+        Interpolator {
+            z_a,
+            z_b,
             fitted: [va, vb],
-        })
+        }
     }
 
     /// The fitted poses of a and b (frame pixels).

@@ -1,22 +1,27 @@
 //! What users do with a trained puppet (neural-puppet.md §4.1–4.3): in-betweens by latent
 //! interpolation ([`mod@inbetween`]), poses dragged into place by optimising the latent under pins
 //! ([`pose`], eq. 7–9, with the direct vertex-space ARAP drag of Figure 6 right beside it in
-//! [`mod@arap_drag`]), and frame-to-frame correspondences through the fitted template
+//! [`mod@arap_drag`]; the training frames' principal latent directions as sliders in
+//! [`directions`]), in-betweens timed as animators time them ([`timing`]), and frame-to-frame correspondences through the fitted template
 //! ([`mod@correspond`], scored by [`crate::eval::pck_pairs`] on synthetic ground truth). Points are
 //! tied to the mesh by barycentric coordinates ([`mod@bind`]).
 
 pub mod arap_drag;
 pub mod bind;
 pub mod correspond;
+pub mod directions;
 pub mod inbetween;
 pub mod pin_overlay;
 pub mod pose;
+pub mod timing;
 
 pub use arap_drag::arap_drag;
 pub use bind::{bind, Binding};
 pub use correspond::{correspond, Correspondence};
+pub use directions::LatentDirections;
 pub use inbetween::{inbetween, nearest_frame, Inbetweens, Interpolator};
 pub use pose::{Pin, PoseEditor, PoseOptions};
+pub use timing::{eased_t, spacing_t, Easing};
 
 /// Helpers shared by this module's unit tests (and the web editor's).
 #[cfg(test)]

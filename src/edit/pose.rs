@@ -189,10 +189,32 @@ impl<'m> PoseEditor<'m> {
         PoseEditor::with_model(HeldModel::Shared(model), frame, fit, device)
     }
 
+    /// An editor sharing `model` whose fit is the latent `z0` `[1, Z]` (a frame fitted earlier,
+    /// perhaps by the same body in another outfit: the latent is the body's pose).
+    ///
+    /// # Errors
+    /// [`Error::Mismatch`] if `z0` is not one latent of the model's size; as [`PoseEditor::new`].
+    pub fn shared_at(model: Arc<Model>, z0: Tensor<2>, device: &Device) -> Result<PoseEditor<'static>> {
+        let expected = [1, model.config.latent];
+        if z0.dims() != expected {
+            return Err(Error::mismatch(
+                "the editor's latent",
+                format!("{:?}", z0.dims()),
+                format!("{expected:?}"),
+            ));
+        }
+        PoseEditor::at_latent(HeldModel::Shared(model), z0, device)
+    }
+
     /// [`PoseEditor::new`] for either way of holding the model.
     fn with_model(held: HeldModel<'m>, frame: &Picture, fit: &FitOptions, device: &Device) -> Result<Self> {
+        let z0 = fit_latents(&held, &[frame], fit, device)?;
+        Self::at_latent(held, z0, device)
+    }
+
+    /// The editor of the fit `z0`.
+    fn at_latent(held: HeldModel<'m>, z0: Tensor<2>, device: &Device) -> Result<Self> {
         let model: &Model = &held;
-        let z0 = fit_latents(model, &[frame], fit, device)?;
         let fitted = model.to_frame_vertices(model.decode(z0.clone(), device)).pop().unwrap_or_default();
         let half = model.letterbox.size as f32 / 2.0;
         let puppet = &model.puppet;
@@ -226,6 +248,46 @@ impl<'m> PoseEditor<'m> {
     /// The fitted pose of the frame (frame pixels).
     pub fn fitted(&self) -> &[[f32; 2]] {
         &self.fitted
+    }
+
+    /// The fitted latent `[1, Z]`.
+    pub fn fitted_latent(&self) -> &Tensor<2> {
+        &self.z0
+    }
+
+    /// The current latent `[1, Z]`: the fit's, or where the last drag left it.
+    pub fn latent(&self) -> &Tensor<2> {
+        &self.z
+    }
+
+    /// Moves to latent `z` `[1, Z]` (a slider's pose; later drags continue from it) and returns
+    /// its pose, frame pixels.
+    ///
+    /// # Errors
+    /// [`Error::Mismatch`] if `z` is not one latent of the model's size; [`Error::Geometry`] if
+    /// it is not finite.
+    pub fn set_latent(&mut self, z: Tensor<2>) -> Result<Vec<[f32; 2]>> {
+        if z.dims() != self.z0.dims() {
+            return Err(Error::mismatch(
+                "the latent",
+                format!("{:?}", z.dims()),
+                format!("{:?}", self.z0.dims()),
+            ));
+        }
+        let values: Vec<f32> = z.to_data().convert::<f32>().try_to_vec::<f32>().unwrap_or_default();
+        if values.iter().any(|v| !v.is_finite()) {
+            return Err(Error::geometry("the latent", "is not finite"));
+        }
+        self.z = z;
+        Ok(self.pose())
+    }
+
+    /// The pose of the current latent, frame pixels.
+    pub fn pose(&self) -> Vec<[f32; 2]> {
+        self.model
+            .to_frame_vertices(self.model.decode(self.z.clone(), &self.device))
+            .pop()
+            .unwrap_or_default()
     }
 
     /// The current bindings of the pins' source points (made on the fitted pose).
@@ -354,6 +416,7 @@ impl<'m> PoseEditor<'m> {
             // Eq. 9 with a backtracking step size (module doc): grow η after a step that lowers
             // L_deform, shrink it until one does.
             let before = *losses.last().unwrap_or(&f32::INFINITY);
+            let eta_before = self.eta;
             let mut accepted = None;
             for _ in 0..MAX_BACKTRACKS {
                 let candidate = self.z.clone() - g.clone().mul_scalar(self.eta);
@@ -369,16 +432,18 @@ impl<'m> PoseEditor<'m> {
             }
             match accepted {
                 Some(z) => self.z = z,
-                None => break, // no step lowers the loss: a (local) minimum at this precision
+                None => {
+                    // No step lowers the loss: a (local) minimum at this precision (a pin already
+                    // on its target, say). The next drag starts from the step size this one had,
+                    // not from the 4^-12 the search ended at, which would freeze every later drag.
+                    self.eta = eta_before;
+                    break;
+                }
             }
         }
         let final_loss = self.deform_loss(self.z.clone(), &weights, &target, options)?;
         losses.push(final_loss.into_scalar::<f32>());
-        let vertices = self
-            .model
-            .to_frame_vertices(self.model.decode(self.z.clone(), &self.device))
-            .pop()
-            .unwrap_or_default();
+        let vertices = self.pose();
         let pin_error = self
             .bindings
             .iter()

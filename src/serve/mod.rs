@@ -1,31 +1,50 @@
 //! The web editor (issue 18): a local HTTP server with one page that draws the puppet from its
 //! mesh and textures and poses it by drag pins — the latent optimisation of neural-puppet.md
-//! §4.2 (eq. 7–9), one [`crate::edit::pose::PoseEditor`] per page.
+//! §4.2 (eq. 7–9), one [`crate::edit::pose::PoseEditor`] per page — by sliders along the
+//! training frames' principal latent directions, and plays timed in-betweens (§4.1); it swaps
+//! outfits on the same body (accessory-rigs.md) and downloads what it shows.
 //!
-//! Routes (JSON unless a picture; every refusal is a 4xx with `{"error": "…"}`):
+//! Routes (JSON unless a picture or a download; every refusal is a 4xx with `{"error": "…"}`):
 //!
 //! ```text
-//! GET  /                      the page (part of the binary)
-//! GET  /api/puppet            width, height, vertex_count, layers back to front:
-//!                             {name, kind, offset, triangles, uvs, rest, texture}
-//! GET  /api/texture/<i>.png   layer i's texture (straight-alpha RGBA)
-//! GET  /api/frames            {frames: [{index, name, held_out, picture}]}
-//! GET  /api/frame/<i>.png     frame i
-//! POST /api/session           {frame: i} → {session, vertices}: frame i fitted
-//! POST /api/drag              {session, pins: [{from: [x, y], to: [x, y]}], alpha_reg?, alpha_joints?}
-//!                             → {vertices, pin_error}
+//! GET  /                          the page (part of the binary)
+//! GET  /api/puppet                width, height, latent (its length), sliders (their count),
+//!                                 easings, max_inbetweens, outfits: [{name, vertex_count,
+//!                                 layers back to front: [{name, kind, offset, triangles, uvs,
+//!                                 rest, texture, rig_pins}]}] — outfit 0 is the model's own
+//! GET  /api/texture/<k>/<i>.png   outfit k's layer i texture (straight-alpha RGBA)
+//! GET  /api/frames                {frames: [{index, name, held_out, picture}]}
+//! GET  /api/frame/<i>.png         frame i
+//! POST /api/upload?name=<file>    the body an image of the puppet's size → {index, picture}
+//! POST /api/session               {frame, outfit?} → {session, fitted, fitted_latent, vertices, latent}
+//! POST /api/drag                  {session, pins: [{from: [x, y], to: [x, y]}], alpha_reg?,
+//!                                 alpha_joints?, steps?} → {vertices, pin_error, latent}
+//! POST /api/latent                {session, latent, sliders?} → {vertices, latent}
+//! POST /api/outfit                {session, outfit} → {fitted, fitted_latent, vertices, latent}
+//! POST /api/inbetween             {from, to, count?, easing?, spacing?, outfit?} → {t, poses}
+//! POST /api/export                {format: png|gif|apng|sheet|spine, session | inbetween,
+//!                                 hidden?, background?, delay_ms?} → the file (several: a ZIP)
 //! ```
 //!
-//! Points and vertices are frame pixels (origin top-left, y down); `vertices` use the global
-//! numbering (layer `offset` + the layer's vertex). A drag whose pins have the same `from`
+//! Points and vertices are frame pixels (origin top-left, y down) in the global numbering of
+//! the outfit drawn (layer `offset` + the layer's vertex). A drag whose pins have the same `from`
 //! points as the session's last continues from the latent that drag reached, so a page sends
-//! the whole pin list on every mouse move.
+//! the whole pin list on every mouse move; new points are bound on the fit and the drag goes on
+//! from the current latent. A page keeps the latents it was sent to undo and redo by
+//! `/api/latent`; `sliders` there are offsets along the directions in standard deviations of the
+//! training frames' latents.
 
 pub mod api;
+pub mod error;
+pub mod export;
+mod session;
 pub mod state;
+#[cfg(test)]
+mod tests;
 
-pub use api::{router, ApiError};
-pub use state::{folder_frames, model_frames, App, EditorFrame, ServeOptions};
+pub use api::router;
+pub use error::ApiError;
+pub use state::{folder_frames, model_frames, App, EditorFrame, EditorPose, Outfit, ServeOptions};
 
 /// Serves the editor of `app` on `listener` until the process ends.
 ///

@@ -1,28 +1,45 @@
-//! What the web editor holds: the model (shared by every session), the frames a page can pick,
-//! the layer textures as PNG, and the editing sessions — one [`PoseEditor`] per page, so two
-//! pages never see each other's pins.
+//! What the web editor holds: the model and the outfits it can draw (one body, shared by every
+//! session), the frames a page can pick and their fitted latents, the layer textures as PNG, the
+//! training frames' principal latent directions, and the editing sessions.
 
-use std::collections::VecDeque;
 use std::path::Path;
-use std::sync::{Arc, Mutex, MutexGuard};
+use std::sync::{Arc, Mutex, RwLock};
 
-use burn::tensor::Device;
+use burn::tensor::{Device, Tensor, TensorData};
 
-use super::api::ApiError;
+use super::error::ApiError;
+use super::session::{lock, Session, Sessions};
+use crate::edit::directions::LatentDirections;
+use crate::edit::inbetween::Interpolator;
 use crate::edit::pose::{Dragged, Pin, PoseEditor, PoseOptions};
 use crate::error::{Error, Result};
-use crate::fit::frame::frame_check;
-use crate::fit::FitOptions;
+use crate::fit::frame::{check_cut_out, frame_check};
+use crate::fit::{fit_latents, FitOptions};
 use crate::model::Model;
 use crate::picture::Picture;
 use crate::puppet::sequence::Frames;
-use crate::rng::Rng;
+use crate::puppet::Puppet;
 use crate::train::trainer::SplitRecord;
 
 /// The most sessions kept unless [`ServeOptions::max_sessions`] says otherwise: each holds a
 /// fitted latent and a decoder (a few MB on the demo's robot), so a page reloaded many times
 /// must not grow the server without bound.
 pub const DEFAULT_MAX_SESSIONS: usize = 16;
+
+/// The most latent sliders offered: the directions past the first few carry little of the
+/// frames' spread, and a page of sliders is not a tool.
+pub const MAX_SLIDERS: usize = 8;
+
+/// The largest latent coordinate a page may send (the encoder's are of order 1–10; far beyond,
+/// the decoder's poses stop being finite).
+pub const MAX_LATENT: f32 = 1000.0;
+
+/// The most frames a page may upload (each stays until the server stops; the bound keeps its
+/// memory bounded).
+pub const MAX_UPLOADS: usize = 32;
+
+/// Frames encoded per batch for the latent directions (bounds the memory of a large folder).
+const ENCODE_BATCH: usize = 16;
 
 /// How the web editor fits and keeps sessions.
 #[derive(Clone, Debug)]
@@ -97,44 +114,91 @@ pub fn folder_frames(dir: &Path, model: &Model, held_out: &[String]) -> Result<(
     Ok((frames, bad.into_iter().map(|(_, e)| e).collect()))
 }
 
-/// One page's editing state: the editor fitted to its frame and the pins' source points it
-/// was last given (the editor rebinds only when they change, so a drag continues from where
-/// the previous request left the latent).
-struct Session {
-    editor: PoseEditor<'static>,
-    sources: Vec<[f32; 2]>,
+/// Reads `l` (see [`lock`] on poisoning).
+fn read<T>(l: &RwLock<T>) -> std::sync::RwLockReadGuard<'_, T> {
+    l.read().unwrap_or_else(std::sync::PoisonError::into_inner)
 }
 
-/// The open sessions, least recently used first.
-struct Sessions {
-    ids: Rng,
-    open: VecDeque<(String, Arc<Mutex<Session>>)>,
+/// Writes `l` (see [`lock`] on poisoning).
+fn write<T>(l: &RwLock<T>) -> std::sync::RwLockWriteGuard<'_, T> {
+    l.write().unwrap_or_else(std::sync::PoisonError::into_inner)
+}
+
+/// A way to draw the character: the model's own accessories, or another outfit on the same body.
+pub struct Outfit {
+    /// Its name (the model's own is "as trained").
+    pub name: String,
+    /// The model drawing it: the same network, this outfit's puppet.
+    pub model: Arc<Model>,
+    textures: Vec<Vec<u8>>,
+}
+
+impl Outfit {
+    fn new(name: String, model: Model) -> Result<Self> {
+        let textures = model
+            .puppet
+            .layers
+            .iter()
+            .map(|l| l.texture.png_bytes(Path::new(&l.name)))
+            .collect::<Result<_>>()?;
+        Ok(Outfit {
+            name,
+            model: Arc::new(model),
+            textures,
+        })
+    }
+
+    /// Layer `i`'s texture as PNG bytes.
+    pub fn texture_png(&self, i: usize) -> Option<&[u8]> {
+        self.textures.get(i).map(Vec::as_slice)
+    }
+}
+
+/// A pose as a page receives it: vertices in frame pixels (the session outfit's numbering) and
+/// the latent that decodes to them (a page keeps it to undo to).
+#[derive(Clone, Debug)]
+pub struct EditorPose {
+    /// The vertices, frame pixels.
+    pub vertices: Vec<[f32; 2]>,
+    /// The latent `z`.
+    pub latent: Vec<f32>,
 }
 
 /// The web editor's state, shared by every request.
 pub struct App {
-    model: Arc<Model>,
+    outfits: Vec<Outfit>,
     device: Device,
     options: ServeOptions,
-    frames: Vec<EditorFrame>,
-    textures: Vec<Vec<u8>>,
-    sessions: Mutex<Sessions>,
+    /// The frames given, then those pages uploaded.
+    frames: RwLock<Vec<Arc<EditorFrame>>>,
+    given: usize,
+    /// Per frame, its fitted latent once a page has asked for it.
+    latents: Mutex<Vec<Option<Tensor<2>>>>,
+    directions: LatentDirections,
+    sessions: Sessions,
 }
 
-/// Locks `m`; a poisoned lock (a request that panicked while holding it) is taken as it is:
-/// every value behind these locks is whole between statements, so the next request may use it.
-fn lock<T>(m: &Mutex<T>) -> MutexGuard<'_, T> {
-    m.lock().unwrap_or_else(std::sync::PoisonError::into_inner)
+/// The values of a latent `[1, Z]`.
+fn values(z: &Tensor<2>) -> Vec<f32> {
+    z.to_data().convert::<f32>().try_to_vec::<f32>().unwrap_or_default()
 }
 
 impl App {
-    /// The editor's state for `model`, offering `frames` to pose; with no frames it offers the
-    /// puppet's rest pose, rendered, so there is always something to pose.
+    /// The editor's state for `model`, offering `frames` to pose and `outfits` (named puppets of
+    /// the model's body in other accessories, see [`crate::rig::outfit::dress`]) to draw; with no
+    /// frames it offers the puppet's rest pose, rendered, so there is always something to pose.
     ///
     /// # Errors
     /// [`Error::Setting`] for `max_sessions` 0; [`Error::Mismatch`] for a frame not of the
-    /// puppet's size; as [`Picture::png_bytes`] and [`crate::render::render_crisp`].
-    pub fn new(model: Model, frames: Vec<EditorFrame>, options: ServeOptions, device: &Device) -> Result<Self> {
+    /// puppet's size; as [`Model::wearing`] for an outfit, naming it; as [`Picture::png_bytes`]
+    /// and [`crate::render::render_crisp`].
+    pub fn new(
+        model: Model,
+        frames: Vec<EditorFrame>,
+        outfits: Vec<(String, Puppet)>,
+        options: ServeOptions,
+        device: &Device,
+    ) -> Result<Self> {
         if options.max_sessions == 0 {
             return Err(Error::setting("editing sessions", 0, "at least 1"));
         }
@@ -152,107 +216,275 @@ impl App {
         } else {
             frames
         };
-        let textures = model
-            .puppet
-            .layers
-            .iter()
-            .map(|l| l.texture.png_bytes(Path::new(&l.name)))
-            .collect::<Result<_>>()?;
-        let seed = std::time::SystemTime::now()
-            .duration_since(std::time::UNIX_EPOCH)
-            .map_or(0, |d| d.as_nanos() as u64);
+        let training: Vec<&Picture> = frames.iter().filter(|f| !f.held_out).map(|f| &f.picture).collect();
+        let mut latents = Vec::with_capacity(training.len());
+        for batch in training.chunks(ENCODE_BATCH) {
+            let z = model.encode(batch, device)?;
+            let [n, dim] = z.dims();
+            let flat = values(&z);
+            latents.extend((0..n).map(|i| flat[i * dim..(i + 1) * dim].to_vec()));
+        }
+        let directions = LatentDirections::of(&latents, MAX_SLIDERS)?;
+        let mut worn = Vec::with_capacity(outfits.len() + 1);
+        for (name, puppet) in outfits {
+            let model = model.wearing(puppet).map_err(|e| e.with_key(format!("outfit {name:?}")))?;
+            worn.push(Outfit::new(name, model)?);
+        }
+        worn.insert(0, Outfit::new("as trained".into(), model)?);
         Ok(App {
-            model: Arc::new(model),
+            outfits: worn,
             device: device.clone(),
+            latents: Mutex::new(vec![None; frames.len()]),
+            sessions: Sessions::new(options.max_sessions),
             options,
-            frames,
-            textures,
-            sessions: Mutex::new(Sessions {
-                ids: Rng::new(seed),
-                open: VecDeque::new(),
-            }),
+            given: frames.len(),
+            frames: RwLock::new(frames.into_iter().map(Arc::new).collect()),
+            directions,
         })
     }
 
-    /// The model.
+    /// The model (as trained: its own accessories).
     pub fn model(&self) -> &Model {
-        &self.model
+        &self.outfits[0].model
     }
 
-    /// The frames a page can pick.
-    pub fn frames(&self) -> &[EditorFrame] {
-        &self.frames
+    /// The outfits, the model's own first.
+    pub fn outfits(&self) -> &[Outfit] {
+        &self.outfits
     }
 
-    /// Layer `i`'s texture as PNG bytes.
-    pub fn texture_png(&self, i: usize) -> Option<&[u8]> {
-        self.textures.get(i).map(Vec::as_slice)
+    /// The frames a page can pick: those given, then those uploaded.
+    pub fn frames(&self) -> Vec<Arc<EditorFrame>> {
+        read(&self.frames).clone()
+    }
+
+    /// Frame `k`.
+    ///
+    /// # Errors
+    /// [`ApiError`] 404 for a frame that does not exist.
+    pub fn frame(&self, k: usize) -> std::result::Result<Arc<EditorFrame>, ApiError> {
+        let frames = read(&self.frames);
+        frames
+            .get(k)
+            .cloned()
+            .ok_or_else(|| ApiError::not_found(format!("there is no frame {k} (the frames are numbered 0 to {})", frames.len() - 1)))
+    }
+
+    /// Adds a frame a page sent (PNG or another image format the reader knows, `name` naming it
+    /// in messages); returns its index.
+    ///
+    /// # Errors
+    /// [`ApiError`] 400 for bytes that are not a readable image, an image not of the puppet's
+    /// size or opaque everywhere (frames are cut-out characters); 409 past [`MAX_UPLOADS`].
+    pub fn upload(&self, name: &str, bytes: &[u8]) -> std::result::Result<usize, ApiError> {
+        let path = Path::new(name);
+        let (w, h) = (self.model().puppet.width, self.model().puppet.height);
+        let size = Picture::header_size(bytes, path)?;
+        if size != (w, h) {
+            return Err(ApiError::bad_request(format!(
+                "{name} is {}×{}; the puppet's frames are {w}×{h}",
+                size.0, size.1
+            )));
+        }
+        let picture = Picture::decode(bytes, path)?;
+        check_cut_out(&picture, path)?;
+        let mut frames = write(&self.frames);
+        if frames.len() - self.given >= MAX_UPLOADS {
+            return Err(ApiError {
+                status: axum::http::StatusCode::CONFLICT,
+                message: format!("{MAX_UPLOADS} frames were uploaded already, the most one editor keeps: restart it to upload more"),
+            });
+        }
+        frames.push(Arc::new(EditorFrame {
+            name: name.to_string(),
+            held_out: false,
+            picture,
+        }));
+        lock(&self.latents).push(None);
+        Ok(frames.len() - 1)
+    }
+
+    /// The principal directions of the training frames' latents (the sliders).
+    pub fn directions(&self) -> &LatentDirections {
+        &self.directions
+    }
+
+    /// The soft rasterizer's σ the editor fits with, in frame px² (the fit's is in working-square
+    /// px²).
+    pub fn soft_sigma(&self) -> f32 {
+        self.options.fit.sigma / self.model().letterbox.scale.powi(2)
     }
 
     /// How many sessions are open.
     pub fn session_count(&self) -> usize {
-        lock(&self.sessions).open.len()
+        self.sessions.count()
     }
 
-    /// Fits frame `frame` and opens a session on it (closing the least recently used session
-    /// beyond [`ServeOptions::max_sessions`]); returns its id and the fitted vertices (frame
-    /// pixels, global numbering). Blocks for the fit: call it off the async runtime's threads.
+    /// Outfit `k`.
     ///
     /// # Errors
-    /// [`ApiError`] 404 for a frame that does not exist; as [`PoseEditor::shared`].
-    pub fn open_session(&self, frame: usize) -> std::result::Result<(String, Vec<[f32; 2]>), ApiError> {
-        let Some(f) = self.frames.get(frame) else {
-            return Err(ApiError::not_found(format!(
-                "there is no frame {frame} (the frames are numbered 0 to {})",
-                self.frames.len() - 1
-            )));
-        };
-        let editor = PoseEditor::shared(self.model.clone(), &f.picture, &self.options.fit, &self.device)
-            .map_err(|e| ApiError::from(e.with_frame(&f.name)))?;
-        let fitted = editor.fitted().to_vec();
-        let session = Arc::new(Mutex::new(Session {
-            editor,
-            sources: Vec::new(),
-        }));
-        let mut sessions = lock(&self.sessions);
-        let id = format!("{:016x}", sessions.ids.next_u64());
-        while sessions.open.len() >= self.options.max_sessions {
-            sessions.open.pop_front();
+    /// [`ApiError`] 404 for an outfit that does not exist.
+    pub fn outfit(&self, k: usize) -> std::result::Result<&Outfit, ApiError> {
+        self.outfits.get(k).ok_or_else(|| {
+            ApiError::not_found(format!(
+                "there is no outfit {k} (the outfits are numbered 0 to {})",
+                self.outfits.len() - 1
+            ))
+        })
+    }
+
+    /// Frame `k`'s fitted latent `[1, Z]` (fitted by the model as trained, which draws what the
+    /// frames show; kept for the next request). Blocks for the fit.
+    ///
+    /// # Errors
+    /// [`ApiError`] 404 for a frame that does not exist; as [`fit_latents`].
+    fn fitted_latent(&self, frame: usize) -> std::result::Result<Tensor<2>, ApiError> {
+        let f = self.frame(frame)?;
+        let mut latents = lock(&self.latents);
+        if let Some(z) = &latents[frame] {
+            return Ok(z.clone());
         }
-        sessions.open.push_back((id.clone(), session));
-        Ok((id, fitted))
+        let z =
+            fit_latents(self.model(), &[&f.picture], &self.options.fit, &self.device).map_err(|e| ApiError::from(e.with_frame(&f.name)))?;
+        latents[frame] = Some(z.clone());
+        Ok(z)
+    }
+
+    /// Fits frame `frame` and opens a session on it drawn in outfit `outfit` (closing the least
+    /// recently used session beyond [`ServeOptions::max_sessions`]); returns its id and the fit.
+    /// Blocks for the fit: call it off the async runtime's threads.
+    ///
+    /// # Errors
+    /// [`ApiError`] 404 for a frame or an outfit that does not exist; as [`fit_latents`].
+    pub fn open_session(&self, frame: usize, outfit: usize) -> std::result::Result<(String, EditorPose), ApiError> {
+        let worn = self.outfit(outfit)?.model.clone();
+        let z0 = self.fitted_latent(frame)?;
+        let editor = PoseEditor::shared_at(worn, z0, &self.device)?;
+        let fit = EditorPose {
+            vertices: editor.fitted().to_vec(),
+            latent: values(editor.fitted_latent()),
+        };
+        let id = self.sessions.open(Session {
+            editor,
+            outfit,
+            sources: Vec::new(),
+        });
+        Ok((id, fit))
     }
 
     /// Drags session `id`'s pins (`(source, target)`, frame pixels) by the latent optimisation
-    /// (eq. 7–9). Unchanged sources continue from the latent the last drag reached; changed
-    /// ones are bound anew on the fit first. Blocks: call it off the async runtime's threads.
+    /// (eq. 7–9) from its current latent; new source points are bound on the fit first. Blocks:
+    /// call it off the async runtime's threads.
     ///
     /// # Errors
     /// [`ApiError`] 404 for an unknown (or closed) session; 422 naming each pin not on the
     /// character; as [`PoseEditor::drag`].
-    pub fn drag(&self, id: &str, pins: &[Pin], options: &PoseOptions) -> std::result::Result<Dragged, ApiError> {
-        let session = {
-            let mut sessions = lock(&self.sessions);
-            let Some(at) = sessions.open.iter().position(|(k, _)| k == id) else {
-                return Err(ApiError::not_found(
-                    "no such editing session (it may have been closed for a newer one): pick a frame again",
-                ));
-            };
-            // Most recently used last: the next eviction spares it.
-            let entry = sessions.open.remove(at).expect("position found above");
-            let session = entry.1.clone();
-            sessions.open.push_back(entry);
-            session
-        };
+    pub fn drag(&self, id: &str, pins: &[Pin], options: &PoseOptions) -> std::result::Result<(Dragged, Vec<f32>), ApiError> {
+        let session = self.sessions.get(id)?;
         let mut session = lock(&session);
         let sources: Vec<[f32; 2]> = pins.iter().map(|p| p.from).collect();
         if sources != session.sources {
             // Forget the old pins first: if a new one is off the character, the session keeps none.
             session.sources.clear();
+            // Binding returns to the fit; the drag goes on from the pose the page shows.
+            let shown = session.editor.latent().clone();
             session.editor.set_pins(&sources)?;
+            session.editor.set_latent(shown)?;
             session.sources = sources;
         }
         let targets: Vec<[f32; 2]> = pins.iter().map(|p| p.to).collect();
-        Ok(session.editor.drag(&targets, options)?)
+        let dragged = session.editor.drag(&targets, options)?;
+        Ok((dragged, values(session.editor.latent())))
+    }
+
+    /// Moves session `id` to `latent` plus `weights` along the latent directions (one weight per
+    /// direction, in standard deviations of the training frames; none for the latent itself).
+    ///
+    /// # Errors
+    /// [`ApiError`] 404 for an unknown session; 400 for a latent of the wrong length or with a
+    /// value past ±[`MAX_LATENT`], or weights not one per direction; 422 if the latent draws no
+    /// finite pose.
+    pub fn set_latent(&self, id: &str, latent: &[f32], weights: &[f32]) -> std::result::Result<EditorPose, ApiError> {
+        let dim = self.model().config.latent;
+        if latent.len() != dim {
+            return Err(ApiError::bad_request(format!(
+                "the latent has {} values; this model's has {dim}",
+                latent.len()
+            )));
+        }
+        if let Some(v) = latent.iter().find(|v| !(v.is_finite() && v.abs() <= MAX_LATENT)) {
+            return Err(ApiError::bad_request(format!(
+                "a latent value is {v}; give numbers from -{MAX_LATENT} to {MAX_LATENT}"
+            )));
+        }
+        let mut z = latent.to_vec();
+        if !weights.is_empty() {
+            for (zi, oi) in z.iter_mut().zip(self.directions.offset(weights)?) {
+                *zi += oi;
+            }
+        }
+        let session = self.sessions.get(id)?;
+        let mut session = lock(&session);
+        let tensor = Tensor::<2>::from_data(TensorData::new(z, [1, dim]), &self.device);
+        let vertices = session.editor.set_latent(tensor)?;
+        if vertices.iter().flatten().any(|c| !c.is_finite()) {
+            let fit = session.editor.fitted_latent().clone();
+            session.editor.set_latent(fit)?;
+            return Err(ApiError::unprocessable(
+                "that latent draws no finite pose (the editor went back to the fit)",
+            ));
+        }
+        Ok(EditorPose {
+            vertices,
+            latent: values(session.editor.latent()),
+        })
+    }
+
+    /// Draws session `id` in outfit `outfit` from now on, at the pose it has; the pins are bound
+    /// anew on the next drag. Returns the fit and the current pose in the outfit's numbering.
+    ///
+    /// # Errors
+    /// [`ApiError`] 404 for an unknown session or outfit.
+    pub fn wear(&self, id: &str, outfit: usize) -> std::result::Result<(EditorPose, EditorPose), ApiError> {
+        let worn = self.outfit(outfit)?.model.clone();
+        let session = self.sessions.get(id)?;
+        let mut session = lock(&session);
+        let mut editor = PoseEditor::shared_at(worn, session.editor.fitted_latent().clone(), &self.device)?;
+        let vertices = editor.set_latent(session.editor.latent().clone())?;
+        let fit = EditorPose {
+            vertices: editor.fitted().to_vec(),
+            latent: values(editor.fitted_latent()),
+        };
+        let now = EditorPose {
+            vertices,
+            latent: values(editor.latent()),
+        };
+        *session = Session {
+            editor,
+            outfit,
+            sources: Vec::new(),
+        };
+        Ok((fit, now))
+    }
+
+    /// Session `id`'s outfit and current pose.
+    ///
+    /// # Errors
+    /// [`ApiError`] 404 for an unknown session.
+    pub fn current_pose(&self, id: &str) -> std::result::Result<(usize, Vec<[f32; 2]>), ApiError> {
+        let session = self.sessions.get(id)?;
+        let session = lock(&session);
+        Ok((session.outfit, session.editor.pose()))
+    }
+
+    /// The latent interpolation from frame `a` to frame `b` at each of `t`, drawn in outfit
+    /// `outfit` (frame pixels). Blocks for the fits of frames not fitted yet.
+    ///
+    /// # Errors
+    /// [`ApiError`] 404 for a frame or an outfit that does not exist; as [`fit_latents`].
+    pub fn inbetween(&self, a: usize, b: usize, t: &[f32], outfit: usize) -> std::result::Result<Vec<Vec<[f32; 2]>>, ApiError> {
+        let worn = &self.outfit(outfit)?.model;
+        let (za, zb) = (self.fitted_latent(a)?, self.fitted_latent(b)?);
+        Ok(Interpolator::between(worn, za, zb, &self.device).latent_poses(worn, t, &self.device))
     }
 }

@@ -4,8 +4,11 @@
 //
 // Loads the page at URL, pins the character's "hand" with the mouse, drags it, checks that the
 // pin reached its target (recomputed here from the vertices the page holds), removes the pin
-// with a right-click, clicks off the character and checks the page says so. Screenshots in
-// OUT_DIR: loaded.png, dragged.png, removed.png (failure.png when a step could not finish).
+// with a right-click, undoes and redoes that, resets to the fit, clicks off the character and
+// checks the page says so; then makes and plays an in-between, hides and shows an accessory and
+// downloads the pose as PNG. Screenshots in OUT_DIR: loaded.png, dragged.png, removed.png,
+// inbetween.png, accessory_hidden.png (failure.png when a step could not finish), and the
+// download, export.png.
 // Prints one PASS/FAIL line per check; exits 1 if any failed. Run by tests/browser.rs
 // (`cargo test --release browser`), which starts the server on the tiny test character.
 //
@@ -16,8 +19,11 @@
 //   DRAG_MOVES    mouse moves in the drag (default 10)
 //   MOVE_MS       pause between two moves, ms (default 16: about one display frame)
 //   PIN_TOLERANCE how far the pin may end from its target, frame pixels (default 2)
-//   ALPHA_REG, ALPHA_JOINTS  typed into the page's α1 (ARAP) and α2 (joints) fields before the
+//   ALPHA_REG, ALPHA_JOINTS  set on the page's α1 (ARAP) and α2 (joints) sliders before the
 //                 drag (default: the page's own, 25 and 50)
+//   ACCESSORY     the accessory layer to hide and show (default: the first one)
+//   UPLOAD_FRAME  a frame file to upload and use as the in-between's second key (default: none;
+//                 the second frame is the second key)
 //   CHROMIUM      the browser (default /usr/bin/chromium)
 import fs from 'node:fs';
 import path from 'node:path';
@@ -123,17 +129,109 @@ function pickHand(st, box) {
   throw new Stop(`no vertex of layer ${l.name} has a point of the layer in front near it on the canvas`);
 }
 
-// --- steps for later (marked places: fill in when the page has them) -----------------------------
+// --- in-betweens, accessories, downloads ---------------------------------------------------------
 // Each gets { page, state, idle, box, check, must, shot } (box: frame ↔ screen pixels) and
 // returns null when it ran its checks, or why it was skipped.
-async function playInbetween(t) { // TODO: pick two frames, play the in-between, check its frames
-  return 'not in the page yet';
+
+// A hash of the canvas's pixels (the WebGL canvas keeps its drawing buffer).
+const canvasHash = (page) => page.evaluate(() => {
+  const d = document.getElementById('stage').toDataURL();
+  let h = 0;
+  for (let i = 0; i < d.length; i++) h = (h * 31 + d.charCodeAt(i)) | 0;
+  return h;
+});
+// Sets a range or select input as a person would, firing its events.
+const setInput = (page, id, value) => page.evaluate(([id, value]) => {
+  const e = document.getElementById(id);
+  e.value = value;
+  e.dispatchEvent(new Event('input', { bubbles: true }));
+  e.dispatchEvent(new Event('change', { bubbles: true }));
+}, [id, String(value)]);
+
+async function playInbetween({ page, state, check, must, shot }) {
+  let frames = await page.locator('#thumbs img').count();
+  if (process.env.UPLOAD_FRAME) {
+    await page.setInputFiles('#upload', process.env.UPLOAD_FRAME);
+    await page.waitForFunction((n) => document.querySelectorAll('#thumbs img').length > n, frames, { timeout: 10000 })
+      .catch(() => {});
+    const now = await page.locator('#thumbs img').count();
+    must('an uploaded frame joins the thumbnails', now === frames + 1, `${frames} → ${now} (#error: ${await page.locator('#error').textContent()})`);
+    frames = now;
+  }
+  if (frames < 2) return `${frames} frame(s): an in-between needs two`;
+  // Keys by thumbnail: a click for the first, shift-click for the second (the upload, if any).
+  const second = process.env.UPLOAD_FRAME ? frames - 1 : 1;
+  await page.locator('#thumbs img').nth(0).click();
+  await page.locator('#thumbs img').nth(second).click({ modifiers: ['Shift'] });
+  const keys = await page.evaluate(() => [document.getElementById('ib-from').value, document.getElementById('ib-to').value]);
+  check('thumbnails pick the keys (click, shift-click)', keys[0] === '0' && keys[1] === String(second), `from ${keys[0]}, to ${keys[1]}`);
+  await page.fill('#ib-count', '6');
+  await page.selectOption('#ib-easing', 'ease-in-out');
+  await page.click('#ib-make');
+  await page.waitForFunction(() => window.puppetEditor.state().inbetween, null, { timeout: 30000 });
+  let st = await state();
+  must('the in-between has the keys and 6 in-betweens', st.inbetween.frames === 8, `${st.inbetween.frames} frames`);
+  const t = st.inbetween.t;
+  check('slow in, slow out: short steps at the keys', t[1] - t[0] < 1 / 7 && t[7] - t[6] < 1 / 7 && t[4] - t[3] > 1 / 7,
+    t.map((x) => x.toFixed(3)).join(' '));
+  const first = await canvasHash(page);
+  await setInput(page, 'ib-scrub', 7);
+  check('scrubbing to the last frame changes the picture', (await canvasHash(page)) !== first);
+  await setInput(page, 'ib-fps', 30);
+  await page.click('#ib-play');
+  await page.waitForFunction(() => window.puppetEditor.state().played >= 8, null, { timeout: 10000 });
+  await page.click('#ib-play');
+  st = await state();
+  check('play runs through every frame and pauses', st.played >= 8 && !st.inbetween.playing, `${st.played} frames shown`);
+  await setInput(page, 'ib-scrub', 4);
+  console.log(`  screenshot ${await shot('inbetween.png')} (frame 4 of 7, onion skin on)`);
+  await page.click('#ib-close');
+  return null;
 }
-async function toggleAccessory(t) { // TODO: hide and show the hat, check its triangles go and come back
-  return 'not in the page yet';
+
+async function toggleAccessory({ page, state, check, must, shot }) {
+  const boxes = page.locator('#accessories input[type=checkbox]');
+  if ((await boxes.count()) === 0) return 'the puppet has no accessory layer';
+  const name = process.env.ACCESSORY || await boxes.first().getAttribute('data-layer');
+  const box = page.locator(`#accessories input[data-layer="${name}"]`);
+  must(`an accessory checkbox for ${name}`, (await box.count()) === 1);
+  const shown = await canvasHash(page);
+  await box.uncheck();
+  let st = await state();
+  const hidden = await canvasHash(page);
+  check(`unchecking ${name} hides it`, st.hidden.includes(name) && hidden !== shown, `hidden: ${st.hidden.join(', ')}`);
+  console.log(`  screenshot ${await shot('accessory_hidden.png')}`);
+  await box.check();
+  st = await state();
+  check(`checking ${name} shows it again, the same picture`, !st.hidden.includes(name) && (await canvasHash(page)) === shown);
+  return null;
 }
-async function exportPng(t) { // TODO: export the pose as PNG, check its size and that it shows the pose
-  return 'not in the page yet';
+
+async function exportPng({ page, state, check, must }) {
+  await page.selectOption('#export-what', 'pose');
+  await page.selectOption('#export-format', 'png');
+  const [download] = await Promise.all([page.waitForEvent('download', { timeout: 30000 }), page.click('#export')]);
+  const file = path.join(outDir, 'export.png');
+  await download.saveAs(file);
+  const bytes = fs.readFileSync(file);
+  const P = (await state()).puppet;
+  must('the download is a PNG', bytes.subarray(0, 8).equals(Buffer.from([137, 80, 78, 71, 13, 10, 26, 10])),
+    `${download.suggestedFilename()}, ${bytes.length} bytes`);
+  const [w, h] = [bytes.readUInt32BE(16), bytes.readUInt32BE(20)];
+  check('the PNG is the puppet\'s frame size', w === P.width && h === P.height, `${w}×${h} (${download.suggestedFilename()})`);
+  // Its pixels, decoded by the browser: the character is drawn (opaque pixels) on transparency.
+  const counts = await page.evaluate(async (b64) => {
+    const img = new Image(); img.src = 'data:image/png;base64,' + b64; await img.decode();
+    const c = document.createElement('canvas'); c.width = img.width; c.height = img.height;
+    const ctx = c.getContext('2d'); ctx.drawImage(img, 0, 0);
+    const d = ctx.getImageData(0, 0, c.width, c.height).data;
+    let opaque = 0, clear = 0;
+    for (let i = 3; i < d.length; i += 4) { if (d[i] > 128) opaque++; else if (d[i] === 0) clear++; }
+    return { opaque, clear };
+  }, bytes.toString('base64'));
+  check('the PNG shows the character on a transparent background', counts.opaque > 50 && counts.clear > 50,
+    `${counts.opaque} opaque, ${counts.clear} clear pixels`);
+  return null;
 }
 
 // --- the run -----------------------------------------------------------------------------------
@@ -166,15 +264,20 @@ const shot = async (name) => {
   const file = path.join(outDir, name);
   const clip = await page.evaluate(() => {
     const rect = (e) => e.getBoundingClientRect();
-    const wide = [...document.querySelectorAll('#bar > *, #stage')].map(rect);
-    const tall = ['bar', 'stage', 'error'].map((id) => document.getElementById(id)).filter(Boolean).map(rect);
+    const wide = [...document.querySelectorAll('#bar > *, #main > *')].map(rect);
+    const tall = ['bar', 'main'].map((id) => document.getElementById(id)).filter(Boolean).map(rect);
     const right = Math.max(...wide.map((r) => r.right)), bottom = Math.max(...tall.map((r) => r.bottom));
     return { x: 0, y: 0, width: Math.ceil(right + 14), height: Math.ceil(bottom + 10) };
   }).catch(() => undefined);
   await page.screenshot({ path: file, clip });
   return path.relative(process.cwd(), file);
 };
-const state = () => page.evaluate(() => window.puppetEditor.state());
+// The page's state, the puppet seen as the outfit it draws (layers, vertex_count).
+const state = () => page.evaluate(() => {
+  const st = window.puppetEditor.state();
+  const o = st.puppet.outfits[st.outfit];
+  return { ...st, puppet: { ...st.puppet, layers: o.layers, vertex_count: o.vertex_count } };
+});
 const errorText = () => page.locator('#error').textContent();
 // Until the page has a session and no drag request in flight or pending.
 async function idle(what, timeout = 30000) {
@@ -216,7 +319,7 @@ try {
 
   // 1. Pin the hand and drag it.
   for (const [name, id] of [['ALPHA_REG', '#alphareg'], ['ALPHA_JOINTS', '#alphajoints']]) {
-    if (env[name] !== undefined) await page.fill(id, env[name]);
+    if (env[name] !== undefined) await setInput(page, id.slice(1), env[name]);
   }
   const alphas = await page.evaluate(() => ['alphareg', 'alphajoints'].map((id) => document.getElementById(id).value));
   const hand = pickHand(st, box);
@@ -230,11 +333,8 @@ try {
   st = await state();
   must('press on the hand makes a pin', st.pins.length === 1, `${st.pins.length} pins`);
   const pressOffset = dist(st.pins[0].to, hand.frame) * st.scale;
-  // Within 2 screen px, not 0: the page maps the pointer through the canvas's border box, not
-  // its content box, so with its 1 px border every pin lands 1 screen px right and 1 down.
-  check('the pin is where the pointer pressed (within 2 screen px)', pressOffset <= 2,
-    `pin target ${pt(st.pins[0].to)} vs pointer ${pt(hand.frame)}: ${f2(pressOffset)} screen px off`
-    + (pressOffset > 0.5 ? ' (the page measures from the canvas border, not its content)' : ''));
+  check('the pin is where the pointer pressed (within 0.5 screen px)', pressOffset <= 0.5,
+    `pin target ${pt(st.pins[0].to)} vs pointer ${pt(hand.frame)}: ${f2(pressOffset)} screen px off`);
   const requestsBefore = dragRequests;
   for (let k = 1; k <= dragMoves; k++) {
     await page.mouse.move(hand.screen[0], hand.screen[1] - dragScreen * k / dragMoves);
@@ -259,7 +359,7 @@ try {
   const pinError = dist(now, pin.to);
   const moved = dist(now, apply(st.fitted, bound));
   const handMoved = dist(st.vertices[P.layers.find((l) => l.name === hand.layer).offset + hand.vertex], hand.at);
-  console.log(`  ${dragRequests - requestsBefore} drag requests for ${dragMoves} moves (+1 on the press); the pinned point moved ${f2(moved)} frame px toward a target ${f2(dist(apply(st.fitted, bound), pin.to))} away; the hand vertex moved ${f2(handMoved)}`);
+  console.log(`  ${dragRequests - requestsBefore} drag requests for ${dragMoves} moves (the last settling on release); the pinned point moved ${f2(moved)} frame px toward a target ${f2(dist(apply(st.fitted, bound), pin.to))} away; the hand vertex moved ${f2(handMoved)}`);
   console.log(`PIN_ERROR ${pinError.toFixed(3)} frame px (server's pin_error ${st.pinError.map((e) => e.toFixed(3)).join(', ')})`);
   check(`pin ends within ${tolerance} frame px of its target`, pinError <= tolerance,
     `at ${pt(now)}, target ${pt(pin.to)}: ${f2(pinError)} frame px = ${f1(pinError * st.scale)} screen px`);
@@ -273,8 +373,22 @@ try {
   await idle('after removing the pin');
   st = await state();
   check('right-click removes the pin', st.pins.length === 0, `${st.pins.length} pins after a right-click at screen (${pinScreen.join(', ')})`);
-  check('without pins the pose is the fit', JSON.stringify(st.vertices) === JSON.stringify(st.fitted));
+  const dragged = JSON.stringify(st.vertices);
+  check('the pose stays where the pin left it', dragged !== JSON.stringify(st.fitted));
   console.log(`  screenshot ${await shot('removed.png')}`);
+  await page.click('#undo');
+  await idle('after undo');
+  st = await state();
+  check('undo brings the pin back', st.pins.length === 1 && st.future === 1, `${st.pins.length} pins`);
+  await page.click('#redo');
+  await idle('after redo');
+  st = await state();
+  check('redo removes it again', st.pins.length === 0 && JSON.stringify(st.vertices) === dragged);
+  await page.click('#reset');
+  await idle('after reset');
+  st = await state();
+  const offFit = Math.max(...st.vertices.map((v, i) => dist(v, st.fitted[i])));
+  check('reset returns to the fit', st.pins.length === 0 && offFit < 1e-3, `farthest vertex ${offFit.toExponential(2)} frame px from the fit`);
 
   // 3. A click off the character pins nothing and says why.
   const offFrame = [[1, 1], [P.width - 1, 1], [1, P.height - 1], [P.width - 1, P.height - 1]]

@@ -78,6 +78,20 @@ pub enum Background {
     Colour([f32; 3]),
 }
 
+impl std::str::FromStr for Background {
+    type Err = String;
+
+    /// `transparent` (any case) or an `#rrggbb` colour.
+    fn from_str(s: &str) -> std::result::Result<Self, String> {
+        if s.eq_ignore_ascii_case("transparent") {
+            return Ok(Background::Transparent);
+        }
+        crate::puppet::character::parse_color(s)
+            .map(|rgb| Background::Colour(rgb.map(|c| c as f32 / 255.0)))
+            .map_err(|e| format!("{s:?}: {e} (or \"transparent\")"))
+    }
+}
+
 impl Background {
     /// The background as premultiplied RGBA.
     pub fn premultiplied(self) -> [f32; 4] {

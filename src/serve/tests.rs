@@ -1,0 +1,528 @@
+//! The editor's routes in-process: what each answers, that sessions stay apart, and that every
+//! malformed request gets a 4xx with a message while the server keeps serving.
+
+use std::sync::Arc;
+
+use axum::body::Body;
+use axum::http::{header, Request, StatusCode};
+use serde_json::{json, Value};
+use tower::ServiceExt as _;
+
+use super::api::{MAX_BODY, MAX_INBETWEENS, MAX_PINS};
+use super::{router, App, EditorFrame, ServeOptions};
+use crate::fit::FitOptions;
+
+/// The tiny test character with a small untrained model whose decoder's last layer is random
+/// (an untrained one predicts the rest pose whatever the latent, so no drag could move it),
+/// offering three frames: the rest render, a copy shifted 2 px right (held out) and one 3 px up.
+fn app(max_sessions: usize) -> Arc<App> {
+    let (model, device) = crate::edit::test_support::small_model(0.3);
+    let rest = model.puppet.rest_vertices();
+    let shifted: Vec<[f32; 2]> = rest.iter().map(|v| [v[0] + 2.0, v[1]]).collect();
+    let up: Vec<[f32; 2]> = rest.iter().map(|v| [v[0], v[1] - 3.0]).collect();
+    let frames = [("rest.png", &rest), ("shifted.png", &shifted), ("up.png", &up)]
+        .into_iter()
+        .map(|(name, v)| EditorFrame {
+            name: name.into(),
+            held_out: name == "shifted.png",
+            picture: crate::render::render_crisp(&model.puppet, v, 48, 40).unwrap(),
+        })
+        .collect();
+    let options = ServeOptions::new(FitOptions::one_pass()).with_max_sessions(max_sessions);
+    Arc::new(App::new(model, frames, Vec::new(), options, &device).unwrap())
+}
+
+/// Sends one request to the router in-process; returns the status and the body (JSON parsed
+/// where it is JSON, else `Value::Null`) and the raw bytes.
+async fn call(app: &Arc<App>, method: &str, uri: &str, body: &str) -> (StatusCode, Value, Vec<u8>) {
+    let request = Request::builder()
+        .method(method)
+        .uri(uri)
+        .header("content-type", "application/json")
+        .body(Body::from(body.to_string()))
+        .unwrap();
+    let response = router(app.clone()).oneshot(request).await.unwrap();
+    let status = response.status();
+    let bytes = axum::body::to_bytes(response.into_body(), 1 << 26).await.unwrap().to_vec();
+    (status, serde_json::from_slice(&bytes).unwrap_or(Value::Null), bytes)
+}
+
+fn points(v: &Value) -> Vec<[f32; 2]> {
+    v.as_array()
+        .unwrap()
+        .iter()
+        .map(|p| [p[0].as_f64().unwrap() as f32, p[1].as_f64().unwrap() as f32])
+        .collect()
+}
+
+/// The centre of the arm tip's last triangle in `vertices` (on the character in any pose).
+fn arm_tip(app: &App, vertices: &[[f32; 2]]) -> [f32; 2] {
+    let puppet = &app.model().puppet;
+    let arm = puppet.layer_index("arm_front").unwrap();
+    let offset = puppet.vertex_offsets()[arm];
+    let tip = *puppet.layers[arm].mesh.triangles.last().unwrap();
+    let corners = tip.map(|i| vertices[offset + i as usize]);
+    [0, 1].map(|c| corners.iter().map(|p| p[c]).sum::<f32>() / 3.0)
+}
+
+#[tokio::test]
+async fn the_page_puppet_textures_and_frames_are_served() {
+    let app = app(4);
+    let (status, _, page) = call(&app, "GET", "/", "").await;
+    assert_eq!(status, StatusCode::OK);
+    assert!(String::from_utf8(page).unwrap().contains("/api/drag"));
+    let (status, puppet, _) = call(&app, "GET", "/api/puppet", "").await;
+    assert_eq!(status, StatusCode::OK);
+    assert_eq!((puppet["width"].as_u64(), puppet["height"].as_u64()), (Some(48), Some(40)));
+    let outfits = puppet["outfits"].as_array().unwrap();
+    assert_eq!(outfits.len(), 1, "the model's own only");
+    assert_eq!(puppet["sliders"].as_u64(), Some(1), "two training frames span one direction");
+    let layers = outfits[0]["layers"].as_array().unwrap();
+    let names: Vec<&str> = layers.iter().map(|l| l["name"].as_str().unwrap()).collect();
+    assert_eq!(names, ["arm_back", "torso", "head", "arm_front"]);
+    let total: usize = layers.iter().map(|l| l["rest"].as_array().unwrap().len()).sum();
+    assert_eq!(total as u64, outfits[0]["vertex_count"].as_u64().unwrap());
+    for l in layers {
+        assert_eq!(l["uvs"].as_array().unwrap().len(), l["rest"].as_array().unwrap().len());
+        let (status, _, png) = call(&app, "GET", l["texture"].as_str().unwrap(), "").await;
+        assert_eq!(status, StatusCode::OK);
+        assert!(png.starts_with(b"\x89PNG"), "{}", l["name"]);
+    }
+    let (_, frames, _) = call(&app, "GET", "/api/frames", "").await;
+    let frames = frames["frames"].as_array().unwrap();
+    assert_eq!(frames.len(), 3);
+    assert_eq!(
+        (frames[1]["name"].as_str(), frames[1]["held_out"].as_bool()),
+        (Some("shifted.png"), Some(true))
+    );
+    let (status, _, png) = call(&app, "GET", "/api/frame/1.png", "").await;
+    assert_eq!(status, StatusCode::OK);
+    let picture = image::load_from_memory(&png).unwrap();
+    assert_eq!((picture.width(), picture.height()), (48, 40));
+}
+
+#[tokio::test]
+async fn a_drag_moves_the_pinned_point_towards_its_target_and_continues() {
+    let app = app(4);
+    let (status, opened, _) = call(&app, "POST", "/api/session", r#"{"frame": 0}"#).await;
+    assert_eq!(status, StatusCode::OK, "{opened}");
+    let session = opened["session"].as_str().unwrap().to_string();
+    let fitted = points(&opened["vertices"]);
+    assert_eq!(fitted.len(), app.model().puppet.vertex_count());
+    let from = arm_tip(&app, &fitted);
+    let to = [from[0], from[1] - 1.5];
+    // Only L_user: the random decoder's poses are far from rigid, so the regularisers would
+    // hold the pin (the editor's own tests do the same).
+    let body = json!({ "session": session, "pins": [{ "from": from, "to": to }], "alpha_reg": 0, "alpha_joints": 0 }).to_string();
+    let binding = crate::edit::bind(&app.model().puppet, &fitted, from).unwrap();
+    let mut errors = Vec::new();
+    for _ in 0..4 {
+        let (status, dragged, _) = call(&app, "POST", "/api/drag", &body).await;
+        assert_eq!(status, StatusCode::OK, "{dragged}");
+        assert_eq!(points(&dragged["vertices"]).len(), fitted.len());
+        let e = dragged["pin_error"][0].as_f64().unwrap();
+        // The reported error is the pin's distance to its target in the returned pose.
+        // The pinned point, bound to the fit as the editor binds it, in the returned pose:
+        // moved from where it was grabbed, and `pin_error` from its target.
+        let pin = binding.position(&points(&dragged["vertices"]));
+        let (moved, away) = ((pin[0] - from[0]).hypot(pin[1] - from[1]), (pin[0] - to[0]).hypot(pin[1] - to[1]));
+        assert!(
+            moved > 1.0 && (f64::from(away) - e).abs() < 1e-3,
+            "moved {moved}, {away} from the target, reported {e}"
+        );
+        errors.push(e);
+    }
+    println!("pin error over the drags: {errors:?}");
+    assert!(errors[3] < 0.8 * 1.5, "{errors:?}");
+    assert!(
+        errors.windows(2).all(|w| w[1] <= w[0] + 1e-3),
+        "each drag continues from the last: {errors:?}"
+    );
+}
+
+#[tokio::test]
+async fn two_sessions_do_not_share_pins_and_the_oldest_is_closed() {
+    let app = app(2);
+    let open = |frame: usize| {
+        let app = app.clone();
+        async move {
+            let (status, v, _) = call(&app, "POST", "/api/session", &json!({ "frame": frame }).to_string()).await;
+            assert_eq!(status, StatusCode::OK, "{v}");
+            (v["session"].as_str().unwrap().to_string(), points(&v["vertices"]))
+        }
+    };
+    let (a, fit_a) = open(0).await;
+    let (b, fit_b) = open(1).await;
+    assert_ne!(a, b);
+    let pin_a = arm_tip(&app, &fit_a);
+    let drag = |session: &str, pins: Value| json!({ "session": session, "pins": pins, "alpha_reg": 0, "alpha_joints": 0 }).to_string();
+    let far = json!([{ "from": pin_a, "to": [pin_a[0] + 3.0, pin_a[1]] }]);
+    let (status, dragged_a, _) = call(&app, "POST", "/api/drag", &drag(&a, far)).await;
+    assert_eq!(status, StatusCode::OK, "{dragged_a}");
+    // Session b has its own pins: two of them, bound on its own fit; a's one pin does not
+    // reach it, and b's drag does not move a's latent.
+    let tip_b = arm_tip(&app, &fit_b);
+    let torso = app.model().puppet.layer_index("torso").unwrap();
+    let offset = app.model().puppet.vertex_offsets()[torso];
+    let t = app.model().puppet.layers[torso].mesh.triangles[0];
+    let c = [0, 1].map(|k| t.iter().map(|&i| fit_b[offset + i as usize][k]).sum::<f32>() / 3.0);
+    let two = json!([{ "from": tip_b, "to": tip_b }, { "from": c, "to": c }]);
+    let (status, dragged_b, _) = call(&app, "POST", "/api/drag", &drag(&b, two)).await;
+    assert_eq!(status, StatusCode::OK, "{dragged_b}");
+    assert_eq!(dragged_b["pin_error"].as_array().unwrap().len(), 2);
+    let again = json!([{ "from": pin_a, "to": [pin_a[0] + 3.0, pin_a[1]] }]);
+    let (_, again_a, _) = call(&app, "POST", "/api/drag", &drag(&a, again)).await;
+    assert_eq!(again_a["pin_error"].as_array().unwrap().len(), 1);
+    assert!(again_a["pin_error"][0].as_f64() <= dragged_a["pin_error"][0].as_f64().map(|e| e + 1e-3));
+    // A third session closes the least recently used (b: a was used last).
+    let (_c, _) = open(0).await;
+    assert_eq!(app.session_count(), 2);
+    let (status, gone, _) = call(&app, "POST", "/api/drag", &drag(&b, json!([{ "from": tip_b, "to": tip_b }]))).await;
+    assert_eq!(status, StatusCode::NOT_FOUND, "{gone}");
+    assert!(gone["error"].as_str().unwrap().contains("pick a frame again"));
+    let (status, _, _) = call(&app, "POST", "/api/drag", &drag(&a, json!([{ "from": pin_a, "to": pin_a }]))).await;
+    assert_eq!(status, StatusCode::OK);
+}
+
+#[tokio::test]
+async fn malformed_requests_get_a_4xx_with_a_message_and_the_server_keeps_serving() {
+    let app = app(4);
+    let (_, opened, _) = call(&app, "POST", "/api/session", r#"{"frame": 0}"#).await;
+    let session = opened["session"].as_str().unwrap().to_string();
+    let on = arm_tip(&app, &points(&opened["vertices"]));
+    let many: Vec<Value> = (0..MAX_PINS + 1).map(|_| json!({ "from": on, "to": on })).collect();
+    let pin = |from: Value, to: Value| json!({ "session": session, "pins": [{ "from": from, "to": to }] }).to_string();
+    let latent = opened["latent"].clone();
+    let short: Vec<f32> = vec![0.0; 3];
+    let between = |v: Value| json!({ "format": "gif", "inbetween": v }).to_string();
+    /// A POST case: the route, the body (JSON text or value), what the refusal must say.
+    fn post(uri: &'static str, body: impl ToString, says: &'static str) -> (&'static str, &'static str, String, &'static str) {
+        ("POST", uri, body.to_string(), says)
+    }
+    // One pin on the character, with one more field.
+    let one_pin_and = |key: &str, value: Value| {
+        let mut request = json!({ "session": session, "pins": [{ "from": on, "to": on }] });
+        request[key] = value;
+        request
+    };
+    let cases: Vec<(&str, &str, String, &str)> = vec![
+        post("/api/drag", one_pin_and("steps", json!(0)), "steps is 0"),
+        post("/api/drag", one_pin_and("steps", json!(101)), "steps is 101"),
+        post("/api/latent", json!({ "session": session, "latent": short }), "this model's has 16"),
+        post(
+            "/api/latent",
+            json!({ "session": session, "latent": latent.as_array().unwrap().iter().map(|_| 1e9).collect::<Vec<_>>() }),
+            "give numbers from",
+        ),
+        post(
+            "/api/latent",
+            json!({ "session": session, "latent": latent, "sliders": [1, 2] }),
+            "slider count",
+        ),
+        post(
+            "/api/latent",
+            json!({ "session": "nope", "latent": latent }),
+            "no such editing session",
+        ),
+        post("/api/latent", json!({ "session": session }), "missing field"),
+        post("/api/outfit", json!({ "session": session, "outfit": 5 }), "no outfit 5"),
+        post("/api/session", r#"{"frame": 0, "outfit": 1}"#, "no outfit 1"),
+        post("/api/inbetween", r#"{"from": 0, "to": 99}"#, "no frame 99"),
+        post("/api/inbetween", r#"{"from": 0, "to": 2, "count": 0}"#, "at least 1"),
+        post(
+            "/api/inbetween",
+            json!({ "from": 0, "to": 2, "count": MAX_INBETWEENS + 1 }),
+            "limit",
+        ),
+        post("/api/inbetween", r#"{"from": 0, "to": 2, "count": 1e30}"#, "not the JSON"),
+        post("/api/inbetween", r#"{"from": 0, "to": 2, "easing": "bounce"}"#, "not an easing"),
+        post(
+            "/api/inbetween",
+            r#"{"from": 0, "to": 2, "spacing": [0.5, 0.2]}"#,
+            "spacing value 2",
+        ),
+        post("/api/inbetween", r#"{"from": 0, "to": 2, "spacing": []}"#, "at least one value"),
+        post(
+            "/api/inbetween",
+            r#"{"from": 0, "to": 2, "spacing": [0.5], "count": 3}"#,
+            "not both",
+        ),
+        post("/api/inbetween", r#"{"from": 0, "to": 2, "outfit": 3}"#, "no outfit 3"),
+        post("/api/export", r#"{"format": "psd", "session": "x"}"#, "not a download format"),
+        post("/api/export", r#"{"format": "png"}"#, "either a session"),
+        post(
+            "/api/export",
+            json!({ "format": "png", "session": session, "inbetween": { "from": 0, "to": 2 } }),
+            "either a session",
+        ),
+        post(
+            "/api/export",
+            json!({ "format": "png", "session": session, "background": "red" }),
+            "background",
+        ),
+        post(
+            "/api/export",
+            json!({ "format": "png", "session": session, "delay_ms": 0 }),
+            "delay_ms is 0",
+        ),
+        post(
+            "/api/export",
+            json!({ "format": "png", "session": session, "hidden": ["nothing"] }),
+            "nothing",
+        ),
+        post(
+            "/api/export",
+            json!({ "format": "png", "session": "gone" }),
+            "no such editing session",
+        ),
+        post(
+            "/api/export",
+            json!({ "format": "png", "session": session, "render": "blurry" }),
+            "crisp or soft",
+        ),
+        post(
+            "/api/export",
+            json!({ "format": "gif", "session": session, "render": "soft" }),
+            "PNG of the pose only",
+        ),
+        post("/api/export", between(json!({ "from": 0, "to": 2, "count": 100_000 })), "limit"),
+        post(
+            "/api/export",
+            between(json!({ "from": 0, "to": 2, "easing": "ease" })),
+            "not an easing",
+        ),
+        post("/api/drag", "{not json", "not the JSON"),
+        post("/api/drag", "", "not the JSON"),
+        post("/api/drag", "[1, 2]", "not the JSON"),
+        post("/api/drag", pin(json!("NaN"), json!([1, 2])), "not the JSON"),
+        post("/api/drag", pin(json!(on), json!([1e39, 2])), "out of range"),
+        post("/api/drag", pin(json!(on), json!([-1e6, 2])), "not a point near"),
+        post(
+            "/api/drag",
+            r#"{"session": "x", "pins": [{"from": [NaN, 1], "to": [1, 1]}]}"#,
+            "not the JSON",
+        ),
+        post("/api/drag", pin(json!([-30, -30]), json!([1, 1])), "not on the character"),
+        post("/api/drag", pin(json!([2, 2]), json!([1, 1])), "not on the character"),
+        post("/api/drag", pin(json!([1]), json!([1, 1])), "not the JSON"),
+        post("/api/drag", json!({ "session": session, "pins": [] }), "from 1 to"),
+        post("/api/drag", json!({ "session": session, "pins": many }), "from 1 to"),
+        post(
+            "/api/drag",
+            json!({ "session": "nope", "pins": [{ "from": on, "to": on }] }),
+            "no such editing session",
+        ),
+        post("/api/drag", one_pin_and("alpha_reg", json!(-1)), "alpha_reg"),
+        post("/api/drag", one_pin_and("alpha_joints", json!(1e30)), "alpha_joints"),
+        post("/api/drag", one_pin_and("eta", json!(3)), "unknown field"),
+        post(
+            "/api/drag",
+            json!({ "session": session, "pins": [{ "from": on, "to": on, "weight": 2 }] }),
+            "unknown field",
+        ),
+        post("/api/drag", "x".repeat(MAX_BODY + 1), "cannot be read"),
+        post("/api/session", r#"{"frame": 99}"#, "no frame 99"),
+        post("/api/session", r#"{"frame": -1}"#, "not the JSON"),
+        post("/api/session", r#"{"frame": 18446744073709551616}"#, "not the JSON"),
+        post("/api/session", r#"{"frame": 0, "model": "other"}"#, "unknown field"),
+        ("GET", "/api/texture/0/9.png", String::new(), "no layer 9"),
+        ("GET", "/api/texture/0/x.png", String::new(), "not a layer texture"),
+        ("GET", "/api/texture/1/0.png", String::new(), "no outfit 1"),
+        ("GET", "/api/texture/x/0.png", String::new(), "both numbers"),
+        ("GET", "/api/texture/0.png", String::new(), "no such page"),
+        ("GET", "/api/frame/99999999999999999999.png", String::new(), "not a frame"),
+        ("GET", "/api/nothing", String::new(), "no such page"),
+        ("GET", "/api/drag", String::new(), "does not take that method"),
+    ];
+    for round in 0..40 {
+        for (method, uri, body, says) in &cases {
+            let (status, answer, _) = call(&app, method, uri, body).await;
+            assert!(status.is_client_error(), "{method} {uri} {body:.80}: {status} {answer}");
+            let message = answer["error"].as_str().unwrap_or_default();
+            assert!(message.contains(says), "{method} {uri} {body:.80}: {message:?} should say {says:?}");
+            if round > 0 {
+                continue;
+            }
+            println!("{status} {message}");
+        }
+    }
+    // Still serving, the session still there and working.
+    let (status, dragged, _) = call(&app, "POST", "/api/drag", &pin(json!(on), json!(on))).await;
+    assert_eq!(status, StatusCode::OK, "{dragged}");
+    assert_eq!(app.session_count(), 1);
+}
+
+/// The pose of a session as `/api/latent` and `/api/drag` report it.
+async fn set_latent(app: &Arc<App>, session: &str, latent: &Value, sliders: &[f32]) -> Vec<[f32; 2]> {
+    let body = json!({ "session": session, "latent": latent, "sliders": sliders }).to_string();
+    let (status, answer, _) = call(app, "POST", "/api/latent", &body).await;
+    assert_eq!(status, StatusCode::OK, "{answer}");
+    points(&answer["vertices"])
+}
+
+fn farthest(a: &[[f32; 2]], b: &[[f32; 2]]) -> f32 {
+    a.iter().zip(b).map(|(p, q)| (p[0] - q[0]).hypot(p[1] - q[1])).fold(0.0, f32::max)
+}
+
+#[tokio::test]
+async fn a_latent_sent_back_undoes_exactly_and_sliders_move_along_the_frames_spread() {
+    let app = app(4);
+    let (_, opened, _) = call(&app, "POST", "/api/session", r#"{"frame": 0}"#).await;
+    let session = opened["session"].as_str().unwrap().to_string();
+    let fitted = points(&opened["fitted"]);
+    assert_eq!(opened["latent"], opened["fitted_latent"]);
+    let from = arm_tip(&app, &fitted);
+    let body = json!({ "session": session, "pins": [{ "from": from, "to": [from[0] + 2.0, from[1]] }], "alpha_reg": 0, "alpha_joints": 0 });
+    let (_, dragged, _) = call(&app, "POST", "/api/drag", &body.to_string()).await;
+    let moved = points(&dragged["vertices"]);
+    assert!(farthest(&moved, &fitted) > 0.5, "the drag moved the pose");
+    // Undo: the fit's latent gives the fit back; redo: the drag's gives the drag's pose back.
+    assert!(farthest(&set_latent(&app, &session, &opened["fitted_latent"], &[]).await, &fitted) < 1e-4);
+    assert!(farthest(&set_latent(&app, &session, &dragged["latent"], &[]).await, &moved) < 1e-4);
+    // A slider at 0 is the pose itself; at ±1 it moves it, in opposite ways.
+    assert!(farthest(&set_latent(&app, &session, &opened["fitted_latent"], &[0.0]).await, &fitted) < 1e-4);
+    // The untrained test model's frames differ little (σ of order 1e-3), so the check is that
+    // a slider's 1 is one σ along its direction, and moves the pose to either side.
+    let body_plus = json!({ "session": session, "latent": opened["fitted_latent"], "sliders": [1.0] }).to_string();
+    let (_, plus_answer, _) = call(&app, "POST", "/api/latent", &body_plus).await;
+    let step: f32 = plus_answer["latent"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .zip(opened["fitted_latent"].as_array().unwrap())
+        .map(|(p, q)| (p.as_f64().unwrap() - q.as_f64().unwrap()).powi(2) as f32)
+        .sum::<f32>()
+        .sqrt();
+    let sigma = app.directions().sigma[0];
+    assert!(sigma > 0.0 && (step - sigma).abs() < 1e-3 * sigma + 1e-6, "step {step}, σ {sigma}");
+    let plus = points(&plus_answer["vertices"]);
+    let minus = set_latent(&app, &session, &opened["fitted_latent"], &[-1.0]).await;
+    assert!(farthest(&plus, &fitted) > 0.0 && farthest(&minus, &fitted) > 0.0);
+    let mid: Vec<[f32; 2]> = plus
+        .iter()
+        .zip(&minus)
+        .map(|(p, q)| [(p[0] + q[0]) / 2.0, (p[1] + q[1]) / 2.0])
+        .collect();
+    assert!(
+        farthest(&mid, &fitted) < 0.5 * farthest(&plus, &fitted),
+        "±1 lie on either side of the pose"
+    );
+    // A drag after the slider continues from the slid pose, not from the fit.
+    let (_, after, _) = call(&app, "POST", "/api/drag", &body.to_string()).await;
+    assert_ne!(after["latent"], dragged["latent"]);
+}
+
+#[tokio::test]
+async fn inbetweens_run_from_one_fit_to_the_other_timed_as_asked() {
+    let app = app(4);
+    let fit = |frame: usize| {
+        let app = app.clone();
+        async move { points(&call(&app, "POST", "/api/session", &json!({ "frame": frame }).to_string()).await.1["fitted"]) }
+    };
+    let (a, b) = (fit(0).await, fit(2).await);
+    let (status, eased, _) = call(
+        &app,
+        "POST",
+        "/api/inbetween",
+        r#"{"from": 0, "to": 2, "count": 3, "easing": "ease-in-out"}"#,
+    )
+    .await;
+    assert_eq!(status, StatusCode::OK, "{eased}");
+    let t: Vec<f64> = eased["t"].as_array().unwrap().iter().map(|v| v.as_f64().unwrap()).collect();
+    assert_eq!(t.len(), 5);
+    assert!(t[1] < 0.25 && (t[2] - 0.5).abs() < 1e-6 && t[3] > 0.75, "slow in, slow out: {t:?}");
+    let poses = eased["poses"].as_array().unwrap();
+    assert!(farthest(&points(&poses[0]), &a) < 1e-4 && farthest(&points(&poses[4]), &b) < 1e-4);
+    let (_, spaced, _) = call(&app, "POST", "/api/inbetween", r#"{"from": 0, "to": 2, "spacing": [0.25]}"#).await;
+    assert_eq!(spaced["t"], json!([0.0, 0.25, 1.0]));
+}
+
+#[tokio::test]
+async fn downloads_are_files_named_for_what_they_hold() {
+    let app = app(4);
+    let (_, opened, _) = call(&app, "POST", "/api/session", r#"{"frame": 0}"#).await;
+    let session = opened["session"].as_str().unwrap();
+    let request = |body: Value| {
+        Request::builder()
+            .method("POST")
+            .uri("/api/export")
+            .body(Body::from(body.to_string()))
+            .unwrap()
+    };
+    let response = router(app.clone())
+        .oneshot(request(json!({ "format": "png", "session": session, "background": "#ffffff" })))
+        .await
+        .unwrap();
+    assert_eq!(response.status(), StatusCode::OK);
+    let disposition = response.headers()[header::CONTENT_DISPOSITION].to_str().unwrap().to_string();
+    assert_eq!(disposition, "attachment; filename=\"pose_000.png\"");
+    let png = axum::body::to_bytes(response.into_body(), 1 << 26).await.unwrap();
+    let picture = image::load_from_memory(&png).unwrap().to_rgba8();
+    assert_eq!(picture.dimensions(), (48, 40));
+    assert!(picture.pixels().all(|p| p[3] == 255), "a white background is opaque");
+    let response = router(app.clone())
+        .oneshot(request(
+            json!({ "format": "sheet", "inbetween": { "from": 0, "to": 2, "count": 2 } }),
+        ))
+        .await
+        .unwrap();
+    assert_eq!(response.status(), StatusCode::OK);
+    assert_eq!(response.headers()[header::CONTENT_TYPE], "application/zip");
+}
+
+/// Uploads `bytes` as `name`; the status and the answer.
+async fn upload(app: &Arc<App>, query: &str, bytes: Vec<u8>) -> (StatusCode, Value) {
+    let request = Request::builder()
+        .method("POST")
+        .uri(format!("/api/upload{query}"))
+        .header("content-type", "image/png")
+        .body(Body::from(bytes))
+        .unwrap();
+    let response = router(app.clone()).oneshot(request).await.unwrap();
+    let status = response.status();
+    let bytes = axum::body::to_bytes(response.into_body(), 1 << 26).await.unwrap();
+    (status, serde_json::from_slice(&bytes).unwrap_or(Value::Null))
+}
+
+#[tokio::test]
+async fn an_uploaded_frame_can_be_posed_and_in_betweened_and_bad_uploads_are_refused() {
+    let app = app(4);
+    let puppet = &app.model().puppet;
+    let left: Vec<[f32; 2]> = puppet.rest_vertices().iter().map(|v| [v[0] - 2.0, v[1]]).collect();
+    let frame = crate::render::render_crisp(puppet, &left, 48, 40).unwrap();
+    let png = frame.png_bytes(std::path::Path::new("left.png")).unwrap();
+    let (status, answer) = upload(&app, "?name=left.png", png.clone()).await;
+    assert_eq!(status, StatusCode::OK, "{answer}");
+    assert_eq!(answer["index"], json!(3));
+    let (_, frames, _) = call(&app, "GET", "/api/frames", "").await;
+    assert_eq!(frames["frames"][3]["name"], json!("left.png"));
+    let (status, opened, _) = call(&app, "POST", "/api/session", r#"{"frame": 3}"#).await;
+    assert_eq!(status, StatusCode::OK, "{opened}");
+    let (status, between, _) = call(&app, "POST", "/api/inbetween", r#"{"from": 0, "to": 3, "count": 2}"#).await;
+    assert_eq!(status, StatusCode::OK, "{between}");
+    assert!(farthest(&points(&between["poses"][3]), &points(&opened["fitted"])) < 1e-4);
+
+    let opaque = crate::picture::Picture::filled(48, 40, [1.0, 0.0, 0.0, 1.0])
+        .png_bytes(std::path::Path::new("o.png"))
+        .unwrap();
+    let small = crate::picture::Picture::filled(8, 8, [0.0; 4])
+        .png_bytes(std::path::Path::new("s.png"))
+        .unwrap();
+    for (query, bytes, says) in [
+        ("?name=notes.txt", b"not a picture".to_vec(), "notes.txt"),
+        ("?name=small.png", small, "the puppet's frames are 48×40"),
+        ("?name=red.png", opaque, "opaque everywhere"),
+        ("?name=x.png&model=y", png.clone(), "one query parameter"),
+        ("?name=big.png", vec![0u8; super::api::MAX_UPLOAD_BODY + 1], "cannot be read"),
+    ] {
+        let (status, answer) = upload(&app, query, bytes).await;
+        let message = answer["error"].as_str().unwrap_or_default();
+        assert!(status.is_client_error() && message.contains(says), "{query}: {status} {message:?}");
+    }
+    for _ in 1..super::state::MAX_UPLOADS {
+        assert_eq!(upload(&app, "", png.clone()).await.0, StatusCode::OK);
+    }
+    let (status, answer) = upload(&app, "?name=one_more.png", png).await;
+    assert_eq!(status, StatusCode::CONFLICT, "{answer}");
+    assert!(answer["error"].as_str().unwrap().contains("restart"));
+}
