@@ -5,8 +5,8 @@
 // Loads the page at URL, pins the character's "hand" with the mouse, drags it, checks that the
 // pin reached its target (recomputed here from the vertices the page holds), removes the pin
 // with a right-click, undoes and redoes that, resets to the fit, clicks off the character and
-// checks the page says so; then makes and plays an in-between, hides and shows an accessory and
-// downloads the pose as PNG. Screenshots in OUT_DIR: loaded.png, dragged.png, removed.png,
+// checks the page says so; then makes and plays an in-between, hides and shows an accessory,
+// downloads the pose as PNG, and opens a second page that drags its own pin unseen by the first. Screenshots in OUT_DIR: loaded.png, dragged.png, removed.png,
 // inbetween.png, accessory_hidden.png (failure.png when a step could not finish), and the
 // download, export.png.
 // Prints one PASS/FAIL line per check; exits 1 if any failed. Run by tests/browser.rs
@@ -234,6 +234,43 @@ async function exportPng({ page, state, check, must }) {
   return null;
 }
 
+// A second page on the same server drags its own pin; neither page sees the other's.
+async function twoPages({ page, state, check, must, hand, dragScreen }) {
+  const other = await browser.newPage({ viewport: { width: 1280, height: 800 }, deviceScaleFactor: 1 });
+  try {
+    await other.goto(url);
+    await other.waitForFunction(() => window.puppetEditor && !window.puppetEditor.busy(), null, { timeout: 60000, polling: 20 });
+    const otherState = () => other.evaluate(() => window.puppetEditor.state());
+    const mine = await state();
+    let theirs = await otherState();
+    must('a second page opens its own session', theirs.session && theirs.session !== mine.session && theirs.pins.length === 0,
+      `sessions ${mine.session} and ${theirs.session}`);
+    // The same layout: the hand is under the same screen point on both pages.
+    await other.mouse.move(...hand.screen);
+    await other.mouse.down();
+    for (let k = 1; k <= 5; k++) await other.mouse.move(hand.screen[0] + dragScreen * k / 5, hand.screen[1]);
+    await other.mouse.up();
+    await other.waitForFunction(() => !window.puppetEditor.busy(), null, { timeout: 30000, polling: 20 });
+    theirs = await otherState();
+    const after = await state();
+    check('the second page drags its own pin', theirs.pins.length === 1 && JSON.stringify(theirs.vertices) !== JSON.stringify(theirs.fitted));
+    check('the first page sees none of it', after.pins.length === mine.pins.length && JSON.stringify(after.vertices) === JSON.stringify(mine.vertices),
+      `${after.pins.length} pins on the first page`);
+    // The first page's own drag still works, and does not reach the second page.
+    await page.mouse.move(...hand.screen);
+    await page.mouse.down();
+    for (let k = 1; k <= 5; k++) await page.mouse.move(hand.screen[0], hand.screen[1] + dragScreen * k / 5);
+    await page.mouse.up();
+    await page.waitForFunction(() => !window.puppetEditor.busy(), null, { timeout: 30000, polling: 20 });
+    const again = await otherState();
+    check('a drag on the first page leaves the second as it was', (await state()).pins.length === 1
+      && JSON.stringify(again.vertices) === JSON.stringify(theirs.vertices) && again.pins.length === 1);
+  } finally {
+    await other.close();
+  }
+  return null;
+}
+
 // --- the run -----------------------------------------------------------------------------------
 const browser = await chromium.launch({
   executablePath: env.CHROMIUM || '/usr/bin/chromium',
@@ -403,8 +440,9 @@ try {
   check('and #error says it is not on the character', /not on the character/.test(said), JSON.stringify(said));
 
   // 4–6. Later steps.
-  const tools = { page, state, idle, box, check, must, shot };
-  for (const [name, step] of [['in-between', playInbetween], ['accessory toggle', toggleAccessory], ['PNG export', exportPng]]) {
+  const tools = { page, state, idle, box, check, must, shot, hand, dragScreen };
+  for (const [name, step] of [['in-between', playInbetween], ['accessory toggle', toggleAccessory], ['PNG export', exportPng],
+    ['two pages', twoPages]]) {
     const skipped = await step(tools);
     if (skipped) console.log(`SKIP ${name}: ${skipped}`);
   }
