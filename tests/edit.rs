@@ -118,8 +118,13 @@ fn inbetween_writes_steps_sheets_and_a_gif() {
     );
     run.assert_ok();
     assert!(run.stdout.contains("3 in-betweens (5 frames"), "{}", run.stdout);
+    assert!(
+        run.stdout.contains("the first and last frames are the keyframes' fits: L2 "),
+        "{}",
+        run.stdout
+    );
     for k in 0..5 {
-        for sub in ["latent", "vertex", "nearest"] {
+        for sub in ["latent", "vertex", "arap", "nearest"] {
             assert!(out.join(sub).join(format!("step_00{k}.png")).is_file(), "{sub} step {k}");
         }
         let pose = format!("latent/step_00{k}.json");
@@ -128,7 +133,7 @@ fn inbetween_writes_steps_sheets_and_a_gif() {
     }
     assert!(!out.join("latent/step_005.png").exists());
     let sheet = image::open(out.join("sheet.png")).unwrap();
-    assert!(sheet.width() > 5 * 64 && sheet.height() > 3 * 64, "three rows of five");
+    assert!(sheet.width() > 5 * 64 && sheet.height() > 4 * 64, "four rows of five");
     let sprites = image::open(out.join("sprites.png")).unwrap();
     assert_eq!((sprites.width(), sprites.height()), (5 * 64, 64));
     // The GIF goes there and back: 5 + 3 frames.
@@ -602,11 +607,16 @@ fn frames_of_the_wrong_size_or_without_alpha_and_zero_steps_are_refused() {
     )
     .assert_error(&["rgb.png", "opaque everywhere"]);
     puppet(tmp.path(), &["correspond", "--model", s(&model), s(&a), s(&small), "-o", "c.json"]).assert_error(&["small.png", "32×48"]);
-    puppet(
-        tmp.path(),
-        &["inbetween", "--model", s(&model), s(&a), s(&a), "--steps", "0", "-o", s(&o)],
-    )
-    .assert_error(&["--steps", "in-between steps = 0"]);
+    let inbetween_of_a = |timing: &[&str], out: &Path| {
+        let args = [&["inbetween", "--model", s(&model), s(&a), s(&a), "-o", s(out)][..], timing].concat();
+        puppet(tmp.path(), &args)
+    };
+    inbetween_of_a(&["--steps", "0"], &o).assert_error(&["--steps", "in-between steps = 0"]);
+    inbetween_of_a(&["--spacing", "0.5,0.2"], &o).assert_error(&["--spacing", "spacing value 2"]);
+    let spaced = inbetween_of_a(&["--spacing", "0.25,0.75"], &tmp.path().join("spaced"));
+    spaced.assert_ok();
+    let by_hand = "2 in-betweens (4 frames with the two ends, spaced by hand)";
+    assert!(spaced.stdout.contains(by_hand), "{}", spaced.stdout);
     puppet(
         tmp.path(),
         &[

@@ -344,7 +344,11 @@ fn issue_12_hostile_frames_steps_and_batches_are_refused_or_reduced_with_a_warni
     // The step count is said as given; every frame is written.
     let run = ib("4", &["--training", s(&seq), "--latent-steps", "0"]);
     run.assert_ok();
-    assert!(run.stdout.contains("4 in-betweens (6 frames with the two ends)"), "{}", run.stdout);
+    assert!(
+        run.stdout.contains("4 in-betweens (6 frames with the two ends, linear)"),
+        "{}",
+        run.stdout
+    );
     assert!(tmp.path().join("ib/nearest/step_005.png").is_file());
 }
 

@@ -6,26 +6,32 @@ use std::path::{Path, PathBuf};
 
 use anyhow::Context;
 
-use puppet::edit::inbetween::{comparison_sheet, inbetween, steps_t, write_inbetweens, InbetweenFiles, MAX_STEPS};
-use puppet::eval::inbetween_eval::inbetween_scores;
+use puppet::edit::inbetween::{comparison_sheet, inbetween, write_inbetweens, InbetweenFiles, MAX_STEPS};
+use puppet::edit::timing::{eased_t, spacing_t, Easing};
+use puppet::eval::inbetween_eval::{inbetween_scores, InbetweenScore};
 use puppet::fit::frame::{frame_check, load_frame};
 use puppet::fit::FitOptions;
+use puppet::metrics::l2;
 use puppet::model::Model;
 use puppet::progress::Progress;
 use puppet::puppet::sequence::Frames;
 use puppet::render::animation::AnimationFiles;
+use puppet::render::render_crisp;
 
-use super::args::{AnimationArgs, LatentFitArgs, ModelArgs, OutfitArgs};
+use super::args::{AnimationArgs, FitArgs, ModelArgs, OutfitArgs};
 use super::Session;
 
-/// Make in-between frames of two frames by interpolating their latent codes.
+/// Make in-between frames of two keyframes by interpolating their latent codes.
 ///
-/// Writes into OUTPUT: latent/step_NNN.png and .json (the decoded latent interpolation, end
-/// frames included, and each pose), vertex/step_NNN.png (linear interpolation of the two
-/// fitted meshes, for comparison), nearest/step_NNN.png (the training frame nearest each latent
-/// step, with --training), sheet.png (rows: latent, vertex, nearest; at most 12 steps shown) and
-/// sprites.png with its atlas sprites.json (the latent steps for game engines; further pages
-/// sprites_2.png, … past 4096 px); with --gif / --apng, the latent steps played there and back.
+/// The keyframes are fitted as `puppet fit` fits them, and the in-betweens start and end on
+/// those fits: the latent path carries each fit's offset from its latent's decode. Writes into
+/// OUTPUT: latent/step_NNN.png and .json (the learned path, keyframes included, and each pose),
+/// vertex/step_NNN.png and arap/step_NNN.png (linear and as-rigid-as-possible interpolation of
+/// the two fitted meshes, for comparison), nearest/step_NNN.png (the training frame nearest each
+/// latent step, with --training), sheet.png (rows: latent, vertex, arap, nearest; at most 12
+/// steps shown) and sprites.png with its atlas sprites.json (the latent steps for game engines;
+/// further pages sprites_2.png, … past 4096 px); with --gif / --apng, the latent steps played
+/// there and back.
 #[derive(Debug, clap::Args)]
 pub struct InbetweenArgs {
     #[command(flatten)]
@@ -37,14 +43,27 @@ pub struct InbetweenArgs {
     #[arg(required_unless_present = "score")]
     pub b: Option<PathBuf>,
     /// Score instead: on this sequence (frames in natural order), generate every odd-numbered
-    /// frame from its two even neighbours at t = ½ and print the L2 to the true frame for latent
-    /// interpolation, vertex interpolation, the nearest even frame, repeating the previous frame,
-    /// and the model's own fit (for a model trained on the even frames only).
+    /// frame between two even keyframes GAP + 1 apart, at its place in time, and print the mean
+    /// L2 to the true frames for the plain latent path, the default path through the keyframes'
+    /// fits, vertex and as-rigid-as-possible interpolation, the nearest even frame, holding the
+    /// first keyframe, and the model's own fit (for a model trained on the even frames only).
     #[arg(long, value_name = "SEQUENCE", conflicts_with_all = ["a", "b", "gif", "apng", "training"])]
     pub score: Option<PathBuf>,
+    /// With --score: the gaps (odd frame counts between the keyframes), comma-separated; 1 if
+    /// not given.
+    #[arg(long, value_name = "N,N,…", value_delimiter = ',', conflicts_with_all = ["a", "b", "output"])]
+    pub gaps: Vec<usize>,
     /// Number of in-between frames strictly between A and B.
     #[arg(long, default_value_t = 8)]
     pub steps: usize,
+    /// Their timing: linear (one speed), ease-in (slow out of A), ease-out (slow into B) or
+    /// ease-in-out (slow out of A and into B: slow-in/slow-out).
+    #[arg(long, default_value = "linear", value_name = "EASING")]
+    pub easing: Easing,
+    /// Place the in-betweens by hand instead: each one's position between A (0) and B (1), in
+    /// increasing order, comma-separated (e.g. 0.1,0.3,0.6: a spacing chart).
+    #[arg(long, value_name = "T,T,…", value_delimiter = ',', conflicts_with_all = ["steps", "easing"])]
+    pub spacing: Vec<f32>,
     /// The most in-betweens allowed (a guard against a typo's hour of rendering).
     #[arg(long, default_value_t = MAX_STEPS, value_name = "N")]
     pub max_steps: usize,
@@ -61,20 +80,25 @@ pub struct InbetweenArgs {
     #[arg(long, default_value_t = 8, value_name = "N")]
     pub columns: usize,
     #[command(flatten)]
-    pub fit: LatentFitArgs,
+    pub fit: FitArgs,
     #[command(flatten)]
     pub outfit: OutfitArgs,
 }
 
 /// Runs `puppet inbetween`.
 pub fn run(args: InbetweenArgs, s: &Session) -> anyhow::Result<()> {
-    let t = steps_t(args.steps, args.max_steps).context("--steps")?;
+    let t = if args.spacing.is_empty() {
+        eased_t(args.steps, args.easing, args.max_steps).context("--steps")?
+    } else {
+        spacing_t(&args.spacing, args.max_steps).context("--spacing")?
+    };
     let device = puppet::backend::device();
     let dir = &args.model.model;
     let model = Model::load(dir, &device)?;
     let options = args.fit.options(dir)?;
     if let Some(seq) = &args.score {
-        return score(&model, seq, &options, s);
+        let gaps = if args.gaps.is_empty() { vec![1] } else { args.gaps };
+        return score(&model, seq, &gaps, &options, s);
     }
     let (Some(a_path), Some(b_path), Some(out)) = (&args.a, &args.b, &args.output) else {
         anyhow::bail!("give two frames A and B and an output folder (or --score SEQUENCE)");
@@ -91,10 +115,13 @@ pub fn run(args: InbetweenArgs, s: &Session) -> anyhow::Result<()> {
     s.outputs.claim(&sheet_path)?;
     s.ui.stage("inbetween", 0);
     let mut ib = inbetween(&model, &a, &b, &t, &options, &device)?;
+    let (w, h) = (model.puppet.width, model.puppet.height);
+    let key_l2 = |pose: Option<&Vec<[f32; 2]>>, frame| -> puppet::Result<f64> {
+        pose.map_or(Ok(f64::NAN), |p| Ok(l2(&render_crisp(&model.puppet, p, w, h)?, frame)))
+    };
+    let (key_a, key_b) = (key_l2(ib.latent.first(), &a)?, key_l2(ib.latent.last(), &b)?);
     if let Some(worn) = &worn {
-        for pose in ib.latent.iter_mut().chain(&mut ib.vertex) {
-            *pose = worn.pose_from(&model, pose);
-        }
+        ib = ib.dressed(&model, worn);
     }
     let drawn = worn.as_ref().unwrap_or(&model);
     write_inbetweens(drawn, &ib, &training, &files, &s.outputs, &s.ui)?;
@@ -104,13 +131,19 @@ pub fn run(args: InbetweenArgs, s: &Session) -> anyhow::Result<()> {
         s.ui.say(format!("wrote {}", path.display()))?;
     }
     s.ui.say(format!(
-        "{} in-betweens ({} frames with the two ends) from {} to {} → {} (latent/, vertex/{}, sheet.png, sprites.png + sprites.json)",
-        args.steps,
+        "{} in-betweens ({} frames with the two ends, {}) from {} to {} → {} (latent/, vertex/, arap/{}, sheet.png, sprites.png + sprites.json)",
+        t.len() - 2,
         t.len(),
+        if args.spacing.is_empty() { args.easing.to_string() } else { "spaced by hand".to_string() },
         a_path.display(),
         b_path.display(),
         out.display(),
         if training.is_empty() { "" } else { ", nearest/" }
+    ))?;
+    s.ui.say(format!(
+        "the first and last frames are the keyframes' fits: L2 {key_a:.0} to {} and {key_b:.0} to {}",
+        a_path.display(),
+        b_path.display()
     ))
 }
 
@@ -128,32 +161,44 @@ fn files(args: &InbetweenArgs, out: &Path) -> InbetweenFiles {
             ..args.animation.files(true)
         },
         vertex: frames("vertex"),
+        rigid: frames("arap"),
         nearest: frames("nearest"),
         poses: Some(out.join("latent")),
     }
 }
 
-/// `--score`: the in-between table of `eval::inbetween_eval` on the odd frames of `seq`.
-fn score(model: &Model, seq: &Path, options: &FitOptions, s: &Session) -> anyhow::Result<()> {
+/// `--score`: the in-between table of `eval::inbetween_eval` on the odd frames of `seq`, a line
+/// per gap.
+fn score(model: &Model, seq: &Path, gaps: &[usize], options: &FitOptions, s: &Session) -> anyhow::Result<()> {
     let device = puppet::backend::device();
     let frames = Frames::load(seq, &frame_check(model))?;
     let n = frames.frames.len();
     let even: Vec<usize> = (0..n).step_by(2).collect();
     let odd: Vec<usize> = (1..n).step_by(2).collect();
     s.ui.stage("score", 0);
-    let scores = inbetween_scores(model, &frames.frames, &even, &odd, options, &device)?;
+    let scores = inbetween_scores(model, &frames.frames, &even, &odd, gaps, options, &device)?;
     s.ui.finish();
-    let mean = |f: fn(&puppet::eval::inbetween_eval::InbetweenScore) -> f64| scores.iter().map(f).sum::<f64>() / scores.len() as f64;
-    s.ui.print(format!(
-        "{} held-out frames of {}: mean L2 — latent {:.1}, vertex {:.1}, nearest even frame {:.1}, previous frame {:.1}, fit of the true frame {:.1}",
-        scores.len(),
-        seq.display(),
-        mean(|s| s.latent),
-        mean(|s| s.vertex),
-        mean(|s| s.nearest),
-        mean(|s| s.hold),
-        mean(|s| s.fit)
-    ))
+    for &gap in gaps {
+        let at_gap: Vec<&InbetweenScore> = scores.iter().filter(|s| s.gap == gap).collect();
+        if at_gap.is_empty() {
+            s.ui.print(format!("gap {gap}: no odd frame lies between two even frames {} apart", gap + 1))?;
+            continue;
+        }
+        let mean = |f: fn(&InbetweenScore) -> f64| at_gap.iter().map(|s| f(s)).sum::<f64>() / at_gap.len() as f64;
+        s.ui.print(format!(
+            "gap {gap}: {} in-betweens of {}: mean L2 — default (through the keyframes' fits) {:.1}, plain latent {:.1}, vertex {:.1}, as-rigid-as-possible {:.1}, nearest even frame {:.1}, first keyframe held {:.1}, fit of the true frame {:.1}",
+            at_gap.len(),
+            seq.display(),
+            mean(|s| s.keyed),
+            mean(|s| s.latent),
+            mean(|s| s.vertex),
+            mean(|s| s.rigid),
+            mean(|s| s.nearest),
+            mean(|s| s.hold),
+            mean(|s| s.fit)
+        ))?;
+    }
+    Ok(())
 }
 
 #[cfg(test)]
@@ -162,14 +207,8 @@ mod tests {
 
     #[test]
     fn parses_frames_or_a_score_sequence() {
-        parses(&[
-            "inbetween",
-            "--model",
-            "m",
-            "a.png",
-            "b.png",
-            "-o",
-            "out",
+        let ab = |extra: &[&'static str]| [&["inbetween", "--model", "m", "a.png", "b.png", "-o", "o"][..], extra].concat();
+        parses(&ab(&[
             "--steps",
             "4",
             "--gif",
@@ -178,13 +217,19 @@ mod tests {
             "x.png",
             "--background",
             "transparent",
-        ]);
+        ]));
+        parses(&ab(&["--easing", "ease-in-out"]));
+        parses(&ab(&["--spacing", "0.1,0.5,0.9"]));
         parses(&["inbetween", "--model", "m", "--score", "seq"]);
+        parses(&["inbetween", "--model", "m", "--score", "seq", "--gaps", "1,3,5", "--one-pass"]);
         for bad in [
+            ab(&["--easing", "bounce"]),
+            ab(&["--spacing", "0.5", "--steps", "3"]),
+            ab(&["--gaps", "3"]),
+            ab(&["--background", "white"]),
+            ab(&["--delay", "0"]),
             vec!["inbetween", "--model", "m", "a.png"],
             vec!["inbetween", "--model", "m", "--score", "seq", "--gif", "x.gif"],
-            vec!["inbetween", "--model", "m", "a.png", "b.png", "-o", "o", "--background", "white"],
-            vec!["inbetween", "--model", "m", "a.png", "b.png", "-o", "o", "--delay", "0"],
         ] {
             let args = std::iter::once("puppet").chain(bad.iter().copied());
             assert!(clap::Parser::try_parse_from(args).map(|_: crate::cli::Cli| ()).is_err(), "{bad:?}");

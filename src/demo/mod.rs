@@ -382,11 +382,7 @@ fn redress(
     let puppet = dress(&model.puppet, &art, &BuildOptions::default(), &RigOptions::default(), progress)?;
     let worn = model.wearing(puppet)?;
     let rig_ms = started.elapsed().as_secs_f64() * 1e3;
-    let dressed = Inbetweens {
-        t: ib.t.clone(),
-        latent: ib.latent.iter().map(|p| worn.pose_from(model, p)).collect(),
-        vertex: ib.vertex.iter().map(|p| worn.pose_from(model, p)).collect(),
-    };
+    let dressed = ib.dressed(model, &worn);
     let files = InbetweenFiles {
         latent: animation(out, &format!("{stem}_dressed"), true),
         ..InbetweenFiles::default()

@@ -1,10 +1,21 @@
 //! In-betweening (neural-puppet.md §4.1): encode two frames, `z_i = E(x_i)`, interpolate the
-//! latents linearly with uniform steps and decode each, `v(t) = D((1 − t)·z_1 + t·z_2)`. Beside
-//! it, the comparison the paper's argument rests on: linear interpolation of the two fitted
-//! meshes in vertex space, which leaves the learned manifold.
+//! latents linearly and decode each, `v(t) = D((1 − t)·z_1 + t·z_2)`.
 //!
-//! Step convention: `steps = N` in-betweens at `t_k = k / (N + 1)`, `k = 1..=N`, framed by the
-//! fitted end frames (`k = 0` and `k = N + 1`), so `N + 2` poses in all.
+//! **On the keyframes.** A fit that goes past the decoder's manifold (vertex steps: the default
+//! fit) lands where no latent decodes, so the plain latent path would start and end on poses the
+//! animator did not draw. The default path adds the residual of each keyframe's fit over its
+//! latent's decode, interpolated linearly:
+//! `v(t) = D((1 − t)·z_1 + t·z_2) + (1 − t)·(v_1 − D(z_1)) + t·(v_2 − D(z_2))`, which is the fit
+//! at both ends and the learned path between them (the plain latent path when the fit stays on
+//! the manifold).
+//!
+//! Beside it, the baselines the argument rests on: linear interpolation of the two fitted meshes
+//! in vertex space, which leaves the learned manifold, and as-rigid-as-possible shape
+//! interpolation of them ([`RigidInterpolation`], Alexa et al. 2000), the classical in-between.
+//!
+//! Timing: [`crate::edit::timing`] gives the interpolation parameters; [`steps_t`] is its
+//! uniform case, `steps = N` in-betweens at `t_k = k / (N + 1)`, `k = 1..=N`, framed by the
+//! keyframes (`k = 0` and `k = N + 1`), so `N + 2` poses in all.
 
 use burn::tensor::{Device, Tensor, TensorData};
 
@@ -12,64 +23,101 @@ use std::path::PathBuf;
 
 use crate::atomic_file::Outputs;
 use crate::error::{Error, Result};
-use crate::fit::{fit_latents, FitOptions};
+use crate::fit::{fit_with_latents, FitOptions};
+use crate::geom::RigidInterpolation;
 use crate::model::Model;
 use crate::picture::contact_sheet;
 use crate::picture::Picture;
-use crate::progress::Progress;
+use crate::progress::{Progress, Silent};
 use crate::puppet::pose_file::PoseFile;
+use crate::puppet::Puppet;
 use crate::render::animation::{AnimationFiles, AnimationWriter};
 use crate::render::render_crisp;
 
-/// Latent and vertex-space interpolation between two frames.
+/// The in-betweens of two keyframes by each method, one pose per `t`.
 #[derive(Clone, Debug)]
 pub struct Inbetweens {
-    /// Interpolation parameters `t_k`, `N + 2` of them from 0 to 1.
+    /// Interpolation parameters, from 0 (the first keyframe) to 1 (the second).
     pub t: Vec<f32>,
-    /// The decoded latent interpolation per `t_k`, frame pixels, global vertex numbering.
+    /// The learned path through the keyframes' fits (module doc), frame pixels, global vertex
+    /// numbering.
     pub latent: Vec<Vec<[f32; 2]>>,
-    /// The vertex-space interpolation `(1 − t)·v_1 + t·v_2` of the fitted end poses.
+    /// The vertex-space interpolation `(1 − t)·v_1 + t·v_2` of the keyframes' fits.
     pub vertex: Vec<Vec<[f32; 2]>>,
+    /// The as-rigid-as-possible shape interpolation of the keyframes' fits.
+    pub rigid: Vec<Vec<[f32; 2]>>,
 }
 
-/// The two encoded end frames, ready to produce any in-between quickly (one decode each) —
-/// what an interactive timeline would hold.
+impl Inbetweens {
+    /// The same in-betweens for `worn`, the model's body in another outfit (see
+    /// [`Model::pose_from`]).
+    pub fn dressed(&self, model: &Model, worn: &Model) -> Inbetweens {
+        let dress = |poses: &[Vec<[f32; 2]>]| poses.iter().map(|p| worn.pose_from(model, p)).collect();
+        Inbetweens {
+            t: self.t.clone(),
+            latent: dress(&self.latent),
+            vertex: dress(&self.vertex),
+            rigid: dress(&self.rigid),
+        }
+    }
+}
+
+/// The two keyframes, encoded and fitted, ready to produce any in-between quickly (one decode
+/// each) — what an interactive timeline holds.
 #[derive(Clone, Debug)]
 pub struct Interpolator {
     z_a: Tensor<2>,
     z_b: Tensor<2>,
-    fitted: [Vec<[f32; 2]>; 2],
+    /// D(z) of each end.
+    decoded: [Vec<[f32; 2]>; 2],
+    /// Each end's fit: its decode, or where vertex steps took it.
+    keys: [Vec<[f32; 2]>; 2],
 }
 
 impl Interpolator {
-    /// Encodes frames `a` and `b` with `model` (latents fitted as `fit` says).
+    /// Fits frames `a` and `b` with `model` as `fit` says.
     ///
     /// # Errors
     /// [`Error::Mismatch`] if a frame is not the puppet's size (see [`Model::check_frame`]).
     pub fn new(model: &Model, a: &Picture, b: &Picture, fit: &FitOptions, device: &Device) -> Result<Self> {
-        let z = fit_latents(model, &[a, b], fit, device)?;
-        Ok(Self::between(model, z.clone().narrow(0, 0, 1), z.narrow(0, 1, 1), device))
+        let (z, keys) = fit_with_latents(model, &[a, b], fit, device, &Silent)?;
+        let mut keys = keys.into_iter();
+        let keys = [keys.next().unwrap_or_default(), keys.next().unwrap_or_default()];
+        Ok(Self::between(model, z.clone().narrow(0, 0, 1), z.narrow(0, 1, 1), device).with_keys(keys))
     }
 
     /// The interpolation between two latents `[1, Z]` fitted earlier (by `model`, or by the same
-    /// body in another outfit), decoded by `model`.
+    /// body in another outfit), decoded by `model`; the keyframes are their decodes.
     pub fn between(model: &Model, z_a: Tensor<2>, z_b: Tensor<2>, device: &Device) -> Self {
-        let fitted = model.to_frame_vertices(model.decode(Tensor::cat(vec![z_a.clone(), z_b.clone()], 0), device));
-        let mut it = fitted.into_iter();
-        let (va, vb) = (it.next().unwrap_or_default(), it.next().unwrap_or_default());
+        let decoded = model.to_frame_vertices(model.decode(Tensor::cat(vec![z_a.clone(), z_b.clone()], 0), device));
+        let mut it = decoded.into_iter();
+        let decoded = [it.next().unwrap_or_default(), it.next().unwrap_or_default()];
         Interpolator {
             z_a,
             z_b,
-            fitted: [va, vb],
+            keys: decoded.clone(),
+            decoded,
         }
     }
 
-    /// The fitted poses of a and b (frame pixels).
-    pub fn fitted(&self) -> [&[[f32; 2]]; 2] {
-        [&self.fitted[0], &self.fitted[1]]
+    /// The same latent path with other keyframe poses (fits of the same frames past the
+    /// manifold); a pose of the wrong length is ignored for its own decode.
+    pub fn with_keys(mut self, keys: [Vec<[f32; 2]>; 2]) -> Self {
+        for (key, (new, decoded)) in self.keys.iter_mut().zip(keys.into_iter().zip(&self.decoded)) {
+            if new.len() == decoded.len() {
+                *key = new;
+            }
+        }
+        self
     }
 
-    /// Decodes the latent interpolations at each `t` in one batch (frame pixels).
+    /// The keyframe poses (frame pixels).
+    pub fn keys(&self) -> [&[[f32; 2]]; 2] {
+        [&self.keys[0], &self.keys[1]]
+    }
+
+    /// The plain latent path of §4.1 at each `t`, decoded in one batch (frame pixels): the
+    /// decodes of the two latents at its ends, not the keyframes' fits.
     pub fn latent_poses(&self, model: &Model, t: &[f32], device: &Device) -> Vec<Vec<[f32; 2]>> {
         if t.is_empty() {
             return Vec::new();
@@ -80,14 +128,76 @@ impl Interpolator {
         model.to_frame_vertices(model.decode(z, device))
     }
 
-    /// The vertex-space interpolation of the fitted end poses at `t`.
+    /// The default path at each `t`: the latent path plus the keyframes' residuals over their
+    /// decodes, interpolated (module doc) — the keyframes' fits at 0 and 1.
+    pub fn keyed_poses(&self, model: &Model, t: &[f32], device: &Device) -> Vec<Vec<[f32; 2]>> {
+        let mut poses = self.latent_poses(model, t, device);
+        for (pose, &t) in poses.iter_mut().zip(t) {
+            // Exactly the keyframes at the ends, not up to float rounding of decode + residual.
+            if t == 0.0 || t == 1.0 {
+                pose.clone_from(&self.keys[usize::from(t == 1.0)]);
+                continue;
+            }
+            for (k, p) in pose.iter_mut().enumerate() {
+                for (end, weight) in [(0, 1.0 - t), (1, t)] {
+                    let (key, decoded) = (self.keys[end][k], self.decoded[end][k]);
+                    p[0] += weight * (key[0] - decoded[0]);
+                    p[1] += weight * (key[1] - decoded[1]);
+                }
+            }
+        }
+        poses
+    }
+
+    /// The vertex-space interpolation of the keyframes at `t`.
     pub fn vertex_pose(&self, t: f32) -> Vec<[f32; 2]> {
-        self.fitted[0]
+        self.keys[0]
             .iter()
-            .zip(&self.fitted[1])
+            .zip(&self.keys[1])
             .map(|(a, b)| [a[0] + t * (b[0] - a[0]), a[1] + t * (b[1] - a[1])])
             .collect()
     }
+
+    /// The as-rigid-as-possible shape interpolation of the keyframes at each `t` (layers turn as
+    /// one, joints stay joined; with an accessory rig the accessories are placed on the
+    /// interpolated body).
+    ///
+    /// # Errors
+    /// [`Error::Geometry`] if the keyframes are not poses of `model`'s puppet.
+    pub fn rigid_poses(&self, model: &Model, t: &[f32]) -> Result<Vec<Vec<[f32; 2]>>> {
+        let mut interpolation = rigid_interpolation(&model.puppet, &self.keys[0], &self.keys[1])?;
+        Ok(t.iter()
+            .map(|&t| {
+                let mut pose = interpolation.at(f64::from(t));
+                if let Some(rig) = model.expansion.rig_map() {
+                    rig.apply(&mut pose);
+                }
+                pose
+            })
+            .collect())
+    }
+}
+
+/// [`RigidInterpolation`] between two poses of `puppet`: one mesh of all its layers, each layer's
+/// triangles a group, its root layer the anchor, its joints the links.
+///
+/// # Errors
+/// As [`RigidInterpolation::new`].
+pub fn rigid_interpolation(puppet: &Puppet, a: &[[f32; 2]], b: &[[f32; 2]]) -> Result<RigidInterpolation> {
+    let offsets = puppet.vertex_offsets();
+    let mut triangles = Vec::new();
+    let mut groups = Vec::new();
+    for (k, layer) in puppet.layers.iter().enumerate() {
+        let first = offsets[k] as u32;
+        triangles.extend(layer.mesh.triangles.iter().map(|t| t.map(|i| i + first)));
+        groups.extend(std::iter::repeat_n(k as u32, layer.mesh.triangles.len()));
+    }
+    let links: Vec<[u32; 2]> = puppet
+        .joints
+        .iter()
+        .map(|j| [puppet.global_index(j.a) as u32, puppet.global_index(j.b) as u32])
+        .collect();
+    RigidInterpolation::new(&puppet.rest_vertices(), &triangles, &groups, puppet.root as u32, &links, a, b)
 }
 
 /// The `N + 2` interpolation parameters of `steps = N` in-betweens (module doc).
@@ -108,19 +218,18 @@ pub fn steps_t(steps: usize, max_steps: usize) -> Result<Vec<f32>> {
 /// The default most in-betweens one call makes ([`steps_t`]): 1000 frames are 40 s at 25 fps.
 pub const MAX_STEPS: usize = 1000;
 
-/// In-betweens of frames `a` and `b`: latent and vertex-space interpolations at each of `t`
-/// (e.g. [`steps_t`]).
+/// In-betweens of frames `a` and `b` at each of `t` (e.g. [`steps_t`]): the default path through
+/// their fits, and the vertex-space and as-rigid-as-possible interpolations of the fits.
 ///
 /// # Errors
 /// As [`Interpolator::new`].
 pub fn inbetween(model: &Model, a: &Picture, b: &Picture, t: &[f32], fit: &FitOptions, device: &Device) -> Result<Inbetweens> {
     let interp = Interpolator::new(model, a, b, fit, device)?;
-    let latent = interp.latent_poses(model, t, device);
-    let vertex = t.iter().map(|&t| interp.vertex_pose(t)).collect();
     Ok(Inbetweens {
         t: t.to_vec(),
-        latent,
-        vertex,
+        latent: interp.keyed_poses(model, t, device),
+        vertex: t.iter().map(|&t| interp.vertex_pose(t)).collect(),
+        rigid: interp.rigid_poses(model, t)?,
     })
 }
 
@@ -128,8 +237,9 @@ pub fn inbetween(model: &Model, a: &Picture, b: &Picture, t: &[f32], fit: &FitOp
 pub const SHEET_COLUMNS: usize = 12;
 
 /// Figure 5 of neural-puppet.md as one picture: at most [`SHEET_COLUMNS`] of the in-betweens'
-/// steps (evenly sampled, ends included), in rows — the latent interpolation, the vertex-space
-/// interpolation, and, if `training` is not empty, the training frame nearest each latent step.
+/// steps (evenly sampled, ends included), in rows — the learned path, the vertex-space
+/// interpolation, the as-rigid-as-possible interpolation, and, if `training` is not empty, the
+/// training frame nearest each learned step.
 ///
 /// # Errors
 /// Render errors (in-betweens of another puppet).
@@ -145,21 +255,24 @@ pub fn comparison_sheet(model: &Model, inbetweens: &Inbetweens, training: &[Pict
     };
     let latent = render(&inbetweens.latent)?;
     let vertex = render(&inbetweens.vertex)?;
+    let rigid = render(&inbetweens.rigid)?;
     let nearest: Vec<Picture> = latent
         .iter()
         .filter_map(|p| nearest_frame(p, training).map(|(k, _)| training[k].clone()))
         .collect();
-    let cells: Vec<&Picture> = latent.iter().chain(&vertex).chain(&nearest).collect();
+    let cells: Vec<&Picture> = latent.iter().chain(&vertex).chain(&rigid).chain(&nearest).collect();
     Ok(contact_sheet(&cells, columns))
 }
 
 /// Where in-betweens are written; each animation is optional.
 #[derive(Clone, Debug, Default)]
 pub struct InbetweenFiles {
-    /// The latent interpolation (ours), played there and back in its GIF.
+    /// The learned path (ours), played there and back in its GIF.
     pub latent: AnimationFiles,
     /// The vertex-space interpolation.
     pub vertex: AnimationFiles,
+    /// The as-rigid-as-possible interpolation.
+    pub rigid: AnimationFiles,
     /// The training frame nearest each latent step (written only if there are training frames).
     pub nearest: AnimationFiles,
     /// Each latent step's pose as `step_NNN.json` in this folder.
@@ -193,6 +306,7 @@ pub fn write_inbetweens(
     }
     let mut latent = AnimationWriter::new(&files.latent, n, w, h, outputs)?;
     let mut vertex = AnimationWriter::new(&files.vertex, n, w, h, outputs)?;
+    let mut rigid = AnimationWriter::new(&files.rigid, n, w, h, outputs)?;
     let mut nearest = (!training.is_empty())
         .then(|| AnimationWriter::new(&files.nearest, n, w, h, outputs))
         .transpose()?;
@@ -204,6 +318,7 @@ pub fn write_inbetweens(
         }
         latent.push(&picture)?;
         vertex.push(&render_crisp(&model.puppet, &inbetweens.vertex[k], w, h)?)?;
+        rigid.push(&render_crisp(&model.puppet, &inbetweens.rigid[k], w, h)?)?;
         if let Some(path) = pose_paths.get(k) {
             let pose = PoseFile {
                 vertices: inbetweens.latent[k].clone(),
@@ -218,6 +333,7 @@ pub fn write_inbetweens(
     let mut written = pose_paths;
     written.extend(latent.finish()?);
     written.extend(vertex.finish()?);
+    written.extend(rigid.finish()?);
     if let Some(writer) = nearest {
         written.extend(writer.finish()?);
     }
@@ -273,6 +389,7 @@ mod tests {
         };
         assert!(close(&out.latent[0], &fits[0]) && close(&out.latent[4], &fits[1]));
         assert!(close(&out.vertex[0], &fits[0]) && close(&out.vertex[4], &fits[1]));
+        assert!(close(&out.rigid[0], &fits[0]) && close(&out.rigid[4], &fits[1]));
         assert!(!close(&fits[0], &fits[1]), "the two frames should fit differently");
         for (k, &t) in out.t.iter().enumerate() {
             let want: Vec<[f32; 2]> = fits[0]
@@ -286,6 +403,45 @@ mod tests {
         let z = model.encode(&[&a, &b], &device).unwrap();
         let mid = model.to_frame_vertices(model.decode(z.mean_dim(0), &device)).pop().unwrap();
         assert!(close(&out.latent[2], &mid));
+    }
+
+    #[test]
+    fn the_default_path_starts_and_ends_on_fits_past_the_manifold() {
+        let (model, device) = small_model();
+        let (w, h) = (model.puppet.width, model.puppet.height);
+        let a = render_crisp(&model.puppet, &model.puppet.rest_vertices(), w, h).unwrap();
+        let mut moved = model.puppet.rest_vertices();
+        moved.iter_mut().for_each(|p| p[0] += 4.0);
+        let b = render_crisp(&model.puppet, &moved, w, h).unwrap();
+        let options = FitOptions {
+            latent_steps: 0,
+            vertex_steps: 30,
+            vertex_rounds: 1,
+            limb_search: None,
+            ..FitOptions::default()
+        };
+        let t = [0.0, 0.5, 1.0];
+        let out = inbetween(&model, &a, &b, &t, &options, &device).unwrap();
+        let fits = crate::fit::fit(&model, &[&a, &b], &options, &device, &crate::progress::Silent).unwrap();
+        let gap = |x: &[[f32; 2]], y: &[[f32; 2]]| x.iter().zip(y).map(|(p, q)| (p[0] - q[0]).hypot(p[1] - q[1])).fold(0.0, f32::max);
+        assert!(gap(&out.latent[0], &fits[0]) < 1e-3 && gap(&out.latent[2], &fits[1]) < 1e-3);
+        let l2_to = |pose: &[[f32; 2]], frame: &Picture| crate::metrics::l2(&render_crisp(&model.puppet, pose, w, h).unwrap(), frame);
+        assert!(l2_to(&out.latent[0], &a) <= l2_to(&fits[0], &a) + 1e-6);
+        assert!(l2_to(&out.latent[2], &b) <= l2_to(&fits[1], &b) + 1e-6);
+        // The vertex steps took the fit off the manifold: the plain latent path misses it.
+        let interp = Interpolator::new(&model, &a, &b, &options, &device).unwrap();
+        let plain = interp.latent_poses(&model, &[1.0], &device).pop().unwrap();
+        assert!(gap(&plain, &fits[1]) > 1.0, "{}", gap(&plain, &fits[1]));
+        assert!(l2_to(&out.latent[2], &b) < l2_to(&plain, &b));
+        // Half way, the offsets of both ends are carried half each.
+        let mid = interp.latent_poses(&model, &[0.5], &device).pop().unwrap();
+        let ends = interp.latent_poses(&model, &[0.0, 1.0], &device);
+        for (k, p) in out.latent[1].iter().enumerate() {
+            for d in 0..2 {
+                let want = mid[k][d] + 0.5 * (fits[0][k][d] - ends[0][k][d]) + 0.5 * (fits[1][k][d] - ends[1][k][d]);
+                assert!((p[d] - want).abs() < 1e-3);
+            }
+        }
     }
 
     #[test]

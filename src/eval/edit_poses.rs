@@ -1,8 +1,8 @@
 //! The poses a user makes from fitted frames, for scoring a dressed puppet's accessories beyond
 //! the fits themselves (issue 14: occlusion kept "over every held-out fit, in-between and
-//! drag"): latent in-betweens of consecutive frames, and seeded drags of body points.
+//! drag"): in-betweens of consecutive frames, and seeded drags of body points.
 
-use burn::tensor::Device;
+use burn::tensor::{Device, Tensor};
 
 use crate::edit::inbetween::Interpolator;
 use crate::edit::pose::{Pin, PoseEditor, PoseOptions};
@@ -22,17 +22,17 @@ pub const DRAG_FRAMES: usize = 4;
 /// How far each pin is dragged, as a fraction of the larger frame side.
 pub const DRAG_REACH: f32 = 0.08;
 
-/// Latent in-betweens of every pair of consecutive `frames` at t = ¼, ½, ¾ (frame pixels).
-///
-/// # Errors
-/// As [`Interpolator::new`].
-pub fn inbetween_poses(model: &Model, frames: &[&Picture], fit: &FitOptions, device: &Device) -> Result<Vec<Vec<[f32; 2]>>> {
+/// In-betweens of every pair of consecutive fitted frames at t = ¼, ½, ¾, on the default path
+/// through their fits (frame pixels): `latents` `[N, Z]` and `fits` as
+/// [`crate::fit::fit_with_latents`] returns them.
+pub fn inbetween_poses(model: &Model, latents: &Tensor<2>, fits: &[Vec<[f32; 2]>], device: &Device) -> Vec<Vec<[f32; 2]>> {
     let mut out = Vec::new();
-    for pair in frames.windows(2) {
-        let interpolator = Interpolator::new(model, pair[0], pair[1], fit, device)?;
-        out.extend(interpolator.latent_poses(model, &INBETWEEN_T, device));
+    for k in 1..fits.len() {
+        let interpolator = Interpolator::between(model, latents.clone().narrow(0, k - 1, 1), latents.clone().narrow(0, k, 1), device)
+            .with_keys([fits[k - 1].clone(), fits[k].clone()]);
+        out.extend(interpolator.keyed_poses(model, &INBETWEEN_T, device));
     }
-    Ok(out)
+    out
 }
 
 /// For each frame, a drag of two pins on two body layers other than the root (picked with

@@ -1,88 +1,146 @@
-//! In-between quality (issue 6, after neural-puppet.md §4.1): on a sequence whose every other
-//! frame was held out of training, generate each held-out frame k from its neighbours k − 1 and
-//! k + 1 at t = ½ and measure the L2 (DESIGN.md: RGB on white, [0, 255], frame pixels) to the
-//! true frame k for
+//! In-between quality (issue 6, after neural-puppet.md §4.1; gaps and baselines from issue 19):
+//! on a sequence whose odd frames were held out of training, take two training frames `gap + 1`
+//! apart as keyframes, generate every held-out frame between them at its place in time
+//! (t = (j − k)/(gap + 1)) and measure the L2 (DESIGN.md: RGB on white, [0, 255], frame pixels)
+//! to the true frame for
 //!
-//! - **latent**: decode ½(z_{k−1} + z_{k+1}) and render (ours, §4.1);
-//! - **vertex**: render ½(v_{k−1} + v_{k+1}) of the two fitted meshes;
-//! - **nearest**: the training frame nearest (Euclidean image distance) to the latent render —
+//! - **latent**: the plain latent path of §4.1, between the keyframes' latents;
+//! - **keyed**: the default path — the latent path carried onto the keyframes' fits
+//!   ([`Interpolator::keyed_poses`]);
+//! - **vertex**: linear interpolation of the two fitted meshes;
+//! - **rigid**: their as-rigid-as-possible shape interpolation (Alexa et al. 2000);
+//! - **nearest**: the training frame nearest (Euclidean image distance) to the keyed render —
 //!   Figure 5's last row, used as an in-between;
-//! - **hold**: frame k − 1 itself (no in-betweening at all);
-//! - **fit**: the model's own reconstruction of frame k (how well it could do given the frame).
+//! - **hold**: the first keyframe itself (no in-betweening at all);
+//! - **fit**: the model's own fit of the true frame (how well it could do given the frame).
+//!
+//! Keyframes and held-out frames are fitted once each, with the options given.
+
+use std::collections::BTreeSet;
 
 use burn::tensor::Device;
 
 use crate::edit::inbetween::{nearest_frame, Interpolator};
 use crate::error::{Error, Result};
-use crate::fit::{fit, FitOptions};
+use crate::fit::{fit, fit_with_latents, FitOptions};
 use crate::metrics::l2;
 use crate::model::Model;
 use crate::picture::Picture;
 use crate::progress::Silent;
 use crate::render::render_crisp;
 
-/// Per held-out frame L2 of each method (module doc), frame index first.
+/// One generated frame's L2 by each method (module doc).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct InbetweenScore {
-    /// Index of the held-out frame k.
+    /// Index of the held-out frame generated.
     pub frame: usize,
-    /// Latent interpolation.
+    /// Frames between the two keyframes.
+    pub gap: usize,
+    /// Its place between them, (0, 1).
+    pub t: f32,
+    /// The plain latent path.
     pub latent: f64,
+    /// The latent path through the keyframes' fits (the default).
+    pub keyed: f64,
     /// Vertex-space interpolation.
     pub vertex: f64,
-    /// Nearest training frame to the latent render.
+    /// As-rigid-as-possible interpolation.
+    pub rigid: f64,
+    /// Nearest training frame to the keyed render.
     pub nearest: f64,
-    /// Frame k − 1 repeated.
+    /// The first keyframe repeated.
     pub hold: f64,
-    /// The model's fit of frame k.
+    /// The model's fit of the frame.
     pub fit: f64,
 }
 
-/// Scores every frame `k` in `held_out` that has both neighbours in `training` (indices into
-/// `frames`).
+/// Scores, for each of `gaps`, every frame of `held_out` (indices into `frames`) that lies
+/// between two frames of `training` that far apart.
 ///
 /// # Errors
-/// [`Error::Setting`] if no held-out frame has both neighbours among the training frames,
+/// [`Error::Setting`] if no held-out frame lies between two training frames at any gap;
 /// [`Error::Mismatch`] if a frame is not the puppet's size.
 pub fn inbetween_scores(
     model: &Model,
     frames: &[Picture],
     training: &[usize],
     held_out: &[usize],
+    gaps: &[usize],
     options: &FitOptions,
     device: &Device,
 ) -> Result<Vec<InbetweenScore>> {
-    let train_pics: Vec<Picture> = training.iter().filter_map(|&i| frames.get(i).cloned()).collect();
-    let (w, h) = (model.puppet.width, model.puppet.height);
-    let mut out = Vec::new();
-    for &k in held_out {
-        if k == 0 || k + 1 >= frames.len() || !training.contains(&(k - 1)) || !training.contains(&(k + 1)) {
-            continue;
+    let is_training: BTreeSet<usize> = training.iter().copied().filter(|&i| i < frames.len()).collect();
+    let is_held_out: BTreeSet<usize> = held_out.iter().copied().filter(|&i| i < frames.len()).collect();
+    // (gap, first keyframe, second keyframe, the held-out frames between them).
+    let mut spans = Vec::new();
+    for &gap in gaps {
+        for &k in &is_training {
+            let end = k + gap + 1;
+            let inside: Vec<usize> = (k + 1..end).filter(|j| is_held_out.contains(j)).collect();
+            if gap > 0 && is_training.contains(&end) && !inside.is_empty() {
+                spans.push((gap, k, end, inside));
+            }
         }
-        let interp = Interpolator::new(model, &frames[k - 1], &frames[k + 1], options, device)?;
-        let latent_pose = interp.latent_poses(model, &[0.5], device).pop().unwrap_or_default();
-        let latent = render_crisp(&model.puppet, &latent_pose, w, h)?;
-        let vertex = render_crisp(&model.puppet, &interp.vertex_pose(0.5), w, h)?;
-        let fit_pose = fit(model, &[&frames[k]], options, device, &Silent)?.pop().unwrap_or_default();
-        let fit = render_crisp(&model.puppet, &fit_pose, w, h)?;
-        let nearest = nearest_frame(&latent, &train_pics).map_or(f64::NAN, |(i, _)| l2(&train_pics[i], &frames[k]));
-        out.push(InbetweenScore {
-            frame: k,
-            latent: l2(&latent, &frames[k]),
-            vertex: l2(&vertex, &frames[k]),
-            nearest,
-            hold: l2(&frames[k - 1], &frames[k]),
-            fit: l2(&fit, &frames[k]),
-        });
     }
-    if out.is_empty() {
+    if spans.is_empty() {
         return Err(Error::setting(
             "in-between scores: held-out frames",
             held_out.len(),
-            "some with both neighbours among the training frames",
+            format!("some between two training frames {gaps:?} frames apart"),
         ));
     }
+    let keys: Vec<usize> = spans.iter().flat_map(|s| [s.1, s.2]).collect::<BTreeSet<_>>().into_iter().collect();
+    let targets: Vec<usize> = spans
+        .iter()
+        .flat_map(|s| s.3.iter().copied())
+        .collect::<BTreeSet<_>>()
+        .into_iter()
+        .collect();
+    let (key_latents, key_poses) = fit_with_latents(model, &pictures(frames, &keys), options, device, &Silent)?;
+    let target_fits = fit(model, &pictures(frames, &targets), options, device, &Silent)?;
+    let train_pics: Vec<Picture> = is_training.iter().map(|&i| frames[i].clone()).collect();
+    let (w, h) = (model.puppet.width, model.puppet.height);
+    let render = |pose: &[[f32; 2]]| render_crisp(&model.puppet, pose, w, h);
+    let key_at = |i: usize| keys.binary_search(&i).unwrap_or_default();
+    let mut out = Vec::new();
+    for (gap, a, b, inside) in spans {
+        let (ka, kb) = (key_at(a), key_at(b));
+        let interp = Interpolator::between(
+            model,
+            key_latents.clone().narrow(0, ka, 1),
+            key_latents.clone().narrow(0, kb, 1),
+            device,
+        )
+        .with_keys([key_poses[ka].clone(), key_poses[kb].clone()]);
+        let t: Vec<f32> = inside.iter().map(|&j| (j - a) as f32 / (gap + 1) as f32).collect();
+        let latent = interp.latent_poses(model, &t, device);
+        let keyed = interp.keyed_poses(model, &t, device);
+        let rigid = interp.rigid_poses(model, &t)?;
+        for (n, &j) in inside.iter().enumerate() {
+            let truth = &frames[j];
+            let keyed_picture = render(&keyed[n])?;
+            let nearest = nearest_frame(&keyed_picture, &train_pics).map_or(f64::NAN, |(i, _)| l2(&train_pics[i], truth));
+            let fitted = &target_fits[targets.binary_search(&j).unwrap_or_default()];
+            out.push(InbetweenScore {
+                frame: j,
+                gap,
+                t: t[n],
+                latent: l2(&render(&latent[n])?, truth),
+                keyed: l2(&keyed_picture, truth),
+                vertex: l2(&render(&interp.vertex_pose(t[n]))?, truth),
+                rigid: l2(&render(&rigid[n])?, truth),
+                nearest,
+                hold: l2(&frames[a], truth),
+                fit: l2(&render(fitted)?, truth),
+            });
+        }
+    }
     Ok(out)
+}
+
+/// The frames at `indices`.
+fn pictures<'a>(frames: &'a [Picture], indices: &[usize]) -> Vec<&'a Picture> {
+    indices.iter().map(|&i| &frames[i]).collect()
 }
 
 #[cfg(test)]
@@ -111,15 +169,20 @@ mod tests {
             vertex_steps: 0,
             ..FitOptions::default()
         };
-        let scores = inbetween_scores(&model, &frames, &[0, 2, 4], &[1, 3], &options, &device).unwrap();
-        assert_eq!(scores.iter().map(|s| s.frame).collect::<Vec<_>>(), vec![1, 3]);
+        let scores = inbetween_scores(&model, &frames, &[0, 2, 4], &[1, 3], &[1, 3], &options, &device).unwrap();
+        let placed: Vec<(usize, usize, f32)> = scores.iter().map(|s| (s.gap, s.frame, s.t)).collect();
+        assert_eq!(placed, vec![(1, 1, 0.5), (1, 3, 0.5), (3, 1, 0.25), (3, 3, 0.75)]);
         for s in &scores {
             // An untrained model predicts the rest pose: every method renders the rest frame.
             // (up to f32 rounding of the vertices' trip through the letterbox)
             let same = |x: f64| (x - s.hold).abs() < 1e-3;
-            assert!(same(s.latent) && same(s.vertex) && same(s.fit) && same(s.nearest), "{s:?}");
+            assert!(
+                same(s.latent) && same(s.keyed) && same(s.vertex) && same(s.rigid) && same(s.fit) && same(s.nearest),
+                "{s:?}"
+            );
             assert!(s.hold > 1000.0, "the shifted frame differs from the rest frame: {s:?}");
         }
-        assert!(inbetween_scores(&model, &frames, &[0, 1], &[3], &options, &device).is_err());
+        assert!(inbetween_scores(&model, &frames, &[0, 1], &[3], &[1], &options, &device).is_err());
+        assert!(inbetween_scores(&model, &frames, &[0, 2, 4], &[1, 3], &[5], &options, &device).is_err());
     }
 }

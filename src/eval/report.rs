@@ -9,7 +9,7 @@ use super::edit_poses::{drag_poses, inbetween_poses};
 use super::rig::{pose_scores, Scores};
 use super::visibility::visible_vertices;
 use crate::error::{Context, Error, Result};
-use crate::fit::{fit, FitOptions};
+use crate::fit::{fit_with_latents, FitOptions};
 use crate::metrics::{l2, masked_rmse, pck, silhouette_iou, vertex_error, PCK_ALPHAS};
 use crate::model::Model;
 use crate::picture::Picture;
@@ -74,7 +74,7 @@ pub struct Report {
     /// Means over frames (vertex error and PCK over frames with truth).
     pub mean: FrameScores,
     /// On a puppet with accessory layers: how the accessories hold up ([`pose_scores`], the
-    /// worst over the poses) on the fits, on latent in-betweens of consecutive frames and on
+    /// worst over the poses) on the fits, on in-betweens of consecutive frames (the default path) and on
     /// seeded drags ([`super::edit_poses`]).
     pub accessories: Option<AccessoryScores>,
 }
@@ -120,7 +120,7 @@ pub fn evaluate(
         model.check_frame(picture).at_path(&frames.files[i])?;
     }
     progress.stage("fit", pictures.len() as u64);
-    let fits = fit(model, &pictures, options, device, progress)?;
+    let (latents, fits) = fit_with_latents(model, &pictures, options, device, progress)?;
     let mut scores = Vec::with_capacity(indices.len());
     for ((&i, picture), fit) in indices.iter().zip(&pictures).zip(&fits) {
         let render = render_crisp(&model.puppet, fit, picture.width, picture.height)?;
@@ -152,7 +152,7 @@ pub fn evaluate(
     let accessories = match pose_scores(&model.puppet, &fits, progress) {
         Some(on_fits) => {
             progress.stage("in-betweens and drags", 1);
-            let inbetweens = inbetween_poses(model, &pictures, options, device)?;
+            let inbetweens = inbetween_poses(model, &latents, &fits, device);
             let drags = drag_poses(model, &pictures, options, device, DRAG_SEED)?;
             progress.advance(1);
             Some(AccessoryScores {

@@ -145,24 +145,47 @@ pub fn fit(
     device: &Device,
     progress: &dyn Progress,
 ) -> Result<Vec<Vec<[f32; 2]>>> {
-    let mut out = Vec::with_capacity(frames.len());
-    for chunk in frames.chunks(BATCH) {
-        out.extend(fit_batch(model, chunk, options, device)?);
-        progress.advance(chunk.len() as u64);
-    }
-    Ok(out)
+    Ok(fit_with_latents(model, frames, options, device, progress)?.1)
 }
 
-/// One batch of [`fit`].
-fn fit_batch(model: &Model, frames: &[&Picture], options: &FitOptions, device: &Device) -> Result<Vec<Vec<[f32; 2]>>> {
+/// [`fit`] that also returns each frame's latent `[N, Z]` after the latent steps: the point on
+/// the decoder's manifold the vertex stage started from (an in-between's learned path runs
+/// between these and is carried onto the fits by their residuals).
+///
+/// # Errors
+/// As [`fit_latents`].
+pub fn fit_with_latents(
+    model: &Model,
+    frames: &[&Picture],
+    options: &FitOptions,
+    device: &Device,
+    progress: &dyn Progress,
+) -> Result<(Tensor<2>, Vec<Vec<[f32; 2]>>)> {
+    let mut latents = Vec::new();
+    let mut poses = Vec::with_capacity(frames.len());
+    for chunk in frames.chunks(BATCH) {
+        let (z, p) = fit_batch(model, chunk, options, device)?;
+        latents.push(z);
+        poses.extend(p);
+        progress.advance(chunk.len() as u64);
+    }
+    if latents.is_empty() {
+        return Ok((model.encode(frames, device)?, poses));
+    }
+    Ok((Tensor::cat(latents, 0), poses))
+}
+
+/// One batch of [`fit`]: the latents after the latent steps and the fitted poses.
+fn fit_batch(model: &Model, frames: &[&Picture], options: &FitOptions, device: &Device) -> Result<(Tensor<2>, Vec<Vec<[f32; 2]>>)> {
     if !options.moves_vertices() || frames.is_empty() {
         let z = fit_latents(model, frames, options, device)?;
-        return Ok(model.to_frame_vertices(model.decode(z, device)));
+        let poses = model.to_frame_vertices(model.decode(z.clone(), device));
+        return Ok((z, poses));
     }
     // One analysis (rasterizer, objective, network input) for both stages.
     let analysis = Analysis::new(model, frames, options, device)?;
     let z = analysis.latents(model.net.encode(analysis.images.clone()))?;
-    let mut poses = model.to_frame_vertices(model.decode(z, device));
+    let mut poses = model.to_frame_vertices(model.decode(z.clone(), device));
     for _ in 0..options.vertex_rounds {
         if let Some(search) = &options.limb_search {
             for (pose, frame) in poses.iter_mut().zip(frames) {
@@ -172,7 +195,7 @@ fn fit_batch(model: &Model, frames: &[&Picture], options: &FitOptions, device: &
         let free = analysis.vertices(model.to_work_free(&poses, device))?;
         poses = model.to_frame_vertices(analysis.decoder.expand(free));
     }
-    Ok(poses)
+    Ok((z, poses))
 }
 
 /// The latents `[B, Z]` of `frames` (one batch): the encoder's, then `options.latent_steps`

@@ -18,6 +18,8 @@
 //! - [`arap::ArapEnergy`]: energy (eq. 2) and its gradient, batched, f32 or f64.
 //! - [`arap::ArapSolver`]: local/global ARAP deformation with positional handles.
 //! - [`bbw::bbw`]: bounded biharmonic skinning weights of point handles, rows summing to one.
+//! - [`rigid_interpolation::RigidInterpolation`]: as-rigid-as-possible shape interpolation
+//!   between two poses (Alexa et al. 2000), the classical in-between.
 //! - [`components::component_labels`]: connected components of vertices joined by edges.
 
 pub mod arap;
@@ -25,6 +27,7 @@ pub mod bbw;
 pub mod components;
 pub mod cotan_laplacian;
 pub mod min_quad_with_fixed;
+pub mod rigid_interpolation;
 pub mod triangle;
 
 pub use arap::{arap_energy, best_fit_rotations, ArapEnergy, ArapSolver};
@@ -32,3 +35,4 @@ pub use bbw::{bbw, lumped_mass, BbwError, BbwOptions, BbwWeights, MassMatrix, Me
 pub use components::{component_labels, triangle_edges};
 pub use cotan_laplacian::{cotan_laplacian, cotan_weights, CotanEdge};
 pub use min_quad_with_fixed::MinQuadWithFixed;
+pub use rigid_interpolation::RigidInterpolation;
