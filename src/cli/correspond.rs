@@ -50,7 +50,7 @@ pub struct CorrespondArgs {
     pub sequence: Option<PathBuf>,
     /// With --sequence: score pairs of the odd-numbered frames (held out by a model trained on
     /// the even frames, configs/edit-walk-23.toml) instead of split.json's test frames.
-    #[arg(long, requires = "sequence")]
+    #[arg(long, conflicts_with_all = ["frames", "points"])]
     pub odd: bool,
     /// Output JSON.
     #[arg(short, long, value_name = "FILE")]
@@ -179,6 +179,12 @@ mod tests {
                 .map(|_: crate::cli::Cli| ())
                 .is_err(),
             "the output is required"
+        );
+        assert!(
+            clap::Parser::try_parse_from(["puppet", "correspond", "--model", "m", "a.png", "b.png", "-o", "c.json", "--odd"])
+                .map(|_: crate::cli::Cli| ())
+                .is_err(),
+            "--odd belongs to --sequence"
         );
         assert_eq!(picture_path(std::path::Path::new("x.png")), std::path::Path::new("x_pairs.png"));
     }

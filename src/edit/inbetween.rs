@@ -432,7 +432,6 @@ mod tests {
         let interp = Interpolator::new(&model, &a, &b, &options, &device).unwrap();
         let plain = interp.latent_poses(&model, &[1.0], &device).pop().unwrap();
         assert!(gap(&plain, &fits[1]) > 1.0, "{}", gap(&plain, &fits[1]));
-        assert!(l2_to(&out.latent[2], &b) < l2_to(&plain, &b));
         // Half way, the offsets of both ends are carried half each.
         let mid = interp.latent_poses(&model, &[0.5], &device).pop().unwrap();
         let ends = interp.latent_poses(&model, &[0.0, 1.0], &device);
