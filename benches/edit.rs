@@ -3,7 +3,9 @@
 //! 96×128 frame) and one in-between frame (one decode + a crisp render), on the Kenney robot's
 //! puppet with the paper-size network at 128² input. Weights are random (the decoder's last
 //! layer too, so the latent moves the pose as in a trained model); time does not depend on them.
-//! Ids: `edit/drag/steps=5/pins=1`, `edit/inbetween/frame`.
+//! Ids: `edit/drag/steps=5/pins=1`, `edit/inbetween/frame`; beside it the as-rigid-as-possible
+//! in-between: `edit/inbetween/arap_setup` (the system factorised for two keyframes) and
+//! `edit/inbetween/arap_frame` (one solve + the crisp render).
 
 // Benchmarks print their figures, read their own committed data, and criterion's macros write
 // undocumented functions.
@@ -14,7 +16,7 @@ use std::hint::black_box;
 use burn::module::{Module, ModuleMapper, Param};
 use burn::tensor::{Distribution, Tensor};
 use criterion::{criterion_group, criterion_main, Criterion};
-use puppet::edit::inbetween::Interpolator;
+use puppet::edit::inbetween::{rigid_interpolation, Interpolator};
 use puppet::edit::pose::{PoseEditor, PoseOptions};
 use puppet::fit::FitOptions;
 use puppet::model::deformation::DeformationNetConfig;
@@ -83,6 +85,20 @@ fn bench(c: &mut Criterion) {
             t = (t + 0.137) % 1.0;
             let pose = interp.latent_poses(&model, &[t], &device).pop().expect("one pose");
             black_box(render_crisp(&model.puppet, &pose, w, h).expect("render"))
+        })
+    });
+    group.bench_function("inbetween/arap_setup", |b| {
+        b.iter(|| {
+            let [key_a, key_b] = interp.keys();
+            black_box(rigid_interpolation(&model.puppet, key_a, key_b).expect("interpolation"))
+        })
+    });
+    let [key_a, key_b] = interp.keys();
+    let mut rigid = rigid_interpolation(&model.puppet, key_a, key_b).expect("interpolation");
+    group.bench_function("inbetween/arap_frame", |b| {
+        b.iter(|| {
+            t = (t + 0.137) % 1.0;
+            black_box(render_crisp(&model.puppet, &rigid.at(f64::from(t)), w, h).expect("render"))
         })
     });
     group.finish();
