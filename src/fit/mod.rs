@@ -268,8 +268,9 @@ impl<'a> Analysis<'a> {
     }
 
     /// Adam on `x`, whose image under `to_vertices` is scored by the objective. The objective is
-    /// a batch mean, so each frame's unknowns see only its own frame's terms (scaled by 1/B,
-    /// which Adam's normalisation removes).
+    /// a batch mean, so each frame's unknowns see only its own frame's terms, scaled by 1/B; the
+    /// total is multiplied back by B because Adam's ε is not scale-free: without it a frame's fit
+    /// depended on how many frames shared its batch.
     fn descend<const D: usize>(
         &self,
         x0: Tensor<D>,
@@ -286,8 +287,9 @@ impl<'a> Analysis<'a> {
                 .autodiff()
                 .require_grad();
             let vertices = to_vertices(xt.clone());
+            let batch = shape[0] as f32;
             let total = self.objective.evaluate(vertices, self.images.clone(), sigma(k), self.device)?.total;
-            let grads = total.backward();
+            let grads = total.mul_scalar(batch).backward();
             let g = xt
                 .grad(&grads)
                 .ok_or_else(|| Error::backend("fit", "no gradient reached the unknowns"))?;
