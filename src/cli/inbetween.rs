@@ -97,7 +97,9 @@ pub fn run(args: InbetweenArgs, s: &Session) -> anyhow::Result<()> {
     let model = Model::load(dir, &device)?;
     let options = args.fit.options(dir)?;
     if let Some(seq) = &args.score {
-        let gaps = if args.gaps.is_empty() { vec![1] } else { args.gaps };
+        let mut gaps = if args.gaps.is_empty() { vec![1] } else { args.gaps };
+        gaps.sort_unstable();
+        gaps.dedup();
         return score(&model, seq, &gaps, &options, s);
     }
     let (Some(a_path), Some(b_path), Some(out)) = (&args.a, &args.b, &args.output) else {

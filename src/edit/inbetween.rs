@@ -26,6 +26,7 @@ use crate::error::{Error, Result};
 use crate::fit::{fit_with_latents, FitOptions};
 use crate::geom::RigidInterpolation;
 use crate::model::Model;
+use crate::objective::regularised_triangles;
 use crate::picture::contact_sheet;
 use crate::picture::Picture;
 use crate::progress::{Progress, Silent};
@@ -178,20 +179,20 @@ impl Interpolator {
     }
 }
 
-/// [`RigidInterpolation`] between two poses of `puppet`: one mesh of all its layers, each layer's
-/// triangles a group, its root layer the anchor, its joints the links.
+/// [`RigidInterpolation`] between two poses of `puppet`: the triangles its ARAP term holds
+/// ([`regularised_triangles`]: with an accessory rig only the body's, which the rig then dresses),
+/// each layer's a group, its root layer the anchor, its joints the links.
 ///
 /// # Errors
 /// As [`RigidInterpolation::new`].
 pub fn rigid_interpolation(puppet: &Puppet, a: &[[f32; 2]], b: &[[f32; 2]]) -> Result<RigidInterpolation> {
     let offsets = puppet.vertex_offsets();
-    let mut triangles = Vec::new();
-    let mut groups = Vec::new();
-    for (k, layer) in puppet.layers.iter().enumerate() {
-        let first = offsets[k] as u32;
-        triangles.extend(layer.mesh.triangles.iter().map(|t| t.map(|i| i + first)));
-        groups.extend(std::iter::repeat_n(k as u32, layer.mesh.triangles.len()));
-    }
+    let triangles = regularised_triangles(puppet);
+    // A triangle's layer is its first vertex's: the last layer starting at or before it.
+    let groups: Vec<u32> = triangles
+        .iter()
+        .map(|t| (offsets.partition_point(|&o| o <= t[0] as usize) - 1) as u32)
+        .collect();
     let links: Vec<[u32; 2]> = puppet
         .joints
         .iter()
@@ -305,8 +306,16 @@ pub fn write_inbetweens(
         outputs.claim(path)?;
     }
     let mut latent = AnimationWriter::new(&files.latent, n, w, h, outputs)?;
-    let mut vertex = AnimationWriter::new(&files.vertex, n, w, h, outputs)?;
-    let mut rigid = AnimationWriter::new(&files.rigid, n, w, h, outputs)?;
+    // The comparisons are rendered only where they are written.
+    let comparison = |files: &AnimationFiles| {
+        (!files.is_empty())
+            .then(|| AnimationWriter::new(files, n, w, h, outputs))
+            .transpose()
+    };
+    let mut comparisons = [
+        (comparison(&files.vertex)?, &inbetweens.vertex),
+        (comparison(&files.rigid)?, &inbetweens.rigid),
+    ];
     let mut nearest = (!training.is_empty())
         .then(|| AnimationWriter::new(&files.nearest, n, w, h, outputs))
         .transpose()?;
@@ -317,8 +326,11 @@ pub fn write_inbetweens(
             writer.push(&training[i])?;
         }
         latent.push(&picture)?;
-        vertex.push(&render_crisp(&model.puppet, &inbetweens.vertex[k], w, h)?)?;
-        rigid.push(&render_crisp(&model.puppet, &inbetweens.rigid[k], w, h)?)?;
+        for (writer, poses) in &mut comparisons {
+            if let Some(writer) = writer {
+                writer.push(&render_crisp(&model.puppet, &poses[k], w, h)?)?;
+            }
+        }
         if let Some(path) = pose_paths.get(k) {
             let pose = PoseFile {
                 vertices: inbetweens.latent[k].clone(),
@@ -332,9 +344,7 @@ pub fn write_inbetweens(
     }
     let mut written = pose_paths;
     written.extend(latent.finish()?);
-    written.extend(vertex.finish()?);
-    written.extend(rigid.finish()?);
-    if let Some(writer) = nearest {
+    for writer in comparisons.into_iter().filter_map(|(writer, _)| writer).chain(nearest) {
         written.extend(writer.finish()?);
     }
     Ok(written)

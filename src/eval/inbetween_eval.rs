@@ -75,7 +75,9 @@ pub fn inbetween_scores(
     let mut spans = Vec::new();
     for &gap in gaps {
         for &k in &is_training {
-            let end = k + gap + 1;
+            let Some(end) = k.checked_add(gap).and_then(|e| e.checked_add(1)) else {
+                continue;
+            };
             let inside: Vec<usize> = (k + 1..end).filter(|j| is_held_out.contains(j)).collect();
             if gap > 0 && is_training.contains(&end) && !inside.is_empty() {
                 spans.push((gap, k, end, inside));

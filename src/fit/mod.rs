@@ -282,12 +282,12 @@ impl<'a> Analysis<'a> {
         let shape = x0.dims();
         let mut x = to_vec(x0);
         let mut adam = Adam::new(x.len());
+        let batch = shape[0] as f32;
         for k in 0..steps {
             let xt = Tensor::<D>::from_data(TensorData::new(x.clone(), shape), self.device)
                 .autodiff()
                 .require_grad();
             let vertices = to_vertices(xt.clone());
-            let batch = shape[0] as f32;
             let total = self.objective.evaluate(vertices, self.images.clone(), sigma(k), self.device)?.total;
             let grads = total.mul_scalar(batch).backward();
             let g = xt

@@ -57,11 +57,11 @@ pub struct RigidInterpolation {
     /// Each link's vertices and their offset x_i − x_j in a and in b.
     links: Vec<([u32; 2], [[f64; 2]; 2])>,
     system: MinQuadWithFixed,
-    /// Component of each vertex, whether it counts towards its component's centroid, and each
-    /// component's centroid in a and b.
+    /// Component of each vertex, whether it counts towards its component's centroid, and the
+    /// components' centroids in a and b.
     component: Vec<usize>,
     counted: Vec<bool>,
-    centroids: Vec<[[f64; 2]; 2]>,
+    centroids: [Vec<[f64; 2]>; 2],
 }
 
 impl RigidInterpolation {
@@ -158,9 +158,7 @@ impl RigidInterpolation {
             has_anchor[c] |= anchored[v];
         }
         let counted: Vec<bool> = (0..n).map(|v| anchored[v] || !has_anchor[component[v]]).collect();
-        let centroids = (0..count)
-            .map(|c| [centroid(&a, &component, &counted, c), centroid(&b, &component, &counted, c)])
-            .collect();
+        let centroids = [&a, &b].map(|p| centroids(p, &component, &counted, count));
         let links = links
             .iter()
             .map(|&[i, j]| ([i, j], [sub(a[i as usize], a[j as usize]), sub(b[i as usize], b[j as usize])]))
@@ -203,19 +201,16 @@ impl RigidInterpolation {
         let fixed = vec![[0.0; 2]; self.system.fixed().len()];
         let mut x = vec![[0.0; 2]; n];
         self.system.solve(&rhs, &fixed, &mut x);
-        for (c, ends) in self.centroids.iter().enumerate() {
-            let now = centroid(&x, &self.component, &self.counted, c);
-            let want = [
-                ends[0][0] + t * (ends[1][0] - ends[0][0]),
-                ends[0][1] + t * (ends[1][1] - ends[0][1]),
-            ];
-            let shift = sub(want, now);
-            for (p, _) in x.iter_mut().zip(&self.component).filter(|(_, &k)| k == c) {
-                p[0] += shift[0];
-                p[1] += shift[1];
-            }
-        }
-        x.into_iter().map(|p| [p[0] as f32, p[1] as f32]).collect()
+        let now = centroids(&x, &self.component, &self.counted, self.centroids[0].len());
+        let shifts: Vec<[f64; 2]> = now
+            .iter()
+            .zip(self.centroids[0].iter().zip(&self.centroids[1]))
+            .map(|(now, (a, b))| sub([a[0] + t * (b[0] - a[0]), a[1] + t * (b[1] - a[1])], *now))
+            .collect();
+        x.iter()
+            .zip(&self.component)
+            .map(|(p, &c)| [(p[0] + shifts[c][0]) as f32, (p[1] + shifts[c][1]) as f32])
+            .collect()
     }
 }
 
@@ -307,14 +302,13 @@ fn corner_pairs(t: [u32; 3]) -> [(u32, u32); 3] {
     [(t[0], t[1]), (t[1], t[2]), (t[2], t[0])]
 }
 
-/// The mean of the counted vertices of component `c`.
-fn centroid(p: &[[f64; 2]], component: &[usize], counted: &[bool], c: usize) -> [f64; 2] {
-    let (mut s, mut k) = ([0.0, 0.0], 0.0);
-    for ((q, _), _) in p.iter().zip(component).zip(counted).filter(|((_, &l), &yes)| l == c && yes) {
-        s = [s[0] + q[0], s[1] + q[1]];
-        k += 1.0;
+/// The mean of each of `count` components' counted vertices, in one pass.
+fn centroids(p: &[[f64; 2]], component: &[usize], counted: &[bool], count: usize) -> Vec<[f64; 2]> {
+    let mut sums = vec![[0.0f64; 3]; count];
+    for ((q, &c), _) in p.iter().zip(component).zip(counted).filter(|(_, &yes)| yes) {
+        sums[c] = [sums[c][0] + q[0], sums[c][1] + q[1], sums[c][2] + 1.0];
     }
-    [s[0] / k, s[1] / k]
+    sums.into_iter().map(|[x, y, k]| [x / k, y / k]).collect()
 }
 
 fn sub(a: [f64; 2], b: [f64; 2]) -> [f64; 2] {

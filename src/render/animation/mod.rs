@@ -59,6 +59,14 @@ pub struct AnimationFiles {
     pub there_and_back: bool,
 }
 
+impl AnimationFiles {
+    /// Whether no output is asked for (a writer for it writes nothing, so its frames need not
+    /// be rendered).
+    pub fn is_empty(&self) -> bool {
+        self.frames.is_none() && self.sprites.is_none() && self.gif.is_none() && self.apng.is_none()
+    }
+}
+
 impl Default for AnimationFiles {
     fn default() -> Self {
         AnimationFiles {
