@@ -4,7 +4,7 @@
 //! fastest on our conv + FC training step (benches/README.md, `cargo bench --bench backend`).
 //! Another backend (wgpu, cuda) is a one-line change in [`device`].
 
-use burn::tensor::Device;
+use burn::tensor::{Device, Tensor};
 
 /// The concrete backend type behind [`device`], for the custom autodiff ops that must unwrap a
 /// tensor's primitive (`render::burn_op`). Change it together with [`device`].
@@ -44,4 +44,13 @@ pub fn name() -> &'static str {
     } else {
         "cpu"
     }
+}
+
+/// The value of a one-element tensor (a loss) as f64; NaN if it cannot be read.
+pub fn scalar(t: &Tensor<1>) -> f64 {
+    t.clone()
+        .into_data()
+        .convert::<f64>()
+        .try_to_vec::<f64>()
+        .map_or(f64::NAN, |v| v[0])
 }

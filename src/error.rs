@@ -24,6 +24,8 @@ pub enum FolderKind {
     Model,
     /// A sequence of frames (PNG files, or a folder holding `frames/`).
     Sequence,
+    /// A trained appearance stage: `appearance/` in a model folder.
+    Appearance,
 }
 
 impl fmt::Display for FolderKind {
@@ -33,6 +35,7 @@ impl fmt::Display for FolderKind {
             FolderKind::Puppet => "a puppet folder (puppet.json and textures/)",
             FolderKind::Model => "a model folder (net.json, weights.bpk, puppet/, train.toml)",
             FolderKind::Sequence => "a sequence of frames (PNG files, or a folder holding frames/)",
+            FolderKind::Appearance => "a trained appearance stage (appearance/ with net.json, generator.bpk and stage.json)",
         })
     }
 }

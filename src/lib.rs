@@ -29,6 +29,7 @@ pub mod model;
 pub mod objective;
 pub mod train;
 // Layer 5, using a model.
+pub mod appearance;
 pub mod edit;
 pub mod fit;
 // Layer 6, products.

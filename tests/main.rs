@@ -6,6 +6,7 @@
 // (clippy.toml covers only #[test] bodies).
 #![allow(clippy::unwrap_used, clippy::print_stdout, clippy::print_stderr)]
 
+mod appearance;
 mod bad_input;
 mod browser;
 mod cli;

@@ -35,7 +35,7 @@ fn tiny_run(dir: &Path, steps: u64) -> (PathBuf, PathBuf, PathBuf) {
 }
 
 /// Every file under `dir` with its bytes, sorted by path.
-fn snapshot(dir: &Path) -> Vec<(PathBuf, Vec<u8>)> {
+pub fn snapshot(dir: &Path) -> Vec<(PathBuf, Vec<u8>)> {
     let mut out = Vec::new();
     let mut stack = vec![dir.to_path_buf()];
     while let Some(d) = stack.pop() {

@@ -3,7 +3,8 @@
 use std::path::PathBuf;
 
 use anyhow::Context;
-use puppet::eval::report::evaluate;
+use puppet::appearance::AppearanceStage;
+use puppet::eval::report::{evaluate, Scoring};
 use puppet::fit::frame::frame_check;
 use puppet::model::Model;
 use puppet::puppet::sequence::Frames;
@@ -34,6 +35,9 @@ pub struct EvalArgs {
     pub output: Option<PathBuf>,
     #[command(flatten)]
     pub fit: FitArgs,
+    /// Also score the appearance stage's redraw of each fit (`puppet appearance train`).
+    #[arg(long)]
+    pub appearance: bool,
 }
 
 /// Runs `puppet eval`.
@@ -45,6 +49,7 @@ pub fn run(args: EvalArgs, s: &Session) -> anyhow::Result<()> {
     let dir = &args.model.model;
     let model = Model::load(dir, &device)?;
     let options = args.fit.options(dir)?;
+    let stage = args.appearance.then(|| AppearanceStage::load(dir, &model, &device)).transpose()?;
     let (frames, bad) = Frames::load_each(&args.sequence, &frame_check(&model))?;
     let truth = Truth::for_sequence(&args.sequence)?;
     let names = frames.names();
@@ -75,7 +80,18 @@ pub fn run(args: EvalArgs, s: &Session) -> anyhow::Result<()> {
     let report = if indices.is_empty() && held_out.is_some() && !bad.is_empty() {
         None
     } else {
-        Some(evaluate(&model, &frames, &indices, truth.as_ref(), &options, &device, &s.ui)?)
+        Some(evaluate(
+            &model,
+            &frames,
+            &indices,
+            truth.as_ref(),
+            &Scoring {
+                fit: &options,
+                appearance: stage.as_ref(),
+            },
+            &device,
+            &s.ui,
+        )?)
     };
     s.ui.finish();
     if let Some(report) = &report {
@@ -99,5 +115,6 @@ mod tests {
     fn parses_the_sequence_and_options() {
         parses(&["eval", "--model", "m", "seq", "--all", "-o", "r.json", "--one-pass"]);
         parses(&["eval", "--model", "m", "seq", "--vertex-rounds", "1"]);
+        parses(&["eval", "--model", "m", "seq", "--one-pass", "--appearance"]);
     }
 }

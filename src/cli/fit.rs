@@ -2,6 +2,7 @@
 
 use std::path::PathBuf;
 
+use puppet::appearance::AppearanceStage;
 use puppet::atomic_file::unique_stems;
 use puppet::fit::{fit, frame};
 use puppet::model::Model;
@@ -42,6 +43,10 @@ pub struct FitArgs {
     pub outfit: OutfitArgs,
     #[command(flatten)]
     pub animation: AnimationArgs,
+    /// Also write the appearance stage's redraw of each fit (NAME_generated.png; a fourth column
+    /// in sheet.png).
+    #[arg(long)]
+    pub appearance: bool,
     /// Cells per row of sprites.png.
     #[arg(long, default_value_t = 8, value_name = "N")]
     pub columns: usize,
@@ -55,6 +60,7 @@ pub fn run(args: FitArgs, s: &Session) -> anyhow::Result<()> {
     let options = args.fit.options(dir)?;
     let worn = args.outfit.model(&model, &s.ui)?;
     let drawn = worn.as_ref().unwrap_or(&model);
+    let stage = args.appearance.then(|| AppearanceStage::load(dir, &model, &device)).transpose()?;
     let check = frame::frame_check(&model);
     let (mut files, mut pictures, mut problems) = (Vec::new(), Vec::new(), Vec::new());
     for path in &args.frames {
@@ -80,9 +86,13 @@ pub fn run(args: FitArgs, s: &Session) -> anyhow::Result<()> {
     let stems = unique_stems(&files);
     let out = &args.output;
     let paths = |stem: &str| ["render.png", "overlay.png", "vertices.json"].map(|end| out.join(format!("{stem}_{end}")));
+    let generated_path = |stem: &str| out.join(format!("{stem}_generated.png"));
     for stem in &stems {
         for path in paths(stem) {
             s.outputs.claim(&path)?;
+        }
+        if stage.is_some() {
+            s.outputs.claim(&generated_path(stem))?;
         }
     }
     let sheet_path = out.join("sheet.png");
@@ -111,14 +121,28 @@ pub fn run(args: FitArgs, s: &Session) -> anyhow::Result<()> {
         let overlay = wireframe_preview(&drawn.puppet, &pose, picture, scale);
         s.save_png(&render_path, &render)?;
         s.save_png(&overlay_path, &overlay)?;
-        s.outputs.write(&vertices_path, &PoseFile { vertices: pose }.to_json())?;
+        s.outputs.write(&vertices_path, &PoseFile { vertices: pose.clone() }.to_json())?;
+        let generated = match &stage {
+            Some(stage) => {
+                let (_, generated) = stage
+                    .render_and_redraw(&drawn.puppet, std::slice::from_ref(&pose), &device)?
+                    .remove(0);
+                s.save_png(&generated_path(stem), &generated)?;
+                Some(generated)
+            }
+            None => None,
+        };
         if shown.contains(&k) {
             rows.extend([picture.upscaled_on_white(scale), render.upscaled_on_white(scale), overlay]);
+            rows.extend(generated.map(|g| g.upscaled_on_white(scale)));
         }
         s.ui.advance(1);
     }
     if !rows.is_empty() {
-        s.save_png(&sheet_path, &contact_sheet(&rows.iter().collect::<Vec<_>>(), 3))?;
+        s.save_png(
+            &sheet_path,
+            &contact_sheet(&rows.iter().collect::<Vec<_>>(), 3 + usize::from(stage.is_some())),
+        )?;
     }
     animation.finish()?;
     s.ui.finish();

@@ -6,6 +6,7 @@ use std::path::{Path, PathBuf};
 
 use anyhow::Context;
 
+use puppet::appearance::AppearanceStage;
 use puppet::edit::inbetween::{comparison_sheet, inbetween, write_inbetweens, InbetweenFiles, MAX_STEPS};
 use puppet::edit::timing::{eased_t, spacing_t, Easing};
 use puppet::eval::inbetween_eval::{inbetween_scores, InbetweenScore};
@@ -15,7 +16,7 @@ use puppet::metrics::l2;
 use puppet::model::Model;
 use puppet::progress::Progress;
 use puppet::puppet::sequence::Frames;
-use puppet::render::animation::AnimationFiles;
+use puppet::render::animation::{AnimationFiles, AnimationWriter};
 use puppet::render::render_crisp;
 
 use super::args::{AnimationArgs, FitArgs, ModelArgs, OutfitArgs};
@@ -83,6 +84,9 @@ pub struct InbetweenArgs {
     pub fit: FitArgs,
     #[command(flatten)]
     pub outfit: OutfitArgs,
+    /// Also redraw the in-betweens with the model's appearance stage (generated/).
+    #[arg(long)]
+    pub appearance: bool,
 }
 
 /// Runs `puppet inbetween`.
@@ -112,9 +116,15 @@ pub fn run(args: InbetweenArgs, s: &Session) -> anyhow::Result<()> {
         Some(dir) => Frames::load(dir, &frame_check(&model))?.frames,
         None => Vec::new(),
     };
+    let stage = args.appearance.then(|| AppearanceStage::load(dir, &model, &device)).transpose()?;
     let files = files(&args, out);
     let sheet_path = out.join("sheet.png");
     s.outputs.claim(&sheet_path)?;
+    let generated_files = AnimationFiles {
+        frames: Some((out.join("generated"), "step".into())),
+        background: args.animation.background,
+        ..AnimationFiles::default()
+    };
     s.ui.stage("inbetween", 0);
     let mut ib = inbetween(&model, &a, &b, &t, &options, &device)?;
     let (w, h) = (model.puppet.width, model.puppet.height);
@@ -127,20 +137,28 @@ pub fn run(args: InbetweenArgs, s: &Session) -> anyhow::Result<()> {
     }
     let drawn = worn.as_ref().unwrap_or(&model);
     write_inbetweens(drawn, &ib, &training, &files, &s.outputs, &s.ui)?;
+    if let Some(stage) = &stage {
+        let mut writer = AnimationWriter::new(&generated_files, ib.latent.len(), w, h, &s.outputs)?;
+        for (_, generated) in stage.render_and_redraw(&drawn.puppet, &ib.latent, &device)? {
+            writer.push(&generated)?;
+        }
+        writer.finish()?;
+    }
     s.save_png(&sheet_path, &comparison_sheet(drawn, &ib, &training)?)?;
     s.ui.finish();
     for path in args.animation.animations() {
         s.ui.say(format!("wrote {}", path.display()))?;
     }
     s.ui.say(format!(
-        "{} in-betweens ({} frames with the two ends, {}) from {} to {} → {} (latent/, vertex/, arap/{}, sheet.png, sprites.png + sprites.json)",
+        "{} in-betweens ({} frames with the two ends, {}) from {} to {} → {} (latent/, vertex/, arap/{}{}, sheet.png, sprites.png + sprites.json)",
         t.len() - 2,
         t.len(),
         if args.spacing.is_empty() { args.easing.to_string() } else { "spaced by hand".to_string() },
         a_path.display(),
         b_path.display(),
         out.display(),
-        if training.is_empty() { "" } else { ", nearest/" }
+        if training.is_empty() { "" } else { ", nearest/" },
+        if stage.is_some() { ", generated/" } else { "" }
     ))?;
     s.ui.say(format!(
         "the first and last frames are the keyframes' fits: L2 {key_a:.0} to {} and {key_b:.0} to {}",
@@ -222,6 +240,7 @@ mod tests {
         ]));
         parses(&ab(&["--easing", "ease-in-out"]));
         parses(&ab(&["--spacing", "0.1,0.5,0.9"]));
+        parses(&ab(&["--appearance"]));
         parses(&["inbetween", "--model", "m", "--score", "seq"]);
         parses(&["inbetween", "--model", "m", "--score", "seq", "--gaps", "1,3,5", "--one-pass"]);
         for bad in [

@@ -6,6 +6,7 @@ use clap::{Parser, Subcommand};
 use puppet::atomic_file::Outputs;
 use puppet::error::FolderKind;
 
+mod appearance;
 mod args;
 mod build;
 mod correspond;
@@ -69,6 +70,7 @@ impl Session {
 /// The subcommands.
 #[derive(Debug, Subcommand)]
 enum Command {
+    Appearance(appearance::AppearanceArgs),
     Build(build::BuildArgs),
     Correspond(correspond::CorrespondArgs),
     Demo(demo::DemoArgs),
@@ -97,6 +99,7 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
     };
     let s = &session;
     let result = match cli.command {
+        Command::Appearance(args) => appearance::run(args, s),
         Command::Build(args) => build::run(args, s),
         Command::Correspond(args) => correspond::run(args, s),
         Command::Demo(args) => demo::run(args, s),

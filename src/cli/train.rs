@@ -45,11 +45,7 @@ pub fn run(args: TrainArgs, s: &Session) -> anyhow::Result<()> {
         };
         format!(", last loss {:.4e} (rec {:.4e}{held_out})", r.total, r.rec)
     });
-    let state = if summary.finished {
-        "done"
-    } else {
-        "paused (continue with --resume)"
-    };
+    let state = run_state(summary.finished);
     s.ui.say(format!(
         "{state}: {} steps on {n_train} frames ({n_test} held out), batch {}, {:.1} images/s{last} → {}",
         summary.steps,
@@ -57,6 +53,15 @@ pub fn run(args: TrainArgs, s: &Session) -> anyhow::Result<()> {
         summary.images_per_second,
         config.output.display()
     ))
+}
+
+/// How a training run ended, for its summary line.
+pub fn run_state(finished: bool) -> &'static str {
+    if finished {
+        "done"
+    } else {
+        "paused (continue with --resume)"
+    }
 }
 
 #[cfg(test)]

@@ -8,6 +8,7 @@ use serde::Serialize;
 use super::edit_poses::{drag_poses, inbetween_poses};
 use super::rig::{pose_scores, Scores};
 use super::visibility::visible_vertices;
+use crate::appearance::AppearanceStage;
 use crate::error::{Context, Error, Result};
 use crate::fit::{fit_with_latents, FitOptions};
 use crate::metrics::{l2, masked_rmse, pck, silhouette_iou, vertex_error, PCK_ALPHAS};
@@ -50,6 +51,11 @@ pub struct FrameScores {
     /// On a puppet with accessory layers (ground truth only): vertex error of the body layers'
     /// vertices and of the accessories' vertices, each over all and over visible vertices.
     pub split: Option<SplitError>,
+    /// With an appearance stage: L2 of the generator's redraw of the render (Table 1's
+    /// "generated" beside `l2`, its "rendered").
+    pub generated_l2: Option<f64>,
+    /// With an appearance stage: silhouette IoU of the redraw.
+    pub generated_iou: Option<f64>,
 }
 
 /// Vertex errors of a dressed puppet, body and accessories apart (pixels; `None` where a group
@@ -92,11 +98,21 @@ pub struct AccessoryScores {
     pub poses: [usize; 3],
 }
 
+/// How [`evaluate`] fits and what it scores besides the fits.
+#[derive(Clone, Copy)]
+pub struct Scoring<'a> {
+    /// How frames are fitted.
+    pub fit: &'a FitOptions,
+    /// An appearance stage whose redraws of the renders are scored too.
+    pub appearance: Option<&'a AppearanceStage>,
+}
+
 /// The seed of the drags of [`AccessoryScores::drags`].
 const DRAG_SEED: u64 = 14;
 
 /// Fits (as `options` say) and scores `frames.frames[i]` for each `i` in `indices` (all frames if
-/// empty), against `truth` where given (matched to frames by file name).
+/// empty), against `truth` where given (matched to frames by file name); with an `appearance`
+/// stage, its redraws of the renders too.
 ///
 /// # Errors
 /// A frame of the wrong size (naming the file); truth that does not fit the puppet.
@@ -105,10 +121,11 @@ pub fn evaluate(
     frames: &Frames,
     indices: &[usize],
     truth: Option<&Truth>,
-    options: &FitOptions,
+    scoring: &Scoring,
     device: &Device,
     progress: &dyn Progress,
 ) -> Result<Report> {
+    let (options, appearance) = (scoring.fit, scoring.appearance);
     let indices: Vec<usize> = if indices.is_empty() {
         (0..frames.frames.len()).collect()
     } else {
@@ -122,7 +139,15 @@ pub fn evaluate(
     progress.stage("fit", pictures.len() as u64);
     let (latents, fits) = fit_with_latents(model, &pictures, options, device, progress)?;
     let mut scores = Vec::with_capacity(indices.len());
-    for ((&i, picture), fit) in indices.iter().zip(&pictures).zip(&fits) {
+    let generated: Vec<Option<Picture>> = match appearance {
+        Some(stage) => stage
+            .render_and_redraw(&model.puppet, &fits, device)?
+            .into_iter()
+            .map(|(_, g)| Some(g))
+            .collect(),
+        None => vec![None; fits.len()],
+    };
+    for (((&i, picture), fit), generated) in indices.iter().zip(&pictures).zip(&fits).zip(&generated) {
         let render = render_crisp(&model.puppet, fit, picture.width, picture.height)?;
         let truth = match truth {
             Some(t) => {
@@ -146,6 +171,8 @@ pub fn evaluate(
             true_pose_l2: truth.map(|t| t.true_pose_l2),
             true_pose_iou: truth.map(|t| t.true_pose_iou),
             split: truth.and_then(|t| t.split),
+            generated_l2: generated.as_ref().map(|g| l2(g, picture)),
+            generated_iou: generated.as_ref().map(|g| silhouette_iou(g, picture)),
         });
     }
     let mean = mean_scores(&scores);
@@ -242,7 +269,15 @@ fn mean_scores(scores: &[FrameScores]) -> FrameScores {
         true_pose_l2: truth_avg(&|s| s.true_pose_l2),
         true_pose_iou: truth_avg(&|s| s.true_pose_iou),
         split: mean_split(scores),
+        generated_l2: mean_of(scores, |s| s.generated_l2),
+        generated_iou: mean_of(scores, |s| s.generated_iou),
     }
+}
+
+/// The mean of a score over the frames that have it.
+fn mean_of(scores: &[FrameScores], f: fn(&FrameScores) -> Option<f64>) -> Option<f64> {
+    let v: Vec<f64> = scores.iter().filter_map(f).collect();
+    (!v.is_empty()).then(|| v.iter().sum::<f64>() / v.len() as f64)
 }
 
 /// Each part of the split averaged over the frames that have it.
@@ -295,6 +330,37 @@ impl Report {
                 s.true_pose_l2.map_or("-".to_string(), |v| format!("{v:.1}")),
                 s.true_pose_iou.map_or("-".to_string(), |v| format!("{v:.4}")),
             ));
+        }
+        if self.mean.generated_l2.is_some() {
+            out.push_str(&format!(
+                "appearance         {:>9} {:>9} {:>6} {:>12} {:>12} {:>6} {:>6}\n",
+                "rendered", "generated", "ratio", "rendered²", "generated²", "ratio²", "IoU"
+            ));
+            // The paper does not say whether Table 1 is the norm or its square: both, the mean
+            // row averaging the frames' squares.
+            let n = self.frames.len().max(1) as f64;
+            let mean_square = |f: fn(&FrameScores) -> f64| self.frames.iter().map(|s| f(s).powi(2)).sum::<f64>() / n;
+            let mean_squares = (mean_square(|s| s.l2), mean_square(|s| s.generated_l2.unwrap_or(f64::NAN)));
+            for (k, s) in self.frames.iter().chain(std::iter::once(&self.mean)).enumerate() {
+                if let (Some(g), Some(iou)) = (s.generated_l2, s.generated_iou) {
+                    let (r2, g2) = if k == self.frames.len() {
+                        mean_squares
+                    } else {
+                        (s.l2 * s.l2, g * g)
+                    };
+                    out.push_str(&format!(
+                        "{:<18} {:>9.1} {:>9.1} {:>6.3} {:>12.0} {:>12.0} {:>6.3} {:>6.4}\n",
+                        s.frame,
+                        s.l2,
+                        g,
+                        g / s.l2,
+                        r2,
+                        g2,
+                        g2 / r2,
+                        iou
+                    ));
+                }
+            }
         }
         if let Some(split) = &self.mean.split {
             let px = |v: Option<f64>| v.map_or("-".to_string(), |v| format!("{v:.2}"));

@@ -242,11 +242,11 @@ fn check_config(config: &DeformationNetConfig, puppet: &Puppet) -> Result<()> {
     Ok(())
 }
 
-/// The network's weights as burnpack bytes (for model folders and checkpoints).
+/// A network's weights as burnpack bytes (for model folders and checkpoints).
 ///
 /// # Errors
 /// [`Error::Format`] naming `path` if Burn cannot serialise them.
-pub fn weights_bytes(net: &DeformationNet, path: &Path) -> Result<Vec<u8>> {
+pub fn weights_bytes<M: Module>(net: &M, path: &Path) -> Result<Vec<u8>> {
     let bytes = net
         .clone()
         .into_record()
@@ -257,7 +257,7 @@ pub fn weights_bytes(net: &DeformationNet, path: &Path) -> Result<Vec<u8>> {
 
 /// The most bytes a weights file of `net` may hold: 8 bytes a parameter (f64 storage, twice what
 /// f32 weights take) plus 1 MiB for the record's names and shapes.
-pub fn max_weights_bytes(net: &DeformationNet) -> u64 {
+pub fn max_weights_bytes<M: Module>(net: &M) -> u64 {
     8 * net.num_params() as u64 + (1 << 20)
 }
 
@@ -265,7 +265,7 @@ pub fn max_weights_bytes(net: &DeformationNet) -> u64 {
 ///
 /// # Errors
 /// [`Error::Format`] naming `path` if the bytes are not a record of this network.
-pub fn load_weights(net: DeformationNet, bytes: Vec<u8>, path: &Path) -> Result<DeformationNet> {
+pub fn load_weights<M: Module>(net: M, bytes: Vec<u8>, path: &Path) -> Result<M> {
     let record =
         ModuleRecord::from_bytes(Bytes::from_bytes_vec(bytes)).map_err(|e| Error::format(path, format!("not a weights file: {e:?}")))?;
     net.try_load_record(record)

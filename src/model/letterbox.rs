@@ -60,20 +60,10 @@ impl Letterbox {
         for wy in 0..s {
             for wx in 0..s {
                 // Pixel centre in working space → frame space, then bilinear around it.
-                let [fx, fy] = self.to_frame([wx as f32 + 0.5, wy as f32 + 0.5]);
-                let (gx, gy) = (fx - 0.5, fy - 0.5);
-                let (x0, y0) = (gx.floor(), gy.floor());
-                let (tx, ty) = (gx - x0, gy - y0);
-                let (x0, y0) = (x0 as i64, y0 as i64);
                 let mut value = [0.0f32; 4];
-                for (dx, dy, w) in [
-                    (0, 0, (1.0 - tx) * (1.0 - ty)),
-                    (1, 0, tx * (1.0 - ty)),
-                    (0, 1, (1.0 - tx) * ty),
-                    (1, 1, tx * ty),
-                ] {
+                for (x, y, w) in bilinear_taps(self.to_frame([wx as f32 + 0.5, wy as f32 + 0.5])) {
                     if w > 0.0 {
-                        let p = fetch(x0 + dx, y0 + dy);
+                        let p = fetch(x, y);
                         for c in 0..4 {
                             value[c] += w * p[c];
                         }
@@ -86,6 +76,61 @@ impl Letterbox {
         }
         planes
     }
+}
+
+impl Letterbox {
+    /// The working square's premultiplied planes `[4, S, S]` (a network's output) back at the
+    /// frame's size as a straight-alpha picture: bilinear at each frame pixel's centre, an exact
+    /// crop when `scale` is 1 (the inverse of [`Letterbox::premultiplied_planes`] there).
+    pub fn frame_picture(&self, planes: &[f32]) -> Picture {
+        let s = self.size as usize;
+        let at = |c: usize, x: i64, y: i64| -> f32 {
+            if x < 0 || y < 0 || x >= s as i64 || y >= s as i64 {
+                0.0
+            } else {
+                planes[c * s * s + y as usize * s + x as usize]
+            }
+        };
+        let mut pixels = Vec::with_capacity((self.width * self.height) as usize);
+        for fy in 0..self.height {
+            for fx in 0..self.width {
+                let mut value = [0.0f32; 4];
+                for (x, y, w) in bilinear_taps(self.to_work([fx as f32 + 0.5, fy as f32 + 0.5])) {
+                    if w > 0.0 {
+                        for (c, v) in value.iter_mut().enumerate() {
+                            *v += w * at(c, x, y);
+                        }
+                    }
+                }
+                let a = value[3].clamp(0.0, 1.0);
+                pixels.push(if a > 0.0 {
+                    let straight = |c: usize| (value[c] / a).clamp(0.0, 1.0);
+                    [straight(0), straight(1), straight(2), a]
+                } else {
+                    [0.0; 4]
+                });
+            }
+        }
+        Picture {
+            width: self.width,
+            height: self.height,
+            pixels,
+        }
+    }
+}
+
+/// The four pixels around the point `p` (pixel units, centres at +0.5) and their bilinear weights.
+fn bilinear_taps(p: [f32; 2]) -> [(i64, i64, f32); 4] {
+    let (gx, gy) = (p[0] - 0.5, p[1] - 0.5);
+    let (x0, y0) = (gx.floor(), gy.floor());
+    let (tx, ty) = (gx - x0, gy - y0);
+    let (x0, y0) = (x0 as i64, y0 as i64);
+    [
+        (x0, y0, (1.0 - tx) * (1.0 - ty)),
+        (x0 + 1, y0, tx * (1.0 - ty)),
+        (x0, y0 + 1, (1.0 - tx) * ty),
+        (x0 + 1, y0 + 1, tx * ty),
+    ]
 }
 
 #[cfg(test)]
@@ -114,6 +159,18 @@ mod tests {
         // The frame sits at x offset 2, so (3, 2) → (5, 2), premultiplied.
         assert_eq!([at(0, 5, 2), at(1, 5, 2), at(2, 5, 2), at(3, 5, 2)], [0.5, 0.25, 0.125, 0.5]);
         assert_eq!(planes.iter().filter(|v| **v != 0.0).count(), 4);
+    }
+
+    #[test]
+    fn frame_picture_inverts_the_planes_of_an_unscaled_frame() {
+        let mut frame = Picture::filled(4, 8, [0.0; 4]);
+        frame.pixels[8 + 3] = [1.0, 0.5, 0.25, 0.5];
+        frame.pixels[30] = [0.2, 0.4, 0.6, 1.0];
+        let lb = Letterbox::new(4, 8, 8);
+        let back = lb.frame_picture(&lb.premultiplied_planes(&frame));
+        for (a, b) in back.pixels.iter().zip(&frame.pixels) {
+            assert!(a.iter().zip(b).all(|(x, y)| (x - y).abs() < 1e-6), "{a:?} vs {b:?}");
+        }
     }
 
     #[test]

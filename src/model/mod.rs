@@ -3,6 +3,7 @@
 //! Losses live in `objective` and training in `train`; this module holds the modules, their
 //! configs, and the model folder's layout.
 
+pub mod appearance;
 pub mod bundle;
 pub mod conv_kernel;
 pub mod conv_op;

@@ -8,6 +8,7 @@
 //! written; vertices in working pixels converted to NDC (÷ S/2) for ARAP and joints, so the
 //! paper's λ1 = 2500, λ2 = 1e4 apply.
 
+pub mod adversarial;
 pub mod arap_op;
 
 use std::sync::Arc;

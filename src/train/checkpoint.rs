@@ -2,7 +2,8 @@
 //! killed at any moment leaves the previous checkpoint intact (issue 5: atomic checkpoints,
 //! `--resume` loses at most `checkpoint_every` steps).
 //!
-//! Layout: `checkpoints/step-000100/{weights.bpk, optimizer.bpk, state.json}` and
+//! Layout: `checkpoints/step-000100/{weights.bpk, optimizer.bpk, state.json}` (the appearance
+//! stage stores its two networks and two optimisers under their own names) and
 //! `checkpoints/latest` naming the newest complete one. A checkpoint folder is written under a
 //! temporary name and renamed when complete; `latest` is then replaced atomically; older
 //! folders are removed last.
@@ -36,8 +37,8 @@ pub struct CheckpointState {
     pub config: serde_json::Value,
 }
 
-/// A checkpoint whose state is read; its tensors are read on demand ([`Checkpoint::weights`],
-/// [`Checkpoint::optimizer`]), when the network they must fit, and so their size, is known.
+/// A checkpoint whose state is read; its tensors are read on demand ([`Checkpoint::file`]), when
+/// the network they must fit, and so their size, is known.
 #[derive(Debug)]
 pub struct Checkpoint {
     /// Its state.
@@ -47,20 +48,12 @@ pub struct Checkpoint {
 }
 
 impl Checkpoint {
-    /// Burnpack bytes of the network, at most `limit` of them.
+    /// The bytes of the checkpoint's file `name` (e.g. [`WEIGHTS`]), at most `limit` of them.
     ///
     /// # Errors
     /// [`Error::Io`] naming the file if unreadable, [`Error::Limit`] if it is larger.
-    pub fn weights(&self, limit: u64) -> Result<Vec<u8>> {
-        user_file::read_bytes(&self.dir.join(WEIGHTS), limit)
-    }
-
-    /// Burnpack bytes of the optimiser state, at most `limit` of them.
-    ///
-    /// # Errors
-    /// As [`Checkpoint::weights`].
-    pub fn optimizer(&self, limit: u64) -> Result<Vec<u8>> {
-        user_file::read_bytes(&self.dir.join(OPTIMIZER), limit)
+    pub fn file(&self, name: &str, limit: u64) -> Result<Vec<u8>> {
+        user_file::read_bytes(&self.dir.join(name), limit)
     }
 }
 
@@ -84,12 +77,13 @@ pub fn latest(model_dir: &Path) -> Result<Option<PathBuf>> {
     Ok(Some(dir))
 }
 
-/// Writes a checkpoint for `state.step` and makes it the latest, then removes older ones.
+/// Writes a checkpoint for `state.step` holding `files` (name, bytes) and makes it the latest in
+/// `dir`'s checkpoints folder, then removes older ones.
 ///
 /// # Errors
 /// [`Error::Io`] naming the file that could not be written.
-pub fn save(model_dir: &Path, state: &CheckpointState, weights: &[u8], optimizer: &[u8]) -> Result<PathBuf> {
-    let root = model_dir.join(CHECKPOINT_DIR);
+pub fn save(dir: &Path, state: &CheckpointState, files: &[(&str, &[u8])]) -> Result<PathBuf> {
+    let root = dir.join(CHECKPOINT_DIR);
     let name = format!("step-{:06}", state.step);
     let partial = root.join(format!(".{name}.partial"));
     let done = root.join(&name);
@@ -98,7 +92,7 @@ pub fn save(model_dir: &Path, state: &CheckpointState, weights: &[u8], optimizer
     }
     std::fs::create_dir_all(&partial).map_err(|e| Error::io(&partial, e))?;
     let json = serde_json::to_vec_pretty(state).map_err(|e| Error::format(partial.join(STATE), e.to_string()))?;
-    for (file, bytes) in [(WEIGHTS, weights), (OPTIMIZER, optimizer), (STATE, json.as_slice())] {
+    for &(file, bytes) in files.iter().chain([(STATE, json.as_slice())].iter()) {
         std::fs::write(partial.join(file), bytes).map_err(|e| Error::io(partial.join(file), e))?;
     }
     if done.exists() {
@@ -146,12 +140,15 @@ mod tests {
             elapsed: 1.5,
             config: serde_json::json!({"seed": 3}),
         };
-        save(dir.path(), &state(10), b"w10", b"o10").unwrap();
-        let second = save(dir.path(), &state(20), b"w20", b"o20").unwrap();
+        save(dir.path(), &state(10), &[(WEIGHTS, b"w10"), (OPTIMIZER, b"o10")]).unwrap();
+        let second = save(dir.path(), &state(20), &[(WEIGHTS, b"w20"), (OPTIMIZER, b"o20")]).unwrap();
         assert_eq!(latest(dir.path()).unwrap(), Some(second.clone()));
         let c = load(&second).unwrap();
-        assert_eq!((c.weights(3).unwrap(), c.optimizer(3).unwrap()), (b"w20".to_vec(), b"o20".to_vec()));
-        assert!(matches!(c.weights(2).unwrap_err().innermost(), Error::Limit { .. }));
+        assert_eq!(
+            (c.file(WEIGHTS, 3).unwrap(), c.file(OPTIMIZER, 3).unwrap()),
+            (b"w20".to_vec(), b"o20".to_vec())
+        );
+        assert!(matches!(c.file(WEIGHTS, 2).unwrap_err().innermost(), Error::Limit { .. }));
         assert_eq!(c.state, state(20));
         let names: Vec<_> = std::fs::read_dir(dir.path().join(CHECKPOINT_DIR))
             .unwrap()

@@ -37,14 +37,65 @@ pub struct LogRow {
     pub held_out: f64,
 }
 
-/// Appends rows to `log.csv`; on resume, rows past the checkpoint are dropped first so the log
-/// has each step once.
-pub struct TrainLog {
-    path: PathBuf,
-    rows: Vec<LogRow>,
+/// A row of a training log: numbers in the order of its header.
+pub trait CsvRow: Copy {
+    /// The CSV header.
+    const HEADER: &'static str;
+    /// The fewest columns a row read back may have (logs written before a column was added).
+    const MIN_COLUMNS: usize;
+    /// Steps done after this row's step.
+    fn step(&self) -> u64;
+    /// The row's values, one per header column.
+    fn values(&self) -> Vec<f64>;
+    /// The row from `MIN_COLUMNS` to all of the header's values (missing ones are NaN).
+    fn from_values(values: &[f64]) -> Self;
 }
 
-impl TrainLog {
+impl CsvRow for LogRow {
+    const HEADER: &'static str = HEADER;
+    const MIN_COLUMNS: usize = 8;
+
+    fn step(&self) -> u64 {
+        self.step
+    }
+
+    fn values(&self) -> Vec<f64> {
+        vec![
+            self.step as f64,
+            self.total,
+            self.rec,
+            self.arap,
+            self.joints,
+            self.area,
+            self.sigma,
+            self.seconds,
+            self.held_out,
+        ]
+    }
+
+    fn from_values(v: &[f64]) -> Self {
+        LogRow {
+            step: v[0] as u64,
+            total: v[1],
+            rec: v[2],
+            arap: v[3],
+            joints: v[4],
+            area: v[5],
+            sigma: v[6],
+            seconds: v[7],
+            held_out: v.get(8).copied().unwrap_or(f64::NAN),
+        }
+    }
+}
+
+/// Appends rows to a log CSV (`log.csv`); on resume, rows past the checkpoint are dropped first
+/// so the log has each step once.
+pub struct TrainLog<R: CsvRow = LogRow> {
+    path: PathBuf,
+    rows: Vec<R>,
+}
+
+impl<R: CsvRow> TrainLog<R> {
     /// Opens (or creates) the log at `path`, keeping the rows with `step <= keep_through`.
     ///
     /// # Errors
@@ -59,29 +110,22 @@ impl TrainLog {
                     .map(str::parse)
                     .collect::<std::result::Result<_, _>>()
                     .map_err(|_| Error::format(path, format!("line {}: not numbers", n + 1)))?;
-                // Logs written before the held-out column have 8 columns.
-                if !(8..=9).contains(&v.len()) {
-                    return Err(Error::format(path, format!("line {}: {} columns, expected 9", n + 1, v.len())));
+                let columns = R::HEADER.split(',').count();
+                if !(R::MIN_COLUMNS..=columns).contains(&v.len()) {
+                    return Err(Error::format(
+                        path,
+                        format!("line {}: {} columns, expected {columns}", n + 1, v.len()),
+                    ));
                 }
-                let row = LogRow {
-                    step: v[0] as u64,
-                    total: v[1],
-                    rec: v[2],
-                    arap: v[3],
-                    joints: v[4],
-                    area: v[5],
-                    sigma: v[6],
-                    seconds: v[7],
-                    held_out: v.get(8).copied().unwrap_or(f64::NAN),
-                };
-                if row.step <= keep_through {
+                let row = R::from_values(&v);
+                if row.step() <= keep_through {
                     rows.push(row);
                 }
             }
         }
-        let mut text = format!("{HEADER}\n");
+        let mut text = format!("{}\n", R::HEADER);
         for r in &rows {
-            text.push_str(&r.to_csv());
+            text.push_str(&csv_line(r));
         }
         crate::atomic_file::write_atomic(path, text.as_bytes())?;
         Ok(TrainLog {
@@ -94,36 +138,41 @@ impl TrainLog {
     ///
     /// # Errors
     /// [`Error::Io`] naming the file.
-    pub fn push(&mut self, row: LogRow) -> Result<()> {
+    pub fn push(&mut self, row: R) -> Result<()> {
         let mut file = OpenOptions::new()
             .append(true)
             .open(&self.path)
             .map_err(|e| Error::io(&self.path, e))?;
-        file.write_all(row.to_csv().as_bytes()).map_err(|e| Error::io(&self.path, e))?;
+        file.write_all(csv_line(&row).as_bytes()).map_err(|e| Error::io(&self.path, e))?;
         self.rows.push(row);
         Ok(())
     }
 
     /// All rows so far.
-    pub fn rows(&self) -> &[LogRow] {
+    pub fn rows(&self) -> &[R] {
         &self.rows
     }
 }
 
-impl LogRow {
-    fn to_csv(self) -> String {
-        format!(
-            "{},{},{},{},{},{},{},{:.3},{}\n",
-            self.step, self.total, self.rec, self.arap, self.joints, self.area, self.sigma, self.seconds, self.held_out
-        )
-    }
+fn csv_line(row: &impl CsvRow) -> String {
+    let values: Vec<String> = row.values().iter().map(f64::to_string).collect();
+    format!("{}\n", values.join(","))
+}
+
+/// One line of a loss plot: a name, a colour, and one value per row (NaN where not measured:
+/// the line joins the measured ones).
+pub struct Curve<'a> {
+    /// The legend's label.
+    pub name: &'a str,
+    /// RGB in [0, 1].
+    pub colour: [f32; 3],
+    /// The plotted values.
+    pub values: Vec<f64>,
 }
 
 /// The loss curves (total, rec, the weighted regularisers, and the held-out frames' total where
 /// measured) on a log-scale y axis.
 pub fn plot(rows: &[LogRow], weights: [f64; 3]) -> Picture {
-    let (w, h, left, bottom, top, right) = (720u32, 400u32, 44i64, 20i64, 24i64, 12i64);
-    let mut pic = Picture::filled(w, h, [1.0, 1.0, 1.0, 1.0]);
     // Name, colour, and the plotted value of each series (regularisers weighted, as summed).
     let series: [(&str, [f32; 3]); 6] = [
         ("total", [0.0, 0.0, 0.0]),
@@ -143,14 +192,36 @@ pub fn plot(rows: &[LogRow], weights: [f64; 3]) -> Picture {
             r.held_out,
         ]
     };
-    let positive: Vec<f64> = rows.iter().flat_map(values).filter(|v| *v > 0.0 && v.is_finite()).collect();
+    let curves: Vec<Curve> = series
+        .iter()
+        .enumerate()
+        .map(|(k, &(name, colour))| Curve {
+            name,
+            colour,
+            values: rows.iter().map(|r| values(r)[k]).collect(),
+        })
+        .collect();
+    let steps: Vec<u64> = rows.iter().map(|r| r.step).collect();
+    plot_curves(&steps, &curves)
+}
+
+/// Curves over steps (`steps[i]` is the step of each curve's `values[i]`) on a log-scale y axis,
+/// with a legend; values that are not positive and finite are left out.
+pub fn plot_curves(steps: &[u64], curves: &[Curve]) -> Picture {
+    let (w, h, left, bottom, top, right) = (720u32, 400u32, 44i64, 20i64, 24i64, 12i64);
+    let mut pic = Picture::filled(w, h, [1.0, 1.0, 1.0, 1.0]);
+    let positive: Vec<f64> = curves
+        .iter()
+        .flat_map(|c| c.values.iter().copied())
+        .filter(|v| *v > 0.0 && v.is_finite())
+        .collect();
     let (lo, hi) = positive.iter().fold((f64::MAX, f64::MIN), |(a, b), v| (a.min(*v), b.max(*v)));
     let (lo, hi) = if positive.is_empty() {
         (-3.0, 0.0)
     } else {
         (lo.log10().floor(), hi.log10().ceil().max(lo.log10().floor() + 1.0))
     };
-    let last = rows.last().map_or(1, |r| r.step.max(1)) as f64;
+    let last = steps.last().map_or(1, |s| (*s).max(1)) as f64;
     let px = |step: f64| left + ((step / last) * (w as i64 - left - right) as f64) as i64;
     let py = |v: f64| top + ((hi - v.log10()) / (hi - lo) * (h as i64 - top - bottom) as f64) as i64;
     let grey = [0.85, 0.85, 0.85];
@@ -170,15 +241,15 @@ pub fn plot(rows: &[LogRow], weights: [f64; 3]) -> Picture {
         [0.3; 3],
     );
     let mut legend_x = left + 8;
-    for (k, (name, colour)) in series.iter().enumerate() {
+    for curve in curves {
+        let (name, colour) = (curve.name, &curve.colour);
         let mut prev: Option<[i64; 2]> = None;
-        for r in rows {
-            let v = values(r)[k];
+        for (&step, &v) in steps.iter().zip(&curve.values) {
             if v.is_nan() {
                 // Not measured at this step (the held-out loss): join the measured ones.
                 continue;
             }
-            let p = (v > 0.0 && v.is_finite()).then(|| [px(r.step as f64), py(v)]);
+            let p = (v > 0.0 && v.is_finite()).then(|| [px(step as f64), py(v)]);
             if let (Some(a), Some(b)) = (prev, p) {
                 line(&mut pic, a, b, *colour);
             }
@@ -213,11 +284,11 @@ mod tests {
     fn reopening_keeps_rows_up_to_the_checkpoint() {
         let dir = tempfile::tempdir().unwrap();
         let path = dir.path().join("log.csv");
-        let mut log = TrainLog::open(&path, 0).unwrap();
+        let mut log = TrainLog::<LogRow>::open(&path, 0).unwrap();
         for s in 1..=5 {
             log.push(row(s, 1.0 / s as f64)).unwrap();
         }
-        let log = TrainLog::open(&path, 3).unwrap();
+        let log = TrainLog::<LogRow>::open(&path, 3).unwrap();
         assert_eq!(log.rows().iter().map(|r| r.step).collect::<Vec<_>>(), [1, 2, 3]);
         assert_eq!(std::fs::read_to_string(&path).unwrap().lines().count(), 4);
         assert_eq!(log.rows()[1], row(2, 0.5), "a measured held-out loss reads back");

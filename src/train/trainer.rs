@@ -22,6 +22,7 @@ use super::log::{plot, LogRow, TrainLog};
 use super::optim::adam;
 use super::split::{shuffled, split};
 use crate::atomic_file::{record, write_atomic, Outputs};
+use crate::backend::scalar;
 use crate::error::{Context, Error, Result};
 use crate::model::bundle::{load_weights, max_weights_bytes, weights_bytes};
 use crate::model::decoder::Decoder;
@@ -296,7 +297,7 @@ fn check_resume(
         path: folder.dir().to_path_buf(),
         problem,
     };
-    let changed = changed_keys(&checkpoint.state.config, config);
+    let changed = changed_keys(&checkpoint.state.config, config, &["output", "train.steps"]);
     if !changed.is_empty() {
         return Err(refuse(format!(
             "the config differs from the checkpoint's in {} (only train.steps may change)",
@@ -328,22 +329,23 @@ fn check_resume(
     Ok(())
 }
 
-/// The dotted keys whose values differ between two configs, ignoring `output` (a moved run
-/// folder is the same run) and `train.steps` (a resume may extend the run).
-fn changed_keys(a: &serde_json::Value, b: &serde_json::Value) -> Vec<String> {
-    fn walk(prefix: &str, a: Option<&serde_json::Value>, b: Option<&serde_json::Value>, out: &mut Vec<String>) {
+/// The dotted keys whose values differ between two configs, but those `ignored` (for training:
+/// `output`, as a moved run folder is the same run, and `train.steps`, as a resume may extend
+/// the run).
+pub fn changed_keys(a: &serde_json::Value, b: &serde_json::Value, ignored: &[&str]) -> Vec<String> {
+    fn walk(prefix: &str, a: Option<&serde_json::Value>, b: Option<&serde_json::Value>, ignored: &[&str], out: &mut Vec<String>) {
         if let (Some(serde_json::Value::Object(x)), Some(serde_json::Value::Object(y))) = (a, b) {
             let keys: std::collections::BTreeSet<&String> = x.keys().chain(y.keys()).collect();
             for k in keys {
                 let key = if prefix.is_empty() { k.clone() } else { format!("{prefix}.{k}") };
-                walk(&key, x.get(k), y.get(k), out);
+                walk(&key, x.get(k), y.get(k), ignored, out);
             }
-        } else if a != b && !matches!(prefix, "output" | "train.steps") {
+        } else if a != b && !ignored.contains(&prefix) {
             out.push(prefix.to_string());
         }
     }
     let mut out = Vec::new();
-    walk("", Some(a), Some(b), &mut out);
+    walk("", Some(a), Some(b), ignored, &mut out);
     out
 }
 
@@ -389,7 +391,11 @@ fn save_checkpoint(
         elapsed,
         config: config.clone(),
     };
-    checkpoint::save(folder.dir(), &state, &net, &optim)?;
+    checkpoint::save(
+        folder.dir(),
+        &state,
+        &[(checkpoint::WEIGHTS, &net), (checkpoint::OPTIMIZER, &optim)],
+    )?;
     // The model folder always holds the newest weights, so `fit`/`eval` work during training.
     write_atomic(&folder.weights(), &net)?;
     plot(log.rows(), weights).save_png(&folder.plot())
@@ -448,8 +454,8 @@ impl Trainer {
     pub fn restore(&mut self, checkpoint: &Checkpoint) -> Result<()> {
         let dir = &checkpoint.dir;
         let limit = max_weights_bytes(&self.model.net);
-        let weights = checkpoint.weights(limit)?;
-        let optimizer = checkpoint.optimizer(2 * limit)?;
+        let weights = checkpoint.file(checkpoint::WEIGHTS, limit)?;
+        let optimizer = checkpoint.file(checkpoint::OPTIMIZER, 2 * limit)?;
         self.model.net = load_weights(self.model.net.clone(), weights, &dir.join(checkpoint::WEIGHTS))?;
         self.optimizer = self
             .optimizer
@@ -494,11 +500,11 @@ impl Trainer {
         let terms = self.objective.evaluate(vertices, images, sigma, &self.device)?;
         let row = LogRow {
             step: step + 1,
-            total: value(&terms.total),
-            rec: value(&terms.rec),
-            arap: value(&terms.arap),
-            joints: value(&terms.joints),
-            area: value(&terms.area),
+            total: scalar(&terms.total),
+            rec: scalar(&terms.rec),
+            arap: scalar(&terms.arap),
+            joints: scalar(&terms.joints),
+            area: scalar(&terms.area),
             sigma: sigma as f64,
             seconds: 0.0,
             held_out: f64::NAN,
@@ -523,7 +529,7 @@ impl Trainer {
             let images = self.images(&chunk.iter().collect::<Vec<_>>(), &device);
             let vertices = decoder.vertices(&net, net.encode(images.clone()));
             let terms = self.objective.evaluate(vertices, images, self.config.sigma_at(step), &device)?;
-            sum += value(&terms.total) * chunk.len() as f64;
+            sum += scalar(&terms.total) * chunk.len() as f64;
         }
         Ok(sum / self.held_out.len() as f64)
     }
@@ -548,25 +554,18 @@ impl Trainer {
     }
 }
 
-fn value(t: &Tensor<1>) -> f64 {
-    t.clone()
-        .into_data()
-        .convert::<f64>()
-        .try_to_vec::<f64>()
-        .map_or(f64::NAN, |v| v[0])
-}
-
 /// The frames of each step: passes over the training set, each in its own seeded order, cut
 /// into batches — a function of the step alone, so a resumed run sees what an uninterrupted
 /// one would.
-struct BatchOrder {
+pub struct BatchOrder {
     frames: usize,
     batch: usize,
     rng: Rng,
 }
 
 impl BatchOrder {
-    fn new(frames: usize, batch: usize, seed: u64) -> Self {
+    /// Batches of `batch` of `frames` frames, in orders drawn from `seed`.
+    pub fn new(frames: usize, batch: usize, seed: u64) -> Self {
         BatchOrder {
             frames,
             batch,
@@ -574,7 +573,8 @@ impl BatchOrder {
         }
     }
 
-    fn batch(&self, step: u64) -> Vec<usize> {
+    /// The frames of step `step`.
+    pub fn batch(&self, step: u64) -> Vec<usize> {
         let first = step as usize * self.batch;
         let mut order: Option<(usize, Vec<usize>)> = None;
         (first..first + self.batch)
@@ -608,7 +608,8 @@ mod tests {
     fn changed_keys_ignore_the_output_and_the_step_count() {
         let a = serde_json::json!({"output": "/a", "seed": 1, "train": {"steps": 10, "batch": 4}, "loss": {"arap": 1.0}});
         let b = serde_json::json!({"output": "/b", "seed": 1, "train": {"steps": 20, "batch": 8}, "loss": {"arap": 2.0}});
-        assert_eq!(changed_keys(&a, &b), ["loss.arap", "train.batch"]);
-        assert!(changed_keys(&a, &a).is_empty());
+        let ignored = ["output", "train.steps"];
+        assert_eq!(changed_keys(&a, &b, &ignored), ["loss.arap", "train.batch"]);
+        assert!(changed_keys(&a, &a, &ignored).is_empty());
     }
 }

@@ -1,0 +1,456 @@
+//! Training the appearance stage (neural-puppet.md §3.3): after, and independently of, the
+//! deformation network, as the paper does. Each training frame of the model is fitted and
+//! rendered ([`super::pairs`]); the generator learns to turn the render into the drawn frame,
+//! against a critic, with two Adam optimisers. Seeded, logged (with the held-out frames' L1),
+//! checkpointed atomically, resumable to the same weights as an uninterrupted run, stopped on NaN
+//! — as the deformation trainer is.
+
+use std::path::Path;
+use std::time::Instant;
+
+use burn::module::Module;
+use burn::optim::{GradientsParams, ModuleOptimizer};
+use burn::tensor::{Bytes, Device, Tensor, TensorData};
+
+use super::config::{AppearanceConfig, TrainingFit};
+use super::pairs::{split_pairs, Pairs};
+use super::stage::{AppearanceStage, StageFolder, StageRecord};
+use crate::atomic_file::write_atomic;
+use crate::backend::scalar;
+use crate::error::{Error, Result};
+use crate::fit::FitOptions;
+use crate::metrics::l2;
+use crate::model::appearance::{Critic, Generator};
+use crate::model::bundle::{load_weights, max_weights_bytes, weights_bytes};
+use crate::model::Model;
+use crate::objective::adversarial::{critic_loss, generator_loss, Batch};
+use crate::picture::{contact_sheet, Picture};
+use crate::progress::Progress;
+use crate::rng::Rng;
+use crate::train::checkpoint::{self, Checkpoint, CheckpointState};
+use crate::train::log::{plot_curves, CsvRow, Curve, TrainLog};
+use crate::train::optim::adam;
+use crate::train::trainer::{changed_keys, BatchOrder};
+
+/// How to run.
+#[derive(Clone, Debug, Default)]
+pub struct AppearanceOptions {
+    /// Continue from the stage's latest checkpoint.
+    pub resume: bool,
+    /// Pause after this many steps in total (checkpointed, resumable).
+    pub pause_at: Option<u64>,
+}
+
+/// Mean L2 of the renders and of the generated frames against the drawn ones.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct L2Pair {
+    /// The rendered fits.
+    pub rendered: f64,
+    /// The generator's redraws of them.
+    pub generated: f64,
+}
+
+/// What a run did.
+#[derive(Clone, Debug)]
+pub struct AppearanceSummary {
+    /// Generator steps done in total.
+    pub steps: u64,
+    /// Whether all configured steps are done.
+    pub finished: bool,
+    /// Frames per second over this run's steps (one critic + one generator step each).
+    pub images_per_second: f64,
+    /// Mean L2 on the training frames (NaN if none).
+    pub train: L2Pair,
+    /// Mean L2 on the held-out frames (NaN if none).
+    pub held_out: L2Pair,
+}
+
+/// The checkpoint's files.
+const GENERATOR: &str = "generator.bpk";
+const CRITIC: &str = "critic.bpk";
+const GENERATOR_OPTIMIZER: &str = "generator-optimizer.bpk";
+const CRITIC_OPTIMIZER: &str = "critic-optimizer.bpk";
+
+/// One step's numbers in `appearance/log.csv`.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct AppearanceRow {
+    /// Generator steps done.
+    pub step: u64,
+    /// Training seconds so far.
+    pub seconds: f64,
+    /// The generator's loss.
+    pub generator: f64,
+    /// Its adversarial part, unweighted.
+    pub adversarial: f64,
+    /// Its L1 part, unweighted (per-pixel mean).
+    pub l1: f64,
+    /// The critic's loss (its last step).
+    pub critic: f64,
+    /// The critic's mean score of drawn frames.
+    pub real: f64,
+    /// Its mean score of generated frames.
+    pub fake: f64,
+    /// The gradient penalty, unweighted.
+    pub penalty: f64,
+    /// The held-out frames' per-pixel mean L1 (NaN where not measured).
+    pub held_out: f64,
+}
+
+impl CsvRow for AppearanceRow {
+    const HEADER: &'static str = "step,seconds,generator,adversarial,l1,critic,real,fake,penalty,held_out_l1";
+    const MIN_COLUMNS: usize = 10;
+
+    fn step(&self) -> u64 {
+        self.step
+    }
+
+    fn values(&self) -> Vec<f64> {
+        vec![
+            self.step as f64,
+            self.seconds,
+            self.generator,
+            self.adversarial,
+            self.l1,
+            self.critic,
+            self.real,
+            self.fake,
+            self.penalty,
+            self.held_out,
+        ]
+    }
+
+    fn from_values(v: &[f64]) -> Self {
+        AppearanceRow {
+            step: v[0] as u64,
+            seconds: v[1],
+            generator: v[2],
+            adversarial: v[3],
+            l1: v[4],
+            critic: v[5],
+            real: v[6],
+            fake: v[7],
+            penalty: v[8],
+            held_out: v[9],
+        }
+    }
+}
+
+/// Trains the appearance stage of the model in `model_dir` with `config`; `fit` is how the
+/// frames are fitted when `config.fit` is the default fit (the caller's, as `eval` would).
+///
+/// # Errors
+/// [`Error::RunExists`] if the stage has a checkpoint and resuming was not asked for;
+/// [`Error::Resume`] for a resume without a checkpoint or with another config (only `epochs` may
+/// change) — neither writes anything; [`Error::Diverged`] for a loss that is not finite; whatever
+/// loading the model, fitting or writing reports, naming the file.
+pub fn train_appearance(
+    model_dir: &Path,
+    config: &AppearanceConfig,
+    fit: &FitOptions,
+    options: &AppearanceOptions,
+    progress: &dyn Progress,
+) -> Result<AppearanceSummary> {
+    config.validate()?;
+    let folder = StageFolder::of_model(model_dir);
+    let inference = crate::backend::device();
+    let model = Model::load(model_dir, &inference)?;
+    let previous = checkpoint::latest(folder.dir())?.map(|dir| checkpoint::load(&dir)).transpose()?;
+    let config_json = serde_json::to_value(config).map_err(|e| Error::format(folder.config(), e.to_string()))?;
+    match (&previous, options.resume) {
+        (Some(c), false) => {
+            return Err(Error::RunExists {
+                path: folder.dir().to_path_buf(),
+                step: c.state.step,
+            })
+        }
+        (None, true) => {
+            return Err(Error::Resume {
+                path: folder.dir().to_path_buf(),
+                problem: "there is no checkpoint to resume from".into(),
+            })
+        }
+        (Some(c), true) => {
+            let changed = changed_keys(&c.state.config, &config_json, &["epochs"]);
+            if !changed.is_empty() {
+                return Err(Error::Resume {
+                    path: folder.dir().to_path_buf(),
+                    problem: format!(
+                        "the config differs from the checkpoint's in {} (only epochs may change)",
+                        changed.join(", ")
+                    ),
+                });
+            }
+        }
+        (None, false) => {}
+    }
+    let fit_options = match config.fit {
+        TrainingFit::Default => fit.clone(),
+        TrainingFit::OnePass => FitOptions::one_pass(),
+    };
+    let pairs = split_pairs(model_dir, &model, &fit_options, &inference, progress)?;
+    if pairs.train.frames.is_empty() {
+        return Err(Error::format(folder.dir(), "the model has no training frames"));
+    }
+    let device = crate::backend::train_device();
+    device.seed(config.seed);
+    let net = config.net(model.letterbox.size as usize);
+    let mut run = Run {
+        generator: net.init_generator(&device),
+        critic: net.init_critic(&device),
+        generator_optimizer: adam(&config.adam),
+        critic_optimizer: adam(&config.adam),
+        inputs: planes(&model, &pairs.train.renders),
+        targets: planes(&model, &pairs.train.frames),
+        held_out: (planes(&model, &pairs.held_out.renders), planes(&model, &pairs.held_out.frames)),
+        size: model.letterbox.size as usize,
+        config: config.clone(),
+        device: device.clone(),
+    };
+    let (mut step, mut elapsed) = (0u64, 0f64);
+    match &previous {
+        Some(c) => {
+            run.restore(c)?;
+            (step, elapsed) = (c.state.step, c.state.elapsed);
+        }
+        None => {
+            let json = serde_json::to_vec_pretty(&net).map_err(|e| Error::format(folder.net(), e.to_string()))?;
+            write_atomic(&folder.net(), &json)?;
+            StageRecord::of(&model).save(&folder)?;
+        }
+    }
+    let toml = toml::to_string_pretty(config).map_err(|e| Error::format(folder.config(), e.to_string()))?;
+    write_atomic(&folder.config(), toml.as_bytes())?;
+
+    let batch = config.batch.min(run.inputs.len());
+    if batch < config.batch {
+        progress.warn(&format!(
+            "batch = {} is more than the {} training frames; each step uses all {batch} once",
+            config.batch,
+            run.inputs.len()
+        ));
+    }
+    let total = (config.epochs * run.inputs.len() as u64).div_ceil(batch as u64);
+    let order = BatchOrder::new(run.inputs.len(), batch, config.seed);
+    let mut log = TrainLog::<AppearanceRow>::open(&folder.log(), step)?;
+    let stop = options.pause_at.map_or(total, |p| p.min(total));
+    progress.stage("appearance", total);
+    progress.advance(step);
+    let (started, first) = (Instant::now(), step);
+    while step < stop {
+        let t0 = Instant::now();
+        let mut row = run.step(step, &order.batch(step))?;
+        step += 1;
+        elapsed += t0.elapsed().as_secs_f64();
+        row.seconds = elapsed;
+        if step % config.eval_every == 0 || step == total {
+            row.held_out = run.held_out_l1();
+        }
+        log.push(row)?;
+        progress.advance(1);
+        progress.message(&format!(
+            "G {:.3} (L1 {:.4}) D {:.3} penalty {:.3}",
+            row.generator, row.l1, row.critic, row.penalty
+        ));
+        if step % config.checkpoint_every == 0 && step < stop {
+            save(&folder, &run, step, elapsed, &config_json, &log)?;
+        }
+    }
+    let seconds = started.elapsed().as_secs_f64();
+    save(&folder, &run, step, elapsed, &config_json, &log)?;
+    let stage = AppearanceStage::new(net, run.generator.valid(), model.letterbox);
+    let train = scores(&stage, &pairs.train, &inference);
+    let held_out = scores(&stage, &pairs.held_out, &inference);
+    sheet(&stage, &pairs.train, &pairs.held_out, &inference).save_png(&folder.sheet())?;
+    Ok(AppearanceSummary {
+        steps: step,
+        finished: step >= total,
+        images_per_second: ((step - first) as usize * batch) as f64 / seconds.max(1e-9),
+        train,
+        held_out,
+    })
+}
+
+/// Frames as network planes, `[4, S, S]` each.
+fn planes(model: &Model, pictures: &[Picture]) -> Vec<Vec<f32>> {
+    pictures.iter().map(|p| model.letterbox.premultiplied_planes(p)).collect()
+}
+
+/// Mean L2 of renders and of their redraws against the drawn frames.
+fn scores(stage: &AppearanceStage, pairs: &Pairs, device: &Device) -> L2Pair {
+    let n = pairs.frames.len() as f64;
+    let generated = stage.redraw(&pairs.renders.iter().collect::<Vec<_>>(), device);
+    let mean = |pictures: &[Picture]| pictures.iter().zip(&pairs.frames).map(|(p, f)| l2(p, f)).sum::<f64>() / n;
+    L2Pair {
+        rendered: mean(&pairs.renders),
+        generated: mean(&generated),
+    }
+}
+
+/// Rows of (render, generated, drawn): the training frames, then the held-out ones.
+fn sheet(stage: &AppearanceStage, train: &Pairs, held_out: &Pairs, device: &Device) -> Picture {
+    let mut cells: Vec<Picture> = Vec::new();
+    for pairs in [train, held_out] {
+        let generated = stage.redraw(&pairs.renders.iter().collect::<Vec<_>>(), device);
+        for ((render, drawn), redrawn) in pairs.renders.iter().zip(&pairs.frames).zip(generated) {
+            cells.extend([render.clone(), redrawn, drawn.clone()]);
+        }
+    }
+    contact_sheet(&cells.iter().collect::<Vec<_>>(), 6)
+}
+
+fn save(folder: &StageFolder, run: &Run, step: u64, elapsed: f64, config: &serde_json::Value, log: &TrainLog<AppearanceRow>) -> Result<()> {
+    let files = run.state_bytes(folder.dir())?;
+    let state = CheckpointState {
+        step,
+        elapsed,
+        config: config.clone(),
+    };
+    let named: Vec<(&str, &[u8])> = files.iter().map(|(n, b)| (*n, b.as_slice())).collect();
+    checkpoint::save(folder.dir(), &state, &named)?;
+    // The stage always holds the newest networks, so `--appearance` works during training.
+    write_atomic(&folder.generator(), &files[0].1)?;
+    write_atomic(&folder.critic(), &files[1].1)?;
+    let rows = log.rows();
+    let steps: Vec<u64> = rows.iter().map(|r| r.step).collect();
+    let curve = |name, colour, value: fn(&AppearanceRow) -> f64| Curve {
+        name,
+        colour,
+        values: rows.iter().map(value).collect(),
+    };
+    plot_curves(
+        &steps,
+        &[
+            curve("generator", [0.0, 0.0, 0.0], |r| r.generator),
+            curve("l1", [0.1, 0.35, 0.9], |r| r.l1),
+            curve("critic", [0.95, 0.5, 0.0], |r| r.critic.abs()),
+            curve("penalty", [0.1, 0.65, 0.2], |r| r.penalty),
+            curve("held-out l1", [0.85, 0.1, 0.1], |r| r.held_out),
+        ],
+    )
+    .save_png(&folder.plot())
+}
+
+/// The networks and optimisers under training, and the data as planes.
+struct Run {
+    generator: Generator,
+    critic: Critic,
+    generator_optimizer: ModuleOptimizer,
+    critic_optimizer: ModuleOptimizer,
+    inputs: Vec<Vec<f32>>,
+    targets: Vec<Vec<f32>>,
+    held_out: (Vec<Vec<f32>>, Vec<Vec<f32>>),
+    size: usize,
+    config: AppearanceConfig,
+    device: Device,
+}
+
+impl Run {
+    fn tensor(&self, planes: &[&Vec<f32>], device: &Device) -> Tensor<4> {
+        let data: Vec<f32> = planes.iter().flat_map(|p| p.iter().copied()).collect();
+        Tensor::from_data(TensorData::new(data, [planes.len(), 4, self.size, self.size]), device)
+    }
+
+    /// Generator step `step` on the frames `batch`, after `critic_steps` critic steps.
+    fn step(&mut self, step: u64, batch: &[usize]) -> Result<AppearanceRow> {
+        // Dropout and the penalty's mixing are functions of the step, so a resumed run draws
+        // what an uninterrupted one would.
+        self.device.seed(self.config.seed ^ step.wrapping_mul(0x9E37_79B9_7F4A_7C15));
+        let mut rng = Rng::new(self.config.seed).fork(step);
+        let x = self.tensor(&batch.iter().map(|&i| &self.inputs[i]).collect::<Vec<_>>(), &self.device);
+        let y = self.tensor(&batch.iter().map(|&i| &self.targets[i]).collect::<Vec<_>>(), &self.device);
+        let fake = self.generator.forward(x.clone());
+        let pair = Batch {
+            real: y,
+            fake,
+            render: self.config.conditioned.then_some(x),
+        };
+        let loss = self.config.loss;
+        let lr = self.config.learning_rate;
+        let (mut critic_total, mut real, mut fake_score, mut penalty) = (0.0, f64::NAN, f64::NAN, 0.0);
+        if loss.has_critic() {
+            for _ in 0..self.config.critic_steps {
+                let mix: Vec<f32> = batch.iter().map(|_| rng.unit()).collect();
+                let mix = Tensor::from_data(TensorData::new(mix, [batch.len(), 1, 1, 1]), &self.device);
+                let terms = critic_loss(loss, &self.critic, &pair, mix, self.config.penalty_weight);
+                (critic_total, real, fake_score, penalty) = (
+                    scalar(&terms.total),
+                    scalar(&terms.real),
+                    scalar(&terms.fake),
+                    scalar(&terms.penalty),
+                );
+                let grads = GradientsParams::from_grads(terms.total.backward(), &self.critic);
+                self.critic = self.critic_optimizer.step(lr, self.critic.take(), grads);
+            }
+        }
+        let terms = generator_loss(loss, &self.critic.clone().no_grad(), &pair, self.config.l1_weight);
+        let row = AppearanceRow {
+            step: step + 1,
+            seconds: 0.0,
+            generator: scalar(&terms.total),
+            adversarial: scalar(&terms.adversarial),
+            l1: scalar(&terms.l1),
+            critic: critic_total,
+            real,
+            fake: fake_score,
+            penalty,
+            held_out: f64::NAN,
+        };
+        if !(row.generator.is_finite() && row.critic.is_finite()) {
+            return Err(Error::Diverged {
+                step: step + 1,
+                losses: format!("generator {}, critic {}, penalty {}", row.generator, row.critic, row.penalty),
+                checkpoint: None,
+            });
+        }
+        let grads = GradientsParams::from_grads(terms.total.backward(), &self.generator);
+        self.generator = self.generator_optimizer.step(lr, self.generator.take(), grads);
+        Ok(row)
+    }
+
+    /// The generator's per-pixel mean L1 on the held-out frames (NaN if none), without dropout.
+    fn held_out_l1(&self) -> f64 {
+        let (inputs, targets) = &self.held_out;
+        if inputs.is_empty() {
+            return f64::NAN;
+        }
+        let device = crate::backend::device();
+        let generator = self.generator.valid();
+        let mut sum = 0.0;
+        for (x, y) in inputs.chunks(16).zip(targets.chunks(16)) {
+            let n = x.len() as f64;
+            let x = self.tensor(&x.iter().collect::<Vec<_>>(), &device);
+            let y = self.tensor(&y.iter().collect::<Vec<_>>(), &device);
+            sum += scalar(&(generator.forward(x) - y).abs().mean()) * n;
+        }
+        sum / inputs.len() as f64
+    }
+
+    fn state_bytes(&self, dir: &Path) -> Result<Vec<(&'static str, Vec<u8>)>> {
+        let optimizer = |o: &ModuleOptimizer| {
+            o.into_bytes()
+                .map(|b| b.to_vec())
+                .map_err(|e| Error::format(dir, format!("cannot encode optimiser state: {e:?}")))
+        };
+        Ok(vec![
+            (GENERATOR, weights_bytes(&self.generator, dir)?),
+            (CRITIC, weights_bytes(&self.critic, dir)?),
+            (GENERATOR_OPTIMIZER, optimizer(&self.generator_optimizer)?),
+            (CRITIC_OPTIMIZER, optimizer(&self.critic_optimizer)?),
+        ])
+    }
+
+    fn restore(&mut self, checkpoint: &Checkpoint) -> Result<()> {
+        let dir = &checkpoint.dir;
+        let (g_limit, d_limit) = (max_weights_bytes(&self.generator), max_weights_bytes(&self.critic));
+        self.generator = load_weights(self.generator.clone(), checkpoint.file(GENERATOR, g_limit)?, &dir.join(GENERATOR))?;
+        self.critic = load_weights(self.critic.clone(), checkpoint.file(CRITIC, d_limit)?, &dir.join(CRITIC))?;
+        let optimizer = |o: &ModuleOptimizer, name: &str, limit: u64| -> Result<ModuleOptimizer> {
+            o.clone()
+                .from_bytes(Bytes::from_bytes_vec(checkpoint.file(name, limit)?))
+                .map_err(|e| Error::format(dir.join(name), format!("cannot read optimiser state: {e:?}")))
+        };
+        self.generator_optimizer = optimizer(&self.generator_optimizer, GENERATOR_OPTIMIZER, 2 * g_limit)?;
+        self.critic_optimizer = optimizer(&self.critic_optimizer, CRITIC_OPTIMIZER, 2 * d_limit)?;
+        Ok(())
+    }
+}
