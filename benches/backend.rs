@@ -29,6 +29,8 @@ use puppet::train::optim::{adam, AdamSettings};
 // flex` measures without both, `BACKEND_PURGE=1` with mimalloc's default purging.
 #[path = "../src/allocator.rs"]
 mod allocator;
+#[path = "support/cpu_report.rs"]
+mod cpu_report;
 
 const BATCH: usize = 16;
 const VERTICES: usize = 600;
@@ -86,25 +88,9 @@ fn optimizers() -> Vec<(&'static str, burn::optim::ModuleOptimizer)> {
     }
 }
 
-/// CPU time (user + system) of this process so far, in seconds, from /proc/self/stat (Linux;
-/// 0 elsewhere).
-fn cpu_seconds() -> f64 {
-    let stat = std::fs::read_to_string("/proc/self/stat").unwrap_or_default();
-    // Fields after the parenthesised command name; utime and stime are fields 14 and 15.
-    let rest = stat.rsplit_once(')').map_or("", |(_, r)| r);
-    let f: Vec<f64> = rest.split_whitespace().skip(11).take(2).filter_map(|x| x.parse().ok()).collect();
-    f.iter().sum::<f64>() / 100.0 // USER_HZ is 100 on Linux
-}
-
 /// Prints wall and CPU time per step and images/s, over `n` steps after two warm-up steps.
 fn report_cpu(name: &str, n: usize, step: &mut Step) {
-    step.run();
-    step.run();
-    let (wall, cpu) = (std::time::Instant::now(), cpu_seconds());
-    for _ in 0..n {
-        step.run();
-    }
-    let (wall, cpu) = (wall.elapsed().as_secs_f64() / n as f64, (cpu_seconds() - cpu) / n as f64);
+    let (wall, cpu) = cpu_report::measure(n, 2, || step.run());
     println!(
         "cpu-report {name}: wall {:.1} ms, cpu {:.1} ms per step of {BATCH} ({:.1} images/s, {:.0} % CPU)",
         wall * 1e3,

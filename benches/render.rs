@@ -8,6 +8,8 @@
 // undocumented functions.
 #![allow(missing_docs, clippy::print_stdout, clippy::unwrap_used)]
 
+#[path = "support/cpu_report.rs"]
+mod cpu_report;
 use std::hint::black_box;
 
 use criterion::{criterion_group, criterion_main, Criterion, Throughput};
@@ -135,25 +137,9 @@ fn poses(p: &Puppet) -> Vec<f32> {
         .collect()
 }
 
-/// CPU time (user + system) of this process so far, in seconds, from /proc/self/stat (Linux;
-/// 0 elsewhere). The machine is shared, so wall-clock figures include waiting for a core; CPU
-/// time per batch does not.
-fn cpu_seconds() -> f64 {
-    let stat = std::fs::read_to_string("/proc/self/stat").unwrap_or_default();
-    // Fields after the parenthesised command name; utime and stime are fields 14 and 15.
-    let rest = stat.rsplit_once(')').map_or("", |(_, r)| r);
-    let f: Vec<f64> = rest.split_whitespace().skip(11).take(2).filter_map(|x| x.parse().ok()).collect();
-    f.iter().sum::<f64>() / 100.0 // USER_HZ is 100 on Linux
-}
-
 /// Prints wall and CPU milliseconds per call of `run`, averaged over `n` calls.
-fn report_cpu(name: &str, n: usize, mut run: impl FnMut()) {
-    run();
-    let (wall, cpu) = (std::time::Instant::now(), cpu_seconds());
-    for _ in 0..n {
-        run();
-    }
-    let (wall, cpu) = (wall.elapsed().as_secs_f64() / n as f64, (cpu_seconds() - cpu) / n as f64);
+fn report_cpu(name: &str, n: usize, run: impl FnMut()) {
+    let (wall, cpu) = cpu_report::measure(n, 1, run);
     println!(
         "cpu-report {name}: wall {:.1} ms, cpu {:.1} ms per batch of {BATCH} ({:.2} ms cpu per image)",
         wall * 1e3,

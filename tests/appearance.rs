@@ -147,6 +147,25 @@ fn a_resumed_stage_matches_an_uninterrupted_one_and_eval_and_fit_use_it() {
         .filter(|e| e.path().extension().is_some_and(|x| x == "png"))
         .count();
     assert_eq!(pngs, 4, "both keys and two in-betweens");
+    let posed = dir.join("posed.png");
+    puppet(
+        dir,
+        &[
+            "pose",
+            "--model",
+            s(&model),
+            s(&frames[0]),
+            "--pin",
+            "32,30:35,28",
+            "-o",
+            s(&posed),
+            "--latent-steps",
+            "0",
+            "--appearance",
+        ],
+    )
+    .assert_ok();
+    assert!(dir.join("posed_generated.png").is_file());
 }
 
 #[test]

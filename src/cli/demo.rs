@@ -27,6 +27,10 @@ pub struct DemoArgs {
     /// adventurer; data/kenney/robot is the other one with frames and a label map).
     #[arg(long, value_name = "DIR")]
     pub character: Option<PathBuf>,
+    /// Also train the appearance stage (neural-puppet.md §3.3) for this many epochs (~0.6 s an
+    /// epoch of nine frames) and show its redraws on the page.
+    #[arg(long, value_name = "EPOCHS", num_args = 0..=1, default_missing_value = "50")]
+    pub appearance: Option<u64>,
 }
 
 /// Runs `puppet demo`.
@@ -36,6 +40,7 @@ pub fn run(args: DemoArgs, s: &Session) -> anyhow::Result<()> {
         steps: args.steps,
         force: s.outputs.forced(),
         character: args.character.unwrap_or(defaults.character.clone()),
+        appearance_epochs: args.appearance,
         ..defaults
     };
     let summary = run_demo(&options, &s.ui)?;
@@ -51,5 +56,7 @@ mod tests {
     fn parses_output_and_steps() {
         parses(&["demo"]);
         parses(&["demo", "-o", "x", "--steps", "5", "--character", "data/kenney/robot"]);
+        parses(&["demo", "--appearance"]);
+        parses(&["demo", "--appearance", "20"]);
     }
 }

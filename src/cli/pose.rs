@@ -6,6 +6,7 @@ use std::path::{Path, PathBuf};
 
 use anyhow::Context as _;
 
+use puppet::appearance::AppearanceStage;
 use puppet::edit::arap_drag::arap_drag;
 use puppet::edit::pin_overlay::pin_overlay;
 use puppet::edit::pose::{Pin, PoseEditor, PoseOptions, DEFAULT_ETA};
@@ -57,6 +58,10 @@ pub struct PoseArgs {
     /// Also write the drag's updates as a sprite sheet with its atlas (FILE.png + FILE.json).
     #[arg(long, value_name = "FILE")]
     pub sprites: Option<PathBuf>,
+    /// Also redraw the dragged pose with the model's appearance stage (OUT_generated.png, a
+    /// fifth cell in the sheet).
+    #[arg(long)]
+    pub appearance: bool,
     /// Updates in the drag's animation.
     #[arg(long, alias = "gif-frames", default_value_t = 12, value_name = "N")]
     pub drag_frames: usize,
@@ -100,14 +105,19 @@ pub fn run(args: PoseArgs, s: &Session) -> anyhow::Result<()> {
         beside(&args.output, "_sheet.png"),
         beside(&args.output, ".json"),
     );
+    let generated_path = beside(&args.output, "_generated.png");
     for path in [&args.output, &arap_path, &sheet_path, &json_path] {
         s.outputs.claim(path)?;
+    }
+    if args.appearance {
+        s.outputs.claim(&generated_path)?;
     }
     let device = puppet::backend::device();
     let dir = &args.model.model;
     let model = Model::load(dir, &device)?;
     let worn = args.outfit.model(&model, &s.ui)?;
     let drawn = worn.as_ref().unwrap_or(&model);
+    let stage = args.appearance.then(|| AppearanceStage::load(dir, &model, &device)).transpose()?;
     let frame = load_frame(&args.image, &model)?;
     let (w, h) = (model.puppet.width, model.puppet.height);
     let mut editor = PoseEditor::new(&model, &frame, &args.fit.options(dir)?, &device)?;
@@ -136,12 +146,19 @@ pub fn run(args: PoseArgs, s: &Session) -> anyhow::Result<()> {
     let arap_pic = render_pose(&drawn.puppet, &arap, w, h, 0.0, background)?;
     s.save_png(&args.output, &ours)?;
     s.save_png(&arap_path, &arap_pic)?;
-    s.outputs.write(&json_path, &PoseFile { vertices: posed }.to_json())?;
-    let cells: Vec<Picture> = [&frame, &fit, &ours, &arap_pic]
+    s.outputs.write(&json_path, &PoseFile { vertices: posed.clone() }.to_json())?;
+    let mut cells: Vec<Picture> = [&frame, &fit, &ours, &arap_pic]
         .iter()
         .map(|p| pin_overlay(p, &args.pins))
         .collect();
-    s.save_png(&sheet_path, &contact_sheet(&cells.iter().collect::<Vec<_>>(), 4))?;
+    if let Some(stage) = &stage {
+        let (_, generated) = stage
+            .render_and_redraw(&drawn.puppet, std::slice::from_ref(&posed), &device)?
+            .remove(0);
+        s.save_png(&generated_path, &generated)?;
+        cells.push(pin_overlay(&generated, &args.pins));
+    }
+    s.save_png(&sheet_path, &contact_sheet(&cells.iter().collect::<Vec<_>>(), cells.len()))?;
     if let Some(mut writer) = drag {
         s.ui.stage("drag", args.drag_frames as u64);
         editor.write_drag(drawn, &args.pins, args.drag_frames, &options, &mut writer, &s.ui)?;

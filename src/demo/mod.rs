@@ -12,6 +12,7 @@ pub mod page;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
+use crate::appearance::{train_appearance, AppearanceConfig, AppearanceOptions, AppearanceStage};
 use crate::atomic_file::{record, written_by_puppet, Outputs};
 use crate::edit::arap_drag::arap_drag;
 use crate::edit::inbetween::{comparison_sheet, inbetween, steps_t, write_inbetweens, InbetweenFiles, Inbetweens, MAX_STEPS};
@@ -47,6 +48,8 @@ pub struct DemoOptions {
     pub character: PathBuf,
     /// Replace files in the output folder that puppet did not write.
     pub force: bool,
+    /// Also train the appearance stage for this many epochs (batch 1) and show its redraws.
+    pub appearance_epochs: Option<u64>,
 }
 
 impl DemoOptions {
@@ -57,6 +60,7 @@ impl DemoOptions {
             steps: 300,
             character: bundled_character(),
             force: false,
+            appearance_epochs: None,
         }
     }
 }
@@ -225,6 +229,7 @@ pub fn run(options: &DemoOptions, progress: &dyn Progress) -> Result<DemoSummary
     let mut inbetweens = Vec::new();
     let mut exported = Vec::new();
     let mut outfit = None;
+    let mut first_path = None;
     for (a, b, stem) in [
         (pick("walk0", 0), pick("walk4", 1), "inbetween_walk"),
         (idle, pick("jump", 2), "inbetween_jump"),
@@ -244,6 +249,9 @@ pub fn run(options: &DemoOptions, progress: &dyn Progress) -> Result<DemoSummary
             name: stem.to_string(),
             poses: ib.latent.clone(),
         });
+        if first_path.is_none() {
+            first_path = Some((stem, ib.latent.clone()));
+        }
         inbetweens.push(Inbetween {
             stem: stem.to_string(),
             from: names[a].clone(),
@@ -281,6 +289,39 @@ pub fn run(options: &DemoOptions, progress: &dyn Progress) -> Result<DemoSummary
     editor.write_drag(&model, &[pin], DRAG_FRAMES, &pose_options, &mut writer, progress)?;
     writer.finish()?;
     lap("dragged pose + ARAP comparison", &mut timings);
+
+    // The appearance stage (§3.3), if asked: its sheet and the first in-between redrawn.
+    let appearance = match (options.appearance_epochs, &first_path) {
+        (Some(epochs), Some((stem, poses))) => {
+            let config = AppearanceConfig {
+                epochs,
+                ..AppearanceConfig::default()
+            };
+            let trained = train_appearance(&model_dir, &config, &fit_options, &AppearanceOptions::default(), progress)?;
+            let stage = AppearanceStage::load(&model_dir, &model, &device)?;
+            let generated_stem = format!("{stem}_generated");
+            let mut writer = AnimationWriter::new(&animation(out, &generated_stem, true), poses.len(), w, h, &outputs)?;
+            let generated: Vec<Picture> = stage
+                .render_and_redraw(&model.puppet, poses, &device)?
+                .into_iter()
+                .map(|(_, g)| g)
+                .collect();
+            for frame in &generated {
+                writer.push(frame)?;
+            }
+            for k in writer.return_frames() {
+                writer.push_return(&generated[k])?;
+            }
+            writer.finish()?;
+            lap("appearance stage (train + redraw)", &mut timings);
+            Some(page::Appearance {
+                epochs,
+                summary: trained,
+                stem: stem.to_string(),
+            })
+        }
+        _ => None,
+    };
 
     // 6. For game engines: the in-betweens and the drag (fit → dragged) as a Spine skeleton.
     exported.push(PoseAnimation {
@@ -326,6 +367,7 @@ pub fn run(options: &DemoOptions, progress: &dyn Progress) -> Result<DemoSummary
         l2_rows,
         fit: fit_options,
         inbetweens,
+        appearance,
         pin,
         pin_error: dragged.pin_error[0],
         drag_ms,

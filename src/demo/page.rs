@@ -3,6 +3,7 @@
 
 use std::fmt::Write as _;
 
+use crate::appearance::AppearanceSummary;
 use crate::edit::pose::Pin;
 use crate::fit::FitOptions;
 
@@ -53,6 +54,8 @@ pub struct PageData {
     pub fit: FitOptions,
     /// The in-betweens.
     pub inbetweens: Vec<Inbetween>,
+    /// The appearance stage, when the demo trained one.
+    pub appearance: Option<Appearance>,
     /// The first in-between in another outfit, if the character has one (`outfits/`).
     pub outfit: Option<Outfit>,
     /// The puppet's accessory layers (placed by the rig).
@@ -75,6 +78,17 @@ pub struct PageData {
     pub spine_animations: Vec<String>,
     /// Wall time of the whole run, seconds.
     pub total: f64,
+}
+
+/// The demo's appearance stage.
+#[derive(Clone, Debug)]
+pub struct Appearance {
+    /// Epochs it trained.
+    pub epochs: u64,
+    /// What training measured.
+    pub summary: AppearanceSummary,
+    /// The in-between it redrew (`<stem>_generated.apng`).
+    pub stem: String,
 }
 
 /// `text` safe inside HTML text and attribute values.
@@ -186,6 +200,22 @@ pub fn render(d: &PageData) -> String {
         d.drag_ms,
         d.pin_error
     );
+    if let Some(a) = &d.appearance {
+        let _ = writeln!(
+            s,
+            "<h2>Appearance (§3.3)</h2><p>A generator trained {} epochs to redraw each render as the frame was drawn (render | generated | drawn; \
+             training frames, then held-out ones). Mean L2 on the training frames: rendered {:.0}, generated {:.0}; held out: rendered {:.0}, generated {:.0}.</p>\
+             <div class=\"row\"><figure><img src=\"model/appearance/sheet.png\" width=\"576\"><figcaption>render | generated | drawn</figcaption></figure>\
+             <figure><img src=\"{stem}.apng\" width=\"192\"><figcaption>the in-between, rendered</figcaption></figure>\
+             <figure><img src=\"{stem}_generated.apng\" width=\"192\"><figcaption>the same, redrawn</figcaption></figure></div>",
+            a.epochs,
+            a.summary.train.rendered,
+            a.summary.train.generated,
+            a.summary.held_out.rendered,
+            a.summary.held_out.generated,
+            stem = escape(&a.stem),
+        );
+    }
     let files: Vec<String> = d
         .engine_files
         .iter()
@@ -233,6 +263,7 @@ mod tests {
                 from: "walk0".into(),
                 to: "walk4".into(),
             }],
+            appearance: None,
             outfit: Some(Outfit {
                 name: "cap".into(),
                 accessories: vec!["<hat>".into()],
