@@ -193,6 +193,13 @@ fn bad_appearance_inputs_are_named_and_change_nothing() {
     let bad = stage_config(dir, "bad", "critic_steps = 0\n");
     puppet(dir, &["appearance", "train", "--model", s(&model), s(&bad), "--resume"]).assert_error(&["bad.toml", "critic_steps"]);
 
+    // A hostile net.json: refused by its limits before anything is allocated.
+    let net = model.join("appearance/net.json");
+    let original = std::fs::read_to_string(&net).unwrap();
+    std::fs::write(&net, original.replace("\"max_channels\": 64", "\"max_channels\": 1000000000")).unwrap();
+    puppet(dir, &["eval", "--model", s(&model), s(&seq), "--one-pass", "--appearance"]).assert_error(&["net.json", "channels"]);
+    std::fs::write(&net, original).unwrap();
+
     // A stage copied into the folder of a model of another puppet.
     let (other_seq, other) = tiny_model(dir, "wide", "80x64");
     copy_dir(&model.join("appearance"), &other.join("appearance"));

@@ -126,8 +126,15 @@ impl AppearanceConfig {
     /// [`Error::Io`]/[`Error::Limit`] naming the file; [`Error::Format`] for TOML that does not
     /// parse or an unknown key; [`Error::Setting`] for a value out of range.
     pub fn load(path: &Path) -> Result<Self> {
-        let text = user_file::read_text(path, user_file::CONFIG)?;
-        let config: AppearanceConfig = toml::from_str(&text).map_err(|e| Error::format(path, e.to_string()))?;
+        Self::parse(&user_file::read_text(path, user_file::CONFIG)?, path)
+    }
+
+    /// Parses and checks config text read from `path` (named in errors).
+    ///
+    /// # Errors
+    /// As [`AppearanceConfig::load`], but reading.
+    pub fn parse(text: &str, path: &Path) -> Result<Self> {
+        let config: AppearanceConfig = toml::from_str(text).map_err(|e| Error::format(path, e.to_string()))?;
         config.validate().map_err(|e| e.with_path(path))?;
         Ok(config)
     }

@@ -185,12 +185,7 @@ impl AppearanceStage {
             )));
         }
         let config: AppearanceNetConfig = read_json(&folder.net())?;
-        if config.input_size != expected.input_size || config.depth() == 0 {
-            return Err(Error::format(
-                folder.net(),
-                format!("input_size {} does not fit the model's {}", config.input_size, expected.input_size),
-            ));
-        }
+        check_net(&config, expected.input_size).map_err(|problem| Error::format(folder.net(), problem))?;
         let empty = config.init_generator(device);
         let bytes = user_file::read_bytes(&folder.generator(), max_weights_bytes(&empty))?;
         let generator = load_weights(empty, bytes, &folder.generator())?;
@@ -248,6 +243,28 @@ impl AppearanceStage {
         let generated = self.redraw(&renders.iter().collect::<Vec<_>>(), device);
         Ok(renders.into_iter().zip(generated).collect())
     }
+}
+
+/// The widest networks a stage may ask for (pix2pix's full size is 64 / 512): a hostile
+/// `net.json` must not make the loader allocate without bound.
+const MAX_CHANNELS: usize = 2048;
+
+/// What is wrong with a stored network config for a model of working size `input_size`, if
+/// anything.
+fn check_net(config: &AppearanceNetConfig, input_size: usize) -> std::result::Result<(), String> {
+    if config.input_size != input_size || config.depth() == 0 {
+        return Err(format!("input_size {} does not fit the model's {input_size}", config.input_size));
+    }
+    if config.base_channels == 0 || config.max_channels < config.base_channels || config.max_channels > MAX_CHANNELS {
+        return Err(format!(
+            "channels {} to {} (expected 1 ≤ base ≤ max ≤ {MAX_CHANNELS})",
+            config.base_channels, config.max_channels
+        ));
+    }
+    if !(0.0..1.0).contains(&config.dropout) {
+        return Err(format!("dropout {} (expected 0 ≤ p < 1)", config.dropout));
+    }
+    Ok(())
 }
 
 /// Reads a JSON file of the stage.
