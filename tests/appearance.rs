@@ -177,6 +177,12 @@ fn bad_appearance_inputs_are_named_and_change_nothing() {
         .assert_error(&["appearance", "no appearance stage"]);
 
     let config = stage_config(dir, "stage", "");
+    // A file of the user's where the stage would go: refused, left as it was.
+    std::fs::create_dir_all(model.join("appearance")).unwrap();
+    std::fs::write(model.join("appearance/notes.txt"), "mine").unwrap();
+    puppet(dir, &["appearance", "train", "--model", s(&model), s(&config)]).assert_error(&["appearance", "not made by puppet"]);
+    assert_eq!(std::fs::read_dir(model.join("appearance")).unwrap().count(), 1);
+    std::fs::remove_dir_all(model.join("appearance")).unwrap();
     puppet(dir, &["appearance", "train", "--model", s(&model), s(&config), "--pause-at", "2"]).assert_ok();
     let before = crate::regression::snapshot(&model);
     let changed = stage_config(dir, "changed", "loss = \"lsgan\"\n");

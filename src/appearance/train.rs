@@ -15,7 +15,7 @@ use burn::tensor::{Bytes, Device, Tensor, TensorData};
 use super::config::{AppearanceConfig, TrainingFit};
 use super::pairs::{split_pairs, Pairs};
 use super::stage::{AppearanceStage, StageFolder, StageRecord};
-use crate::atomic_file::write_atomic;
+use crate::atomic_file::{record, write_atomic, Outputs};
 use crate::backend::scalar;
 use crate::error::{Error, Result};
 use crate::fit::FitOptions;
@@ -181,7 +181,8 @@ pub fn train_appearance(
                 });
             }
         }
-        (None, false) => {}
+        // A fresh run may fill only a folder puppet made, or an empty one.
+        (None, false) => Outputs::new(false).claim_folder(folder.dir())?,
     }
     let fit_options = match config.fit {
         TrainingFit::Default => fit.clone(),
@@ -216,6 +217,9 @@ pub fn train_appearance(
             let json = serde_json::to_vec_pretty(&net).map_err(|e| Error::format(folder.net(), e.to_string()))?;
             write_atomic(&folder.net(), &json)?;
             StageRecord::of(&model).save(&folder)?;
+            // Listed in the model folder's manifest, so a later fresh run may fill it again.
+            let absolute = std::path::absolute(folder.dir()).map_err(|e| Error::io(folder.dir(), e))?;
+            record(&absolute)?;
         }
     }
     let toml = toml::to_string_pretty(config).map_err(|e| Error::format(folder.config(), e.to_string()))?;
@@ -258,9 +262,13 @@ pub fn train_appearance(
     let seconds = started.elapsed().as_secs_f64();
     save(&folder, &run, step, elapsed, &config_json, &log)?;
     let stage = AppearanceStage::new(net, run.generator.valid(), model.letterbox);
-    let train = scores(&stage, &pairs.train, &inference);
-    let held_out = scores(&stage, &pairs.held_out, &inference);
-    sheet(&stage, &pairs.train, &pairs.held_out, &inference).save_png(&folder.sheet())?;
+    let (train_redraws, held_out_redraws) = (
+        redraws(&stage, &pairs.train, &inference),
+        redraws(&stage, &pairs.held_out, &inference),
+    );
+    let train = scores(&pairs.train, &train_redraws);
+    let held_out = scores(&pairs.held_out, &held_out_redraws);
+    sheet([(&pairs.train, &train_redraws), (&pairs.held_out, &held_out_redraws)]).save_png(&folder.sheet())?;
     Ok(AppearanceSummary {
         steps: step,
         finished: step >= total,
@@ -275,24 +283,27 @@ fn planes(model: &Model, pictures: &[Picture]) -> Vec<Vec<f32>> {
     pictures.iter().map(|p| model.letterbox.premultiplied_planes(p)).collect()
 }
 
-/// Mean L2 of renders and of their redraws against the drawn frames.
-fn scores(stage: &AppearanceStage, pairs: &Pairs, device: &Device) -> L2Pair {
+/// Each pair's render redrawn by the stage.
+fn redraws(stage: &AppearanceStage, pairs: &Pairs, device: &Device) -> Vec<Picture> {
+    stage.redraw(&pairs.renders.iter().collect::<Vec<_>>(), device)
+}
+
+/// Mean L2 of renders and of their redraws `generated` against the drawn frames.
+fn scores(pairs: &Pairs, generated: &[Picture]) -> L2Pair {
     let n = pairs.frames.len() as f64;
-    let generated = stage.redraw(&pairs.renders.iter().collect::<Vec<_>>(), device);
     let mean = |pictures: &[Picture]| pictures.iter().zip(&pairs.frames).map(|(p, f)| l2(p, f)).sum::<f64>() / n;
     L2Pair {
         rendered: mean(&pairs.renders),
-        generated: mean(&generated),
+        generated: mean(generated),
     }
 }
 
 /// Rows of (render, generated, drawn): the training frames, then the held-out ones.
-fn sheet(stage: &AppearanceStage, train: &Pairs, held_out: &Pairs, device: &Device) -> Picture {
+fn sheet(sets: [(&Pairs, &[Picture]); 2]) -> Picture {
     let mut cells: Vec<Picture> = Vec::new();
-    for pairs in [train, held_out] {
-        let generated = stage.redraw(&pairs.renders.iter().collect::<Vec<_>>(), device);
+    for (pairs, generated) in sets {
         for ((render, drawn), redrawn) in pairs.renders.iter().zip(&pairs.frames).zip(generated) {
-            cells.extend([render.clone(), redrawn, drawn.clone()]);
+            cells.extend([render.clone(), redrawn.clone(), drawn.clone()]);
         }
     }
     contact_sheet(&cells.iter().collect::<Vec<_>>(), 6)
