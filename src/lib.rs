@@ -32,6 +32,7 @@ pub mod train;
 pub mod appearance;
 pub mod edit;
 pub mod fit;
+pub mod parts;
 // Layer 6, products.
 pub mod demo;
 pub mod eval;

@@ -12,6 +12,7 @@ mod browser;
 mod cli;
 mod edit;
 mod formats;
+mod parts;
 mod regression;
 mod render;
 mod synth;

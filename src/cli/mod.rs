@@ -12,11 +12,13 @@ mod build;
 mod correspond;
 mod demo;
 mod eval;
+mod eval_parts;
 mod eval_rig;
 mod export;
 mod fit;
 mod inbetween;
 mod info;
+mod parts;
 mod pose;
 mod render;
 mod rig;
@@ -75,11 +77,13 @@ enum Command {
     Correspond(correspond::CorrespondArgs),
     Demo(demo::DemoArgs),
     Eval(eval::EvalArgs),
+    EvalParts(eval_parts::EvalPartsArgs),
     EvalRig(eval_rig::EvalRigArgs),
     Export(export::ExportArgs),
     Fit(fit::FitArgs),
     Inbetween(inbetween::InbetweenArgs),
     Info(info::InfoArgs),
+    Parts(parts::PartsArgs),
     Pose(pose::PoseArgs),
     Render(render::RenderArgs),
     Rig(rig::RigArgs),
@@ -104,11 +108,13 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
         Command::Correspond(args) => correspond::run(args, s),
         Command::Demo(args) => demo::run(args, s),
         Command::Eval(args) => eval::run(args, s),
+        Command::EvalParts(args) => eval_parts::run(args, s),
         Command::EvalRig(args) => eval_rig::run(args, s),
         Command::Export(args) => export::run(args, s),
         Command::Fit(args) => fit::run(args, s),
         Command::Inbetween(args) => inbetween::run(args, s),
         Command::Info(args) => info::run(args, s),
+        Command::Parts(args) => parts::run(args, s),
         Command::Pose(args) => pose::run(args, s),
         Command::Render(args) => render::run(args, s),
         Command::Rig(args) => rig::run(args, s),
@@ -180,10 +186,12 @@ mod tests {
             "correspond",
             "demo",
             "eval",
+            "eval-parts",
             "eval-rig",
             "fit",
             "inbetween",
             "info",
+            "parts",
             "pose",
             "render",
             "rig",

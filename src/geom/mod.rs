@@ -21,6 +21,7 @@
 //! - [`rigid_interpolation::RigidInterpolation`]: as-rigid-as-possible shape interpolation
 //!   between two poses (Alexa et al. 2000), the classical in-between.
 //! - [`components::component_labels`]: connected components of vertices joined by edges.
+//! - [`similarity::Similarity`]: a 2D similarity transform and its least-squares fit.
 
 pub mod arap;
 pub mod bbw;
@@ -28,6 +29,7 @@ pub mod components;
 pub mod cotan_laplacian;
 pub mod min_quad_with_fixed;
 pub mod rigid_interpolation;
+pub mod similarity;
 pub mod triangle;
 
 pub use arap::{arap_energy, best_fit_rotations, ArapEnergy, ArapSolver};

@@ -38,8 +38,9 @@ impl Default for JointOptions {
 
 /// The joint sites of `artwork`: every pair of layers (or every pair in
 /// [`Artwork::joint_pairs`]) whose opaque regions overlap by at least `opts.min_overlap` pixels,
-/// hinged at the overlap's centroid — moved to the nearest overlapping pixel centre when the
-/// centroid falls outside the overlap (a curved overlap), so it lies inside both parts.
+/// hinged at the overlap's centroid — moved to the nearest pixel centre inside the overlap (a
+/// pixel whose neighbours all overlap too, when there is one) when the centroid falls outside
+/// the overlap (a curved overlap) or on its edge, so it lies inside both parts' outlines.
 ///
 /// Returns the sites and, for explicitly listed pairs, the pairs that do not overlap.
 pub fn find_joints(artwork: &Artwork, opts: &JointOptions) -> (Vec<JointSite>, Vec<[usize; 2]>) {
@@ -70,23 +71,26 @@ pub fn find_joints(artwork: &Artwork, opts: &JointOptions) -> (Vec<JointSite>, V
             [s[0] + c[0] as f64, s[1] + c[1] as f64]
         });
         let centroid = [(sum[0] / overlap.len() as f64) as f32, (sum[1] / overlap.len() as f64) as f32];
-        let inside = {
-            let (x, y) = (centroid[0].floor() as usize, centroid[1].floor() as usize);
-            overlap.binary_search(&(y * width + x)).is_ok()
+        let in_overlap =
+            |x: i64, y: i64| x >= 0 && y >= 0 && (x as usize) < width && overlap.binary_search(&(y as usize * width + x as usize)).is_ok();
+        // A pixel whose 3 × 3 neighbourhood is all overlap lies a pixel inside both outlines,
+        // which survives contour simplification; an edge pixel of the overlap may not.
+        let interior = |i: usize| {
+            let (x, y) = ((i % width) as i64, (i / width) as i64);
+            (-1..=1).all(|dy| (-1..=1).all(|dx| in_overlap(x + dx, y + dy)))
         };
-        let point = if inside {
+        let d2 = |i: usize| {
+            let c = centre(i);
+            (c[0] - centroid[0]).powi(2) + (c[1] - centroid[1]).powi(2)
+        };
+        let nearest = |candidates: &mut dyn Iterator<Item = usize>| candidates.min_by(|&i, &j| d2(i).total_cmp(&d2(j)));
+        let under_centroid = centroid[1].floor() as usize * width + centroid[0].floor() as usize;
+        let point = if overlap.binary_search(&under_centroid).is_ok() && interior(under_centroid) {
             centroid
         } else {
-            let d2 = |i: usize| {
-                let c = centre(i);
-                (c[0] - centroid[0]).powi(2) + (c[1] - centroid[1]).powi(2)
-            };
-            centre(
-                *overlap
-                    .iter()
-                    .min_by(|&&i, &&j| d2(i).total_cmp(&d2(j)))
-                    .expect("overlap is not empty"),
-            )
+            // The nearest interior pixel; a overlap too thin to have one gives its nearest pixel.
+            let pick = nearest(&mut overlap.iter().copied().filter(|&i| interior(i))).or_else(|| nearest(&mut overlap.iter().copied()));
+            centre(pick.expect("overlap is not empty"))
         };
         sites.push(JointSite {
             a,

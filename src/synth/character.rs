@@ -14,7 +14,7 @@ use serde::{Deserialize, Serialize};
 
 use super::look::{Feature, FeatureShape, Look, Pattern, Rgb};
 use super::shape::{Primitive, Shape};
-use super::similarity::Similarity;
+use crate::geom::similarity::Similarity;
 use crate::rng::Rng;
 
 /// What a part is, which decides how it moves.

@@ -10,7 +10,7 @@ use rayon::prelude::*;
 use super::character::Character;
 use super::deformation::{Grid, InverseMap};
 use super::look::{paint, Wobble};
-use super::similarity::Similarity;
+use crate::geom::similarity::Similarity;
 use crate::picture::Picture;
 
 /// Label value of pixels no part covers.

@@ -23,7 +23,7 @@ mod part_arap;
 pub mod pose;
 pub mod sequence;
 pub mod shape;
-pub mod similarity;
+pub mod sheet_flow;
 pub mod truth;
 
 pub use output::{write_sequence, write_sprite_sheet, Written};

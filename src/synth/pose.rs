@@ -8,8 +8,8 @@ use std::str::FromStr;
 use serde::{Deserialize, Serialize};
 
 use super::character::{Character, Role, Side};
-use super::similarity::Similarity;
 use crate::error::{Error, Result};
+use crate::geom::similarity::Similarity;
 use crate::rng::Rng;
 
 /// How the character moves over the sequence.

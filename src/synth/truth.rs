@@ -11,8 +11,8 @@ use serde::{Deserialize, Serialize};
 
 use super::deformation::Grid;
 use super::pose::Motion;
-use super::similarity::Similarity;
 use crate::error::{Error, Result};
+use crate::geom::similarity::Similarity;
 use crate::puppet::Puppet;
 use crate::user_file;
 

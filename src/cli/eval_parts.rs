@@ -1,0 +1,210 @@
+//! `puppet eval-parts`: part IoU of predicted label maps against true ones (issue 16 item 5).
+
+use std::path::PathBuf;
+
+use puppet::eval::parts::{score_synthetic_sheet, SheetScores};
+use puppet::parts::pose::{crop_like, load_poses, Layout};
+use puppet::parts::score::{labels_by_colour, part_iou};
+use puppet::parts::PartsOptions;
+use puppet::picture::Picture;
+use puppet::progress::Progress;
+
+use super::args::parse_size;
+use super::Session;
+
+/// Score predicted parts against true parts: both are label maps drawn one flat colour per part
+/// (any colours; parts are matched, not named), either two sheets laid out alike (the truth's
+/// poses are cut by its alpha or by --grid, and the prediction is read at the same places) or
+/// two folders of per-pose label maps in the same order. Prints part IoU three ways: the
+/// paper's (per pose, Hungarian matching on 1 − IoU, averaged over matched parts), strict (one
+/// matching per sheet, unmatched true parts 0) and merged (each predicted part joined to the
+/// true part it overlaps most: for truth coarser than the prediction), and the part counts.
+///
+/// With --synthetic FIRST..END instead: generates the sprite sheet of each seed (6 to 10 random
+/// poses), finds its parts from the generator's exact correspondences, and prints part IoU
+/// beside two references on the same sheets — one part per connected region, and the
+/// superpixel-majority ceiling — with the skeleton's joints against the generator's.
+#[derive(Debug, clap::Args)]
+pub struct EvalPartsArgs {
+    /// The true label maps: a sheet or a folder.
+    #[arg(long, value_name = "LABELS", required_unless_present = "synthetic", requires = "predicted")]
+    pub truth: Option<PathBuf>,
+    /// The predicted label maps (e.g. `puppet parts`' pose_labels.png): a sheet or a folder.
+    pub predicted: Option<PathBuf>,
+    /// Score the part finder on the synthetic sheets of these seeds, FIRST..END (END excluded).
+    #[arg(long, value_name = "FIRST..END", value_parser = parse_seeds, conflicts_with_all = ["truth", "predicted", "grid"])]
+    pub synthetic: Option<(u64, u64)>,
+    /// Pose size of the synthetic sheets (square).
+    #[arg(long, default_value_t = 128, value_name = "PX", value_parser = clap::value_parser!(u32).range(64..=1024))]
+    pub size: u32,
+    /// Cut the truth sheet into a COLUMNSxROWS grid of equal cells instead of by its alpha.
+    #[arg(long, value_name = "CxR", value_parser = parse_size)]
+    pub grid: Option<(u32, u32)>,
+}
+
+fn parse_seeds(s: &str) -> Result<(u64, u64), String> {
+    let bad = || format!("{s:?} is not a seed range FIRST..END with FIRST < END (e.g. 9000..9024)");
+    let (a, b) = s.split_once("..").ok_or_else(bad)?;
+    let (a, b) = (
+        a.trim().parse::<u64>().map_err(|_| bad())?,
+        b.trim().parse::<u64>().map_err(|_| bad())?,
+    );
+    if a < b && b - a <= 10_000 {
+        Ok((a, b))
+    } else {
+        Err(bad())
+    }
+}
+
+/// Runs `puppet eval-parts`.
+pub fn run(args: EvalPartsArgs, s: &Session) -> anyhow::Result<()> {
+    if let Some((first, end)) = args.synthetic {
+        return synthetic(first, end, args.size, s);
+    }
+    let (Some(truth_path), Some(predicted_path)) = (&args.truth, &args.predicted) else {
+        anyhow::bail!("give --truth LABELS and the predicted label maps, or --synthetic FIRST..END");
+    };
+    let layout = args.grid.map(|(columns, rows)| Layout::Grid { columns, rows });
+    let (truth, sheet) = load_poses(truth_path, layout)?;
+    let predicted = match sheet {
+        Some(size) => {
+            let picture = Picture::load(predicted_path)?;
+            anyhow::ensure!(
+                (picture.width, picture.height) == size,
+                "{}: {}×{}, but the truth {} is {}×{}: the two sheets must be laid out alike",
+                predicted_path.display(),
+                picture.width,
+                picture.height,
+                truth_path.display(),
+                size.0,
+                size.1
+            );
+            crop_like(&picture, &truth)
+        }
+        None => {
+            let (predicted, _) = load_poses(predicted_path, None)?;
+            anyhow::ensure!(
+                predicted.len() == truth.len(),
+                "{} holds {} label maps, the truth {} holds {}",
+                predicted_path.display(),
+                predicted.len(),
+                truth_path.display(),
+                truth.len()
+            );
+            predicted
+        }
+    };
+    let (true_labels, true_parts) = labels_by_colour(&truth.iter().map(|p| &p.image).collect::<Vec<_>>());
+    let (predicted_labels, predicted_parts) = labels_by_colour(&predicted.iter().map(|p| &p.image).collect::<Vec<_>>());
+    for (t, p) in truth.iter().zip(&predicted) {
+        anyhow::ensure!(
+            t.image.width == p.image.width && t.image.height == p.image.height,
+            "{} is {}×{}, its truth {} is {}×{}",
+            p.name,
+            p.image.width,
+            p.image.height,
+            t.name,
+            t.image.width,
+            t.image.height
+        );
+    }
+    let scores = part_iou(&predicted_labels, &true_labels, predicted_parts, true_parts);
+    let mut table = format!("{:<24} {:>7}\n", "pose", "IoU");
+    for (pose, iou) in truth.iter().zip(&scores.per_pose) {
+        table += &format!("{:<24} {:>7.3}\n", pose.name, iou);
+    }
+    table += &format!(
+        "part IoU: paper {:.3}, strict {:.3}, merged {:.3}; parts {} predicted, {} true ({:+})",
+        scores.paper,
+        scores.strict,
+        scores.merged,
+        scores.predicted_parts,
+        scores.true_parts,
+        scores.predicted_parts as i64 - scores.true_parts as i64
+    );
+    s.ui.print(table)?;
+    Ok(())
+}
+
+/// The synthetic evaluation: one row per seed, then the means.
+fn synthetic(first: u64, end: u64, size: u32, s: &Session) -> anyhow::Result<()> {
+    let options = PartsOptions::default();
+    s.ui.stage("sheets", end - first);
+    let mut rows = Vec::new();
+    for seed in first..end {
+        // 6 to 10 poses, the range of the paper's sheets.
+        let poses = 6 + (seed % 5) as usize;
+        rows.push((poses, score_synthetic_sheet(seed, poses, size, &options)?));
+        s.ui.advance(1);
+    }
+    s.ui.finish();
+    let mut table = format!(
+        "{:>6} {:>5} {:>11} {:>7} {:>7} {:>7} {:>13} {:>13} {:>8} {:>9} {:>7} {:>6}\n",
+        "seed", "poses", "parts f/t", "paper", "strict", "merged", "regions p/s", "ceiling p/s", "hinged", "pivot px", "order", "s"
+    );
+    for (poses, r) in &rows {
+        table += &format!(
+            "{:>6} {:>5} {:>11} {:>7.3} {:>7.3} {:>7.3} {:>13} {:>13} {:>8} {:>9} {:>7} {:>6.2}\n",
+            r.seed,
+            poses,
+            format!("{}/{}", r.found.predicted_parts, r.found.true_parts),
+            r.found.paper,
+            r.found.strict,
+            r.found.merged,
+            format!("{:.3}/{:.3}", r.components.paper, r.components.strict),
+            format!("{:.3}/{:.3}", r.ceiling.paper, r.ceiling.strict),
+            format!("{}/{}", r.joints_hinged, r.joints),
+            r.pivot_error.map_or("-".into(), |e| format!("{e:.2}")),
+            format!("{}/{}", r.joints_ordered, r.joints_matched),
+            r.seconds
+        );
+    }
+    let n = rows.len() as f64;
+    let mean = |f: &dyn Fn(&SheetScores) -> f64| rows.iter().map(|(_, r)| f(r)).sum::<f64>() / n;
+    let sum = |f: &dyn Fn(&SheetScores) -> usize| rows.iter().map(|(_, r)| f(r)).sum::<usize>();
+    let mut pivots: Vec<f32> = rows.iter().filter_map(|(_, r)| r.pivot_error).collect();
+    pivots.sort_by(f32::total_cmp);
+    table += &format!(
+        "mean over {} sheets at {size}²: part IoU paper {:.3}, strict {:.3}, merged {:.3}; one part per region {:.3}/{:.3}; \
+         superpixel ceiling {:.3}/{:.3}; |part count error| {:.2}; joints hinged {}/{}, median pivot error {:.2} px, \
+         joints stacked right {}/{}; {:.2} s per sheet",
+        rows.len(),
+        mean(&|r| r.found.paper),
+        mean(&|r| r.found.strict),
+        mean(&|r| r.found.merged),
+        mean(&|r| r.components.paper),
+        mean(&|r| r.components.strict),
+        mean(&|r| r.ceiling.paper),
+        mean(&|r| r.ceiling.strict),
+        mean(&|r| (r.found.predicted_parts as f64 - r.found.true_parts as f64).abs()),
+        sum(&|r| r.joints_hinged),
+        sum(&|r| r.joints),
+        pivots.get(pivots.len() / 2).copied().unwrap_or(f32::NAN),
+        sum(&|r| r.joints_ordered),
+        sum(&|r| r.joints_matched),
+        mean(&|r| r.seconds),
+    );
+    s.ui.print(table)?;
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use crate::cli::tests::parses;
+
+    #[test]
+    fn parses_the_truth_and_prediction() {
+        parses(&["eval-parts", "--truth", "sheet_labels.png", "out/pose_labels.png", "--grid", "4x2"]);
+        parses(&["eval-parts", "--synthetic", "9000..9024", "--size", "256"]);
+        for bad in [
+            &["eval-parts", "--synthetic", "9..3"][..],
+            &["eval-parts", "--synthetic", "1..5", "--truth", "x", "y"],
+            &["eval-parts"],
+        ] {
+            assert!(
+                <crate::cli::Cli as clap::Parser>::try_parse_from(std::iter::once("puppet").chain(bad.iter().copied())).is_err(),
+                "{bad:?}"
+            );
+        }
+    }
+}

@@ -1,0 +1,168 @@
+//! `puppet parts`: articulated parts from a sprite sheet of poses (APES, issue 16), written as
+//! artwork `puppet build` reads.
+
+use std::path::PathBuf;
+
+use anyhow::Context;
+use puppet::atomic_file::record;
+use puppet::parts::artwork::write_artwork;
+use puppet::parts::flow::read_flows;
+use puppet::parts::pose::{check_one_character, load_poses, Layout};
+use puppet::parts::{find_parts, PartsOptions};
+use puppet::synth::sheet_flow::TruthSheet;
+
+use super::args::parse_size;
+use super::Session;
+
+/// Find a character's articulated parts from a sprite sheet of its poses, and write them as a
+/// label map + reference frame + character.toml (root, joints, back-to-front layers) that
+/// `puppet build` accepts, with parts.png (the poses above their parts) and the label map of
+/// every pose (pose_labels.png laid out like the sheet, for `puppet eval-parts`).
+///
+/// Parts are superpixels of the reference pose merged while one similarity per pose explains
+/// their motion in every pose; every pixel of every pose then takes the part whose motion
+/// explains its correspondences best. Correspondences come from optical flow between every
+/// pair of poses (--flows: Middlebury .flo files, e.g. from bench/parts_flow.py; --cut-only
+/// writes the poses to compute them on) or from a synthetic sheet's truth (--truth); the
+/// correspondence network of APES is not built yet.
+#[derive(Debug, clap::Args)]
+pub struct PartsArgs {
+    /// The poses: a sprite sheet (PNG), a folder of pose PNGs, or with --truth a folder written
+    /// by `puppet synth --sprite-sheet`.
+    pub input: PathBuf,
+    /// Output folder (created if missing; a folder puppet did not make is refused unless --force).
+    #[arg(short, long, value_name = "DIR")]
+    pub output: PathBuf,
+    /// Use the exact correspondences of a synthetic sheet (its truth.json): the oracle that
+    /// measures the part finder apart from correspondence errors.
+    #[arg(long, conflicts_with_all = ["flows", "cut_only", "grid"])]
+    pub truth: bool,
+    /// Optical flow between every ordered pair of poses: DIR/flow_SSS_TTT.flo from pose SSS to
+    /// pose TTT (numbered from 0 in reading order); a landing off the character moves to its
+    /// nearest pixel.
+    #[arg(long, value_name = "DIR", conflicts_with = "cut_only")]
+    pub flows: Option<PathBuf>,
+    /// Only cut the sheet: write OUTPUT/poses/pose_NNN.png (to compute flows on) and stop.
+    #[arg(long)]
+    pub cut_only: bool,
+    /// Cut the sheet into a COLUMNSxROWS grid of equal cells instead of by its alpha.
+    #[arg(long, value_name = "CxR", value_parser = parse_size)]
+    pub grid: Option<(u32, u32)>,
+    /// Merge until this many parts are left (default: merge while the motion residual allows).
+    #[arg(long, value_name = "N")]
+    pub parts: Option<usize>,
+    /// Superpixels per pose.
+    #[arg(long, default_value_t = PartsOptions::default().superpixels, value_name = "N")]
+    pub superpixels: usize,
+    /// Largest RMS motion residual of a merged part, as a fraction of the pose size.
+    #[arg(long, default_value_t = PartsOptions::default().segment.merge_residual, value_name = "FRACTION")]
+    pub merge_residual: f32,
+    /// The reference pose, counted from 0 (default: the pose with the most foreground).
+    #[arg(long, value_name = "K")]
+    pub reference: Option<usize>,
+    /// The character's name in character.toml (default: the input's file name).
+    #[arg(long)]
+    pub name: Option<String>,
+}
+
+impl PartsArgs {
+    fn options(&self) -> PartsOptions {
+        let mut options = PartsOptions {
+            superpixels: self.superpixels,
+            ..PartsOptions::default()
+        };
+        options.segment.parts = self.parts;
+        options.segment.merge_residual = self.merge_residual;
+        options.segment.reference = self.reference;
+        options
+    }
+}
+
+/// Runs `puppet parts`.
+pub fn run(args: PartsArgs, s: &Session) -> anyhow::Result<()> {
+    let options = args.options();
+    let (poses, flows, sheet_size) = if args.truth {
+        let sheet = TruthSheet::load(&args.input)?;
+        check_one_character(&sheet.poses, &args.input)?;
+        let flows = sheet.correspondences()?;
+        (sheet.poses, flows, Some(sheet.sheet_size))
+    } else {
+        let layout = args.grid.map(|(columns, rows)| Layout::Grid { columns, rows });
+        let (poses, sheet_size) = load_poses(&args.input, layout)?;
+        check_one_character(&poses, &args.input)?;
+        if args.cut_only {
+            return cut_only(&poses, &args.output, s);
+        }
+        let Some(dir) = &args.flows else {
+            anyhow::bail!(
+                "{}: {} poses read, but finding parts needs correspondences between them: give --flows DIR \
+                 (optical flow between every pair; --cut-only writes the poses to compute it on), or --truth \
+                 for a sheet from `puppet synth --sprite-sheet` (the correspondence network of APES is not built yet)",
+                args.input.display(),
+                poses.len()
+            );
+        };
+        let flows = read_flows(dir, &poses)?;
+        (poses, flows, sheet_size)
+    };
+    s.outputs.claim_folder(&args.output)?;
+    let name = args.name.clone().unwrap_or_else(|| {
+        args.input
+            .file_name()
+            .map_or_else(|| "character".into(), |n| n.to_string_lossy().into_owned())
+    });
+    let started = std::time::Instant::now();
+    let parts = find_parts(poses, &flows, &options).context("while finding parts")?;
+    let seconds = started.elapsed().as_secs_f64();
+    let written =
+        write_artwork(&parts, &args.output, &name, sheet_size).with_context(|| format!("while writing {}", args.output.display()))?;
+    record(&std::path::absolute(&args.output)?)?;
+    s.ui.say(format!(
+        "{} parts from {} poses in {seconds:.2} s (reference pose {}, {} hinges): {} (build it with `puppet build {}`), {}, {}",
+        parts.segmentation.parts,
+        parts.poses.len(),
+        parts.segmentation.reference,
+        parts.skeleton.hinges.len(),
+        written.character.display(),
+        args.output.display(),
+        written.preview.display(),
+        written.pose_labels.display()
+    ))?;
+    Ok(())
+}
+
+/// Writes the poses as `dir/poses/pose_NNN.png`.
+fn cut_only(poses: &[puppet::parts::pose::Pose], dir: &std::path::Path, s: &Session) -> anyhow::Result<()> {
+    let folder = dir.join("poses");
+    for (k, pose) in poses.iter().enumerate() {
+        s.save_png(&folder.join(format!("pose_{k:03}.png")), &pose.image)?;
+    }
+    s.ui.say(format!("{} poses → {}", poses.len(), folder.display()))?;
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use crate::cli::tests::parses;
+
+    #[test]
+    fn parses_the_input_and_options() {
+        parses(&[
+            "parts",
+            "sheet",
+            "-o",
+            "out",
+            "--truth",
+            "--parts",
+            "10",
+            "--superpixels",
+            "150",
+            "--merge-residual",
+            "0.02",
+            "--reference",
+            "2",
+        ]);
+        parses(&["parts", "sheet.png", "-o", "out", "--grid", "4x3", "--flows", "f"]);
+        parses(&["parts", "sheet.png", "-o", "out", "--cut-only"]);
+    }
+}

@@ -1,0 +1,273 @@
+//! Part extraction scored on synthetic sprite sheets (issue 16 "Must show"): the part finder on
+//! the generator's exact correspondences, beside two references run on the same sheets — "one
+//! part per connected region" (what a tool without motion gets) and the superpixel-majority
+//! ceiling (the best any labelling of the superpixels could score).
+
+use std::time::Instant;
+
+use crate::error::Result;
+use crate::geom::component_labels;
+use crate::parts::pose::Pose;
+use crate::parts::score::{part_iou, PartScores};
+use crate::parts::superpixels::{Superpixels, NONE};
+use crate::parts::{find_parts, PartsOptions};
+use crate::progress::Silent;
+use crate::synth::draw::BACKGROUND;
+use crate::synth::sheet_flow::true_correspondences;
+use crate::synth::{self, Motion, SynthOptions};
+
+/// One synthetic sheet scored.
+#[derive(Clone, Debug)]
+pub struct SheetScores {
+    /// The generator's seed.
+    pub seed: u64,
+    /// The part finder on exact correspondences.
+    pub found: PartScores,
+    /// One part per connected region of each pose.
+    pub components: PartScores,
+    /// Each superpixel labelled with its most common true part.
+    pub ceiling: PartScores,
+    /// Seconds the part finder took (superpixels, merging, labelling, skeleton).
+    pub seconds: f64,
+    /// The generator's joints whose two parts were both found (matched on the reference pose).
+    pub joints_matched: usize,
+    /// The generator's joints.
+    pub joints: usize,
+    /// Of the matched joints, how many the skeleton hinges directly.
+    pub joints_hinged: usize,
+    /// Median distance, pixels, from a hinged joint's pivot to the generator's pivot.
+    pub pivot_error: Option<f32>,
+    /// Of the matched joints, how many the found layer order stacks like the generator.
+    pub joints_ordered: usize,
+}
+
+/// Generates the sprite sheet of `seed` (`poses` random poses at `size`², the generator's
+/// default deformation and wobble) and scores the part finder on it.
+///
+/// # Errors
+/// As [`synth::generate`] and [`find_parts`].
+pub fn score_synthetic_sheet(seed: u64, poses: usize, size: u32, options: &PartsOptions) -> Result<SheetScores> {
+    let seq = synth::generate(
+        &SynthOptions {
+            seed,
+            frames: poses,
+            width: size,
+            height: size,
+            motion: Motion::Random,
+            ..SynthOptions::default()
+        },
+        &Silent,
+    )?;
+    let truth_labels: Vec<Vec<u32>> = seq
+        .frames
+        .iter()
+        .map(|f| {
+            f.labels
+                .iter()
+                .map(|&l| if l == BACKGROUND { NONE } else { u32::from(l) })
+                .collect()
+        })
+        .collect();
+    let flows = true_correspondences(&seq.truth, &truth_labels)?;
+    let sheet: Vec<Pose> = seq
+        .frames
+        .iter()
+        .enumerate()
+        .map(|(k, f)| Pose::new(format!("pose {k}"), f.image.clone()))
+        .collect();
+    let true_parts = seq.truth.parts.len();
+    let start = Instant::now();
+    let parts = find_parts(sheet, &flows, options)?;
+    let seconds = start.elapsed().as_secs_f64();
+    let found = part_iou(&parts.segmentation.labels, &truth_labels, parts.segmentation.parts, true_parts);
+    let (components, count) = connected_regions(&parts.poses);
+    let components = part_iou(&components, &truth_labels, count, true_parts);
+    let ceiling = superpixel_majority(&parts.superpixels, &truth_labels, true_parts);
+    let ceiling = part_iou(&ceiling, &truth_labels, true_parts, true_parts);
+    let joints = score_joints(&parts, &seq.truth, &seq.character, &truth_labels);
+    Ok(SheetScores {
+        seed,
+        found,
+        components,
+        ceiling,
+        seconds,
+        joints_matched: joints.matched,
+        joints: joints.total,
+        joints_hinged: joints.hinged,
+        pivot_error: joints.pivot_error,
+        joints_ordered: joints.ordered,
+    })
+}
+
+struct JointScores {
+    total: usize,
+    matched: usize,
+    hinged: usize,
+    pivot_error: Option<f32>,
+    ordered: usize,
+}
+
+/// The found skeleton against the generator's joints: found parts are matched to true parts
+/// on the reference pose (Hungarian on 1 − IoU); a true joint counts as hinged when the
+/// skeleton joins its two matched parts, and its pivot error is the distance between the
+/// found pivot and the true one in the reference pose.
+fn score_joints(
+    parts: &crate::parts::Parts,
+    truth: &synth::Truth,
+    character: &synth::character::Character,
+    truth_labels: &[Vec<u32>],
+) -> JointScores {
+    let seg = &parts.segmentation;
+    let r = seg.reference;
+    let true_parts = truth.parts.len();
+    let mut inter = vec![0usize; true_parts * seg.parts];
+    let (mut true_area, mut found_area) = (vec![0usize; true_parts], vec![0usize; seg.parts]);
+    for (&f, &t) in seg.labels[r].iter().zip(&truth_labels[r]) {
+        if f != NONE {
+            found_area[f as usize] += 1;
+        }
+        if t != NONE {
+            true_area[t as usize] += 1;
+            if f != NONE {
+                inter[t as usize * seg.parts + f as usize] += 1;
+            }
+        }
+    }
+    let cost: Vec<f64> = (0..true_parts * seg.parts)
+        .map(|k| {
+            let (t, f) = (k / seg.parts, k % seg.parts);
+            let union = true_area[t] + found_area[f] - inter[k];
+            1.0 - if union == 0 { 0.0 } else { inter[k] as f64 / union as f64 }
+        })
+        .collect();
+    let found_of_true = crate::parts::hungarian::assign(&cost, true_parts, seg.parts);
+    let rank: Vec<usize> = {
+        let mut rank = vec![0; seg.parts];
+        for (k, &p) in parts.skeleton.order.iter().enumerate() {
+            rank[p] = k;
+        }
+        rank
+    };
+    let mut errors = Vec::new();
+    let (mut total, mut matched, mut ordered) = (0, 0, 0);
+    for (child, part) in character.parts.iter().enumerate() {
+        let Some(parent) = part.parent.filter(|_| part.role != synth::character::Role::Accessory) else {
+            continue;
+        };
+        total += 1;
+        let (Some(fp), Some(fc)) = (found_of_true[parent], found_of_true[child]) else {
+            continue;
+        };
+        matched += 1;
+        // Parts are stored back to front: the child is in front when its index is larger.
+        if (child > parent) == (rank[fc] > rank[fp]) {
+            ordered += 1;
+        }
+        let hinge = parts
+            .skeleton
+            .hinges
+            .iter()
+            .find(|h| (h.parent, h.child) == (fp, fc) || (h.parent, h.child) == (fc, fp));
+        if let Some(h) = hinge {
+            // The child's local origin is its pivot; −½: pixel centres to pixel indices.
+            let p = truth.frames[r].parts[child].world.apply([0.0, 0.0]);
+            errors.push((h.pivot[0] - (p[0] - 0.5)).hypot(h.pivot[1] - (p[1] - 0.5)));
+        }
+    }
+    errors.sort_by(f32::total_cmp);
+    JointScores {
+        total,
+        matched,
+        hinged: errors.len(),
+        pivot_error: errors.get(errors.len() / 2).copied(),
+        ordered,
+    }
+}
+
+/// Each pose's 4-connected foreground regions as parts, numbered by size (largest 0), so the
+/// strict matching can pair the same region across poses; and the most regions in a pose.
+pub fn connected_regions(poses: &[Pose]) -> (Vec<Vec<u32>>, usize) {
+    let mut most = 0;
+    let labels = poses
+        .iter()
+        .map(|pose| {
+            let w = pose.width();
+            let n = pose.mask.len();
+            let edges = (0..n).filter(|&i| pose.mask[i]).flat_map(|i| {
+                [(i % w + 1 < w).then(|| i + 1), (i + w < n).then(|| i + w)]
+                    .into_iter()
+                    .flatten()
+                    .filter(|&j| pose.mask[j])
+                    .map(move |j| (i, j))
+            });
+            let (component, _) = component_labels(n, edges);
+            let mut sizes = std::collections::BTreeMap::new();
+            for i in (0..n).filter(|&i| pose.mask[i]) {
+                *sizes.entry(component[i]).or_insert(0usize) += 1;
+            }
+            let mut by_size: Vec<(usize, usize)> = sizes.into_iter().collect();
+            by_size.sort_by_key(|&(c, s)| (std::cmp::Reverse(s), c));
+            most = most.max(by_size.len());
+            let rank: std::collections::HashMap<usize, u32> = by_size.iter().enumerate().map(|(r, &(c, _))| (c, r as u32)).collect();
+            (0..n).map(|i| if pose.mask[i] { rank[&component[i]] } else { NONE }).collect()
+        })
+        .collect();
+    (labels, most)
+}
+
+/// Each superpixel labelled with the true part most of its pixels have.
+pub fn superpixel_majority(superpixels: &[Superpixels], truth: &[Vec<u32>], true_parts: usize) -> Vec<Vec<u32>> {
+    superpixels
+        .iter()
+        .zip(truth)
+        .map(|(sp, t)| {
+            let mut votes = vec![0usize; sp.count * true_parts];
+            for (&s, &l) in sp.labels.iter().zip(t) {
+                if s != NONE && l != NONE {
+                    votes[s as usize * true_parts + l as usize] += 1;
+                }
+            }
+            let best: Vec<u32> = (0..sp.count)
+                .map(|s| {
+                    let row = &votes[s * true_parts..(s + 1) * true_parts];
+                    let (l, &n) = row
+                        .iter()
+                        .enumerate()
+                        .max_by_key(|&(l, &n)| (n, std::cmp::Reverse(l)))
+                        .unwrap_or((0, &0));
+                    if n == 0 {
+                        NONE
+                    } else {
+                        l as u32
+                    }
+                })
+                .collect();
+            sp.labels.iter().map(|&s| if s == NONE { NONE } else { best[s as usize] }).collect()
+        })
+        .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The oracle's floor on two sheets of seeds used nowhere else: measured 0.834 and 0.739
+    /// strict (0.926 and 0.907 by the paper's protocol) when written; a drop below these floors
+    /// is a regression of the back end, not noise (everything is deterministic).
+    #[test]
+    fn exact_correspondences_find_parts_above_the_floor_and_beat_the_references() {
+        for (seed, floor) in [(71, 0.80), (72, 0.70)] {
+            let s = score_synthetic_sheet(seed, 6, 128, &PartsOptions::default()).expect("scores");
+            assert!(s.found.strict >= floor && s.found.paper >= 0.85, "seed {seed}: {:?}", s.found);
+            assert!(
+                s.found.strict > s.components.strict && s.found.paper > s.components.paper,
+                "seed {seed}"
+            );
+            assert!(
+                s.pivot_error.is_some_and(|e| e < 3.0),
+                "seed {seed}: pivot error {:?}",
+                s.pivot_error
+            );
+        }
+    }
+}

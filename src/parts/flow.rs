@@ -1,0 +1,278 @@
+//! Correspondences between the poses of a sheet (apes-part-extraction.md §3.1): for every ordered
+//! pair of poses, where each foreground pixel of the first lies in the second. They come from
+//! the generator's truth (the oracle, `synth`), or from a correspondence method.
+
+use super::pose::Pose;
+use crate::error::{Error, Result};
+
+/// Where each pixel of a source pose lies in a target pose, pixels; NaN where it has no
+/// correspondence (background, or a pixel the method could not place).
+#[derive(Clone, Debug, PartialEq)]
+pub struct Flow {
+    /// Row-major target positions, one per source pixel.
+    pub to: Vec<[f32; 2]>,
+}
+
+impl Flow {
+    /// The target of pixel `i`, if it has one.
+    pub fn at(&self, i: usize) -> Option<[f32; 2]> {
+        let p = self.to[i];
+        (p[0].is_finite() && p[1].is_finite()).then_some(p)
+    }
+}
+
+/// The flows between every ordered pair of `poses` poses of `width × height` pixels.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Correspondences {
+    poses: usize,
+    pixels: usize,
+    flows: Vec<Option<Flow>>,
+}
+
+impl Correspondences {
+    /// No flow yet between `poses` poses of `pixels` pixels each.
+    pub fn new(poses: usize, pixels: usize) -> Self {
+        Correspondences {
+            poses,
+            pixels,
+            flows: vec![None; poses * poses],
+        }
+    }
+
+    /// Number of poses.
+    pub fn poses(&self) -> usize {
+        self.poses
+    }
+
+    /// Stores the flow from pose `s` to pose `t`.
+    ///
+    /// # Errors
+    /// [`Error::Mismatch`] if `s == t`, either is out of range, or the flow has the wrong size.
+    pub fn set(&mut self, s: usize, t: usize, flow: Flow) -> Result<()> {
+        if s == t || s >= self.poses || t >= self.poses {
+            return Err(Error::mismatch(
+                "flow between poses",
+                format!("{s} → {t}"),
+                format!("two different poses below {}", self.poses),
+            ));
+        }
+        if flow.to.len() != self.pixels {
+            return Err(Error::mismatch("flow size", flow.to.len(), self.pixels));
+        }
+        self.flows[s * self.poses + t] = Some(flow);
+        Ok(())
+    }
+
+    /// The flow from `s` to `t`, if one was stored.
+    pub fn get(&self, s: usize, t: usize) -> Option<&Flow> {
+        self.flows.get(s * self.poses + t).and_then(Option::as_ref)
+    }
+
+    /// Checks that every ordered pair of different poses has a flow.
+    ///
+    /// # Errors
+    /// [`Error::Mismatch`] naming the first missing pair.
+    pub fn check_complete(&self) -> Result<()> {
+        for s in 0..self.poses {
+            for t in (0..self.poses).filter(|&t| t != s) {
+                if self.get(s, t).is_none() {
+                    return Err(Error::mismatch(
+                        "correspondences",
+                        format!("none from pose {s} to pose {t}"),
+                        "one for every pair of poses",
+                    ));
+                }
+            }
+        }
+        Ok(())
+    }
+}
+
+/// The magic number that opens a Middlebury `.flo` file (the float 202021.25, "PIEH").
+const FLO_MAGIC: f32 = 202_021.25;
+
+/// Displacements past this size mark "unknown" in `.flo` files (Middlebury's convention).
+const FLO_UNKNOWN: f32 = 1e9;
+
+/// Reads the bytes of a Middlebury `.flo` optical-flow file (what OpenCV's `writeOpticalFlow`
+/// writes: magic, width, height as little-endian 32-bit values, then `(dx, dy)` per pixel,
+/// row-major) that must be `width × height`; `path` only names the file in errors. Returns the
+/// displacement of each pixel, NaN where the file marks it unknown or holds a non-finite value.
+///
+/// # Errors
+/// [`Error::Format`] naming `path` for a wrong magic number, another size, or a length that is
+/// not the header plus `width × height` pairs.
+pub fn parse_flo(bytes: &[u8], path: &std::path::Path, width: u32, height: u32) -> Result<Vec<[f32; 2]>> {
+    let word = |k: usize| bytes.get(4 * k..4 * k + 4).map(|b| [b[0], b[1], b[2], b[3]]);
+    let (Some(magic), Some(w), Some(h)) = (word(0), word(1), word(2)) else {
+        return Err(Error::format(path, "too short for a .flo header (12 bytes)"));
+    };
+    if f32::from_le_bytes(magic) != FLO_MAGIC {
+        return Err(Error::format(
+            path,
+            "not a Middlebury .flo file (its first four bytes are not \"PIEH\")",
+        ));
+    }
+    let (w, h) = (i32::from_le_bytes(w), i32::from_le_bytes(h));
+    if i64::from(w) != i64::from(width) || i64::from(h) != i64::from(height) {
+        return Err(Error::format(path, format!("the flow is {w}×{h}, the poses are {width}×{height}")));
+    }
+    let pixels = width as usize * height as usize;
+    if bytes.len() != 12 + 8 * pixels {
+        return Err(Error::format(
+            path,
+            format!("{} bytes, expected {} for a {width}×{height} flow", bytes.len(), 12 + 8 * pixels),
+        ));
+    }
+    Ok(bytes[12..]
+        .chunks_exact(8)
+        .map(|c| {
+            let d = [
+                f32::from_le_bytes([c[0], c[1], c[2], c[3]]),
+                f32::from_le_bytes([c[4], c[5], c[6], c[7]]),
+            ];
+            if d.iter().all(|v| v.is_finite() && v.abs() < FLO_UNKNOWN) {
+                d
+            } else {
+                [f32::NAN; 2]
+            }
+        })
+        .collect())
+}
+
+impl Flow {
+    /// The flow from pose `from` to pose `to` given per-pixel displacements (optical flow):
+    /// each foreground pixel of `from` goes to `x + d`, moved to the nearest foreground pixel of
+    /// `to` when it lands off the character (as APES does for RAFT and COTR, §5.3).
+    ///
+    /// # Panics
+    /// If the sizes differ (a caller bug).
+    pub fn from_displacements(displacement: &[[f32; 2]], from: &Pose, to: &Pose) -> Flow {
+        let (w, h) = (from.width(), from.height());
+        assert!(
+            displacement.len() == w * h && to.mask.len() == w * h,
+            "flow and poses differ in size"
+        );
+        let nearest = nearest_foreground(&to.mask, w, h);
+        let to = from
+            .mask
+            .iter()
+            .zip(displacement)
+            .enumerate()
+            .map(|(i, (&m, d))| {
+                if !m || !d[0].is_finite() || !d[1].is_finite() {
+                    return [f32::NAN; 2];
+                }
+                let q = [(i % w) as f32 + d[0], (i / w) as f32 + d[1]];
+                let (x, y) = (
+                    q[0].round().clamp(0.0, (w - 1) as f32) as usize,
+                    q[1].round().clamp(0.0, (h - 1) as f32) as usize,
+                );
+                match nearest[y * w + x] {
+                    k if k == usize::MAX => [f32::NAN; 2],
+                    k if k == y * w + x && (q[0] - x as f32).abs() <= 0.5 && (q[1] - y as f32).abs() <= 0.5 => q,
+                    k => [(k % w) as f32, (k / w) as f32],
+                }
+            })
+            .collect();
+        Flow { to }
+    }
+}
+
+/// For every pixel, the index of a nearest foreground pixel (8-connected breadth-first search
+/// from all foreground pixels at once), `usize::MAX` if there is none.
+fn nearest_foreground(mask: &[bool], w: usize, h: usize) -> Vec<usize> {
+    let mut nearest = vec![usize::MAX; mask.len()];
+    let mut queue = std::collections::VecDeque::new();
+    for (i, &m) in mask.iter().enumerate() {
+        if m {
+            nearest[i] = i;
+            queue.push_back(i);
+        }
+    }
+    while let Some(i) = queue.pop_front() {
+        let (x, y) = ((i % w) as i64, (i / w) as i64);
+        for (dx, dy) in [(-1, 0), (1, 0), (0, -1), (0, 1), (-1, -1), (1, -1), (-1, 1), (1, 1)] {
+            let (nx, ny) = (x + dx, y + dy);
+            if nx >= 0 && ny >= 0 && (nx as usize) < w && (ny as usize) < h {
+                let j = ny as usize * w + nx as usize;
+                if nearest[j] == usize::MAX {
+                    nearest[j] = nearest[i];
+                    queue.push_back(j);
+                }
+            }
+        }
+    }
+    nearest
+}
+
+/// Reads the flows between every ordered pair of `poses` from `dir`: `flow_SSS_TTT.flo` from
+/// pose `SSS` to pose `TTT` (numbered from 0 in the poses' order, three digits), as optical
+/// flow ([`Flow::from_displacements`]).
+///
+/// # Errors
+/// [`Error::Io`] naming a missing or unreadable file; as [`parse_flo`].
+pub fn read_flows(dir: &std::path::Path, poses: &[Pose]) -> Result<Correspondences> {
+    let (w, h) = (poses[0].image.width, poses[0].image.height);
+    let mut out = Correspondences::new(poses.len(), w as usize * h as usize);
+    for s in 0..poses.len() {
+        for t in (0..poses.len()).filter(|&t| t != s) {
+            let path = dir.join(format!("flow_{s:03}_{t:03}.flo"));
+            let bytes = crate::user_file::read_bytes(&path, 12 + 8 * u64::from(w) * u64::from(h))?;
+            let displacement = parse_flo(&bytes, &path, w, h)?;
+            out.set(s, t, Flow::from_displacements(&displacement, &poses[s], &poses[t]))?;
+        }
+    }
+    Ok(out)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::picture::Picture;
+
+    fn flo(w: i32, h: i32, d: &[[f32; 2]]) -> Vec<u8> {
+        let mut bytes = Vec::new();
+        bytes.extend(FLO_MAGIC.to_le_bytes());
+        bytes.extend(w.to_le_bytes());
+        bytes.extend(h.to_le_bytes());
+        for p in d {
+            bytes.extend(p[0].to_le_bytes());
+            bytes.extend(p[1].to_le_bytes());
+        }
+        bytes
+    }
+
+    #[test]
+    fn flo_files_are_read_and_landings_off_the_character_move_onto_it() {
+        let path = std::path::Path::new("f.flo");
+        // 4 × 1 poses: pixel 0 drawn in the first, pixels 2 and 3 in the second.
+        let mut a = Picture::filled(4, 1, [0.0; 4]);
+        a.pixels[0] = [1.0; 4];
+        let mut b = Picture::filled(4, 1, [0.0; 4]);
+        b.pixels[2] = [1.0; 4];
+        b.pixels[3] = [1.0; 4];
+        let (a, b) = (Pose::new("a", a), Pose::new("b", b));
+        let d = parse_flo(&flo(4, 1, &[[1.0, 0.0], [0.0, 0.0], [2e9, 0.0], [0.0, 0.0]]), path, 4, 1).expect("a valid file");
+        assert!(d[2][0].is_nan(), "unknown flow is NaN");
+        // Pixel 0 lands on pixel 1, off the character: moved to pixel 2.
+        let flow = Flow::from_displacements(&d, &a, &b);
+        assert_eq!(flow.at(0), Some([2.0, 0.0]));
+        assert_eq!(flow.at(1), None);
+        let d = parse_flo(&flo(4, 1, &[[2.25, 0.0], [0.0; 2], [0.0; 2], [0.0; 2]]), path, 4, 1).expect("valid");
+        assert_eq!(
+            Flow::from_displacements(&d, &a, &b).at(0),
+            Some([2.25, 0.0]),
+            "a landing on the character is kept"
+        );
+        for (bytes, needle) in [
+            (flo(4, 1, &[[0.0; 2]; 3]), "bytes"),
+            (flo(5, 1, &[[0.0; 2]; 5]), "5×1"),
+            (b"PIEX0000".to_vec(), "header"),
+            (vec![0u8; 44], "PIEH"),
+        ] {
+            let err = parse_flo(&bytes, path, 4, 1).expect_err(needle).to_string();
+            assert!(err.contains("f.flo") && err.contains(needle), "{err}");
+        }
+    }
+}

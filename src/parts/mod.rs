@@ -1,0 +1,94 @@
+//! Articulated parts from a sprite sheet of poses (APES, apes-part-extraction.md; issue 16), so a
+//! puppet needs no hand-painted label map: the poses ([`pose`]), their superpixels
+//! ([`superpixels`]), correspondences between every pair ([`flow`]), parts from how superpixels
+//! move ([`segment`]), hinges, joint tree and layer order ([`skeleton`]), the artwork
+//! `puppet build` reads ([`artwork`]), and part IoU against a truth ([`score`]).
+//!
+//! Correspondences come from outside this module: today from the generator's truth (the oracle,
+//! `crate::synth::sheet_flow`), which measures the back end alone.
+
+pub mod artwork;
+pub mod flow;
+pub mod hungarian;
+pub mod pose;
+pub mod score;
+pub mod segment;
+pub mod skeleton;
+pub mod superpixels;
+
+use crate::error::{Error, Result};
+use flow::Correspondences;
+use pose::Pose;
+use segment::{SegmentOptions, Segmentation};
+use skeleton::Skeleton;
+use superpixels::Superpixels;
+
+/// Settings of the part finder.
+#[derive(Clone, Debug, PartialEq)]
+pub struct PartsOptions {
+    /// Superpixels per pose (SLIC's target count).
+    pub superpixels: usize,
+    /// SLIC's compactness.
+    pub compactness: f32,
+    /// Merging and labelling.
+    pub segment: SegmentOptions,
+}
+
+impl Default for PartsOptions {
+    fn default() -> Self {
+        PartsOptions {
+            superpixels: 100,
+            compactness: 10.0,
+            segment: SegmentOptions::default(),
+        }
+    }
+}
+
+/// The most superpixels per pose [`find_parts`] accepts (merging compares every adjacent pair
+/// after each merge).
+pub const MAX_SUPERPIXELS: usize = 2000;
+
+/// Parts found on a sheet, with what they were found from.
+#[derive(Clone, Debug)]
+pub struct Parts {
+    /// The poses.
+    pub poses: Vec<Pose>,
+    /// Superpixels of each pose.
+    pub superpixels: Vec<Superpixels>,
+    /// The parts in every pose, and their motions.
+    pub segmentation: Segmentation,
+    /// Hinges, tree and order.
+    pub skeleton: Skeleton,
+}
+
+/// Finds the parts of `poses` given correspondences between every pair.
+///
+/// # Errors
+/// [`Error::Setting`] for options out of range; as [`segment::segment`].
+pub fn find_parts(poses: Vec<Pose>, flows: &Correspondences, options: &PartsOptions) -> Result<Parts> {
+    if !(1..=MAX_SUPERPIXELS).contains(&options.superpixels) {
+        return Err(Error::setting(
+            "superpixels",
+            options.superpixels,
+            format!("1 to {MAX_SUPERPIXELS}"),
+        ));
+    }
+    if !(options.compactness > 0.0 && options.compactness.is_finite()) {
+        return Err(Error::setting("compactness", options.compactness, "a positive number"));
+    }
+    let superpixels: Vec<Superpixels> = {
+        use rayon::prelude::*;
+        poses
+            .par_iter()
+            .map(|p| superpixels::slic(p, options.superpixels, options.compactness))
+            .collect()
+    };
+    let segmentation = segment::segment(&poses, &superpixels, flows, &options.segment)?;
+    let skeleton = skeleton::skeleton(&segmentation, poses[0].width());
+    Ok(Parts {
+        poses,
+        superpixels,
+        segmentation,
+        skeleton,
+    })
+}

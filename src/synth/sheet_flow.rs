@@ -1,0 +1,207 @@
+//! Exact correspondences and part labels of a synthetic sprite sheet, from its truth: the oracle
+//! that `puppet parts --truth` runs the part finder on (issue 16 stage a), so what the back end
+//! loses is measured apart from what a correspondence method loses.
+
+use std::path::Path;
+
+use rayon::prelude::*;
+
+use super::deformation::InverseMap;
+use super::truth::Truth;
+use crate::error::{Error, Result};
+use crate::parts::flow::{Correspondences, Flow};
+use crate::parts::pose::{check, crop_like, Pose};
+use crate::parts::superpixels::NONE;
+use crate::picture::Picture;
+
+/// The part index of each pixel of a label map drawn in the truth's label colours ([`NONE`]
+/// where it is transparent).
+///
+/// # Errors
+/// [`Error::Format`] naming `path` for an opaque colour that is no part's label.
+pub fn true_labels(truth: &Truth, labels: &Picture, path: &Path) -> Result<Vec<u32>> {
+    let colours: Vec<[u8; 3]> = truth.parts.iter().map(|p| hex_rgb(&p.label)).collect();
+    labels
+        .pixels
+        .iter()
+        .enumerate()
+        .map(|(i, p)| {
+            if p[3] < 0.5 {
+                return Ok(NONE);
+            }
+            let rgb = [p[0], p[1], p[2]].map(|c| (c * 255.0).round() as u8);
+            colours.iter().position(|&c| c == rgb).map(|k| k as u32).ok_or_else(|| {
+                Error::format(
+                    path,
+                    format!(
+                        "pixel ({}, {}) has colour {rgb:?}, which labels no part of truth.json",
+                        i as u32 % labels.width,
+                        i as u32 / labels.width
+                    ),
+                )
+            })
+        })
+        .collect()
+}
+
+fn hex_rgb(hex: &str) -> [u8; 3] {
+    let v = u32::from_str_radix(hex.trim_start_matches('#'), 16).unwrap_or(0x808080);
+    [(v >> 16) as u8, (v >> 8) as u8, v as u8]
+}
+
+/// For every ordered pair of frames of `truth`, where each labelled pixel of the first frame is
+/// in the second: back through its part's placement and deformation to the rest frame, then
+/// forward into the other frame (pixel centres; positions stored in the pixel-index convention
+/// of `parts`, centre of pixel (x, y) at (x, y)). `labels[k]` is frame `k`'s true part per pixel.
+///
+/// # Errors
+/// [`Error::Mismatch`] if the label count or sizes differ from the truth.
+pub fn true_correspondences(truth: &Truth, labels: &[Vec<u32>]) -> Result<Correspondences> {
+    let (w, h) = (truth.width as usize, truth.height as usize);
+    if labels.len() != truth.frames.len() || labels.iter().any(|l| l.len() != w * h) {
+        return Err(Error::mismatch(
+            "label maps",
+            format!("{} of {:?} pixels", labels.len(), labels.first().map(Vec::len)),
+            format!("{} of {} pixels", truth.frames.len(), w * h),
+        ));
+    }
+    let n = truth.frames.len();
+    // Each labelled pixel's rest-local point (in its part's local frame, undeformed).
+    let rest_local: Vec<Vec<Option<[f32; 2]>>> = (0..n)
+        .into_par_iter()
+        .map(|s| {
+            let inverses: Vec<Option<InverseMap>> = truth
+                .parts
+                .iter()
+                .zip(&truth.frames[s].parts)
+                .map(|(part, placed)| placed.deformed.as_ref().map(|d| InverseMap::new(&part.grid, d)))
+                .collect();
+            labels[s]
+                .iter()
+                .enumerate()
+                .map(|(i, &l)| {
+                    if l == NONE || l as usize >= truth.parts.len() {
+                        return None;
+                    }
+                    let p = l as usize;
+                    let centre = [(i % w) as f32 + 0.5, (i / w) as f32 + 0.5];
+                    let local = truth.frames[s].parts[p].world.inverse().apply(centre);
+                    match &inverses[p] {
+                        Some(inverse) => inverse.rest_of(local),
+                        None => Some(local),
+                    }
+                })
+                .collect()
+        })
+        .collect();
+    let mut out = Correspondences::new(n, w * h);
+    for s in 0..n {
+        for t in (0..n).filter(|&t| t != s) {
+            let to = rest_local[s]
+                .iter()
+                .zip(&labels[s])
+                .map(|(r, &l)| match r {
+                    Some(r) => {
+                        let p = l as usize;
+                        let placed = &truth.frames[t].parts[p];
+                        let moved = match &placed.deformed {
+                            Some(d) => truth.parts[p].grid.map(d, *r),
+                            None => *r,
+                        };
+                        let q = placed.world.apply(moved);
+                        [q[0] - 0.5, q[1] - 0.5]
+                    }
+                    None => [f32::NAN; 2],
+                })
+                .collect();
+            out.set(s, t, Flow { to })?;
+        }
+    }
+    Ok(out)
+}
+
+/// A sprite sheet written by `puppet synth --sprite-sheet`, read back with its truth.
+#[derive(Clone, Debug)]
+pub struct TruthSheet {
+    /// The poses, cut by the sheet's grid.
+    pub poses: Vec<Pose>,
+    /// The true part of each pixel of each pose.
+    pub labels: Vec<Vec<u32>>,
+    /// The sheet's size.
+    pub sheet_size: (u32, u32),
+    /// The truth.
+    pub truth: Truth,
+}
+
+impl TruthSheet {
+    /// Reads `dir/truth.json`, the sheet and its label sheet, and cuts them by the truth's grid.
+    ///
+    /// # Errors
+    /// [`Error::Format`] naming truth.json if it describes no sheet (a frame sequence) or a
+    /// grid that does not fit the sheet; as [`Truth::load`], [`Picture::load`] and
+    /// [`true_labels`].
+    pub fn load(dir: &Path) -> Result<Self> {
+        let truth_path = dir.join(super::truth::TRUTH_FILE);
+        let truth = Truth::load(&truth_path)?;
+        let layout = truth.sheet.clone().ok_or_else(|| {
+            Error::format(
+                &truth_path,
+                "this truth describes a frame sequence, not a sprite sheet (`puppet synth --sprite-sheet` writes one)",
+            )
+        })?;
+        let sheet_path = dir.join(&layout.file);
+        let sheet = Picture::load(&sheet_path)?;
+        let labels_path = dir.join(&layout.labels);
+        let label_sheet = Picture::load(&labels_path)?;
+        if (sheet.width, sheet.height) != (layout.columns * truth.width, layout.rows * truth.height)
+            || (label_sheet.width, label_sheet.height) != (sheet.width, sheet.height)
+        {
+            return Err(Error::format(
+                &truth_path,
+                format!(
+                    "a {}×{} grid of {}×{} cells does not match {} ({}×{}) and {} ({}×{})",
+                    layout.columns,
+                    layout.rows,
+                    truth.width,
+                    truth.height,
+                    layout.file,
+                    sheet.width,
+                    sheet.height,
+                    layout.labels,
+                    label_sheet.width,
+                    label_sheet.height
+                ),
+            ));
+        }
+        // Cells by position, not by content: the truth numbers every cell, drawn or not.
+        let cells: Vec<Pose> = (0..truth.frames.len() as u32)
+            .map(|k| {
+                let origin = [
+                    i64::from(k % layout.columns * truth.width),
+                    i64::from(k / layout.columns * truth.height),
+                ];
+                Pose::new(format!("{}#{k}", layout.file), Picture::filled(truth.width, truth.height, [0.0; 4])).at(origin)
+            })
+            .collect();
+        let poses = crop_like(&sheet, &cells);
+        check(&poses, &sheet_path)?;
+        let labels = crop_like(&label_sheet, &cells)
+            .iter()
+            .map(|p| true_labels(&truth, &p.image, &labels_path))
+            .collect::<Result<Vec<_>>>()?;
+        Ok(TruthSheet {
+            poses,
+            labels,
+            sheet_size: (sheet.width, sheet.height),
+            truth,
+        })
+    }
+
+    /// The exact correspondences between its poses.
+    ///
+    /// # Errors
+    /// As [`true_correspondences`].
+    pub fn correspondences(&self) -> Result<Correspondences> {
+        true_correspondences(&self.truth, &self.labels)
+    }
+}
