@@ -15,7 +15,7 @@ for ((seed = first; seed < end; seed++)); do
   $puppet -q synth --sprite-sheet --frames $poses --size ${size}x$size --seed $seed -o $d/sheet
   python3 bench/parts_flow.py cells $d/sheet $d
   python3 bench/parts_flow.py dis $d/poses $d/flows
-  $puppet -q parts $d/poses --flows $d/flows -o $d/parts
+  $puppet -q parts $d/poses --flows $d/flows --flow-check ${FLOW_CHECK:-2} -o $d/parts
   line=$($puppet -q eval-parts --truth $d/labels $d/parts/pose_labels | grep '^part IoU')
   echo "$seed $poses $line"
 done

@@ -42,6 +42,10 @@ pub struct PartsArgs {
     /// nearest pixel.
     #[arg(long, value_name = "DIR", conflicts_with = "cut_only")]
     pub flows: Option<PathBuf>,
+    /// With --flows: drop correspondences whose flow back misses the start by more than this
+    /// many pixels (0: keep all).
+    #[arg(long, default_value_t = 2.0, value_name = "PX")]
+    pub flow_check: f32,
     /// Only cut the sheet: write OUTPUT/poses/pose_NNN.png (to compute flows on) and stop.
     #[arg(long)]
     pub cut_only: bool,
@@ -102,7 +106,11 @@ pub fn run(args: PartsArgs, s: &Session) -> anyhow::Result<()> {
                 poses.len()
             );
         };
-        let flows = read_flows(dir, &poses)?;
+        let mut flows = read_flows(dir, &poses)?;
+        if args.flow_check > 0.0 {
+            let kept = flows.keep_consistent(poses[0].width(), args.flow_check);
+            s.ui.say(format!("forward–backward check: {:.1} % of the correspondences kept", 100.0 * kept))?;
+        }
         (poses, flows, sheet_size)
     };
     s.outputs.claim_folder(&args.output)?;

@@ -11,10 +11,8 @@ use crate::parts::pose::Pose;
 use crate::parts::score::{part_iou, PartScores};
 use crate::parts::superpixels::{Superpixels, NONE};
 use crate::parts::{find_parts, PartsOptions};
-use crate::progress::Silent;
-use crate::synth::draw::BACKGROUND;
-use crate::synth::sheet_flow::true_correspondences;
-use crate::synth::{self, Motion, SynthOptions};
+use crate::synth::sheet_flow::GeneratedSheet;
+use crate::synth;
 
 /// One synthetic sheet scored.
 #[derive(Clone, Debug)]
@@ -45,36 +43,15 @@ pub struct SheetScores {
 /// default deformation and wobble) and scores the part finder on it.
 ///
 /// # Errors
-/// As [`synth::generate`] and [`find_parts`].
+/// As [`GeneratedSheet::new`] and [`find_parts`].
 pub fn score_synthetic_sheet(seed: u64, poses: usize, size: u32, options: &PartsOptions) -> Result<SheetScores> {
-    let seq = synth::generate(
-        &SynthOptions {
-            seed,
-            frames: poses,
-            width: size,
-            height: size,
-            motion: Motion::Random,
-            ..SynthOptions::default()
-        },
-        &Silent,
-    )?;
-    let truth_labels: Vec<Vec<u32>> = seq
-        .frames
-        .iter()
-        .map(|f| {
-            f.labels
-                .iter()
-                .map(|&l| if l == BACKGROUND { NONE } else { u32::from(l) })
-                .collect()
-        })
-        .collect();
-    let flows = true_correspondences(&seq.truth, &truth_labels)?;
-    let sheet: Vec<Pose> = seq
-        .frames
-        .iter()
-        .enumerate()
-        .map(|(k, f)| Pose::new(format!("pose {k}"), f.image.clone()))
-        .collect();
+    let generated = GeneratedSheet::new(seed, poses, size)?;
+    let flows = generated.correspondences()?;
+    let GeneratedSheet {
+        sequence: seq,
+        poses: sheet,
+        labels: truth_labels,
+    } = generated;
     let true_parts = seq.truth.parts.len();
     let start = Instant::now();
     let parts = find_parts(sheet, &flows, options)?;

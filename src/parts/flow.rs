@@ -68,6 +68,45 @@ impl Correspondences {
         self.flows.get(s * self.poses + t).and_then(Option::as_ref)
     }
 
+    /// Drops correspondences that do not come back: pixel `x` of pose `s` keeps its target `q`
+    /// only if the flow from `t` at `q`'s pixel returns within `tolerance` pixels of `x` (the
+    /// forward–backward check of optical flow; it removes most of a flow's mistakes, and every
+    /// correspondence into a part hidden in the other pose, which flow cannot give anyway).
+    /// Returns the share of correspondences kept.
+    pub fn keep_consistent(&mut self, width: usize, tolerance: f32) -> f64 {
+        let n = self.poses;
+        let mut kept = (0usize, 0usize);
+        let mut checked = self.flows.clone();
+        for s in 0..n {
+            for t in (0..n).filter(|&t| t != s) {
+                let (Some(forward), Some(backward)) = (self.get(s, t), self.get(t, s)) else {
+                    continue;
+                };
+                let height = forward.to.len() / width.max(1);
+                let out = checked[s * n + t].as_mut().expect("present");
+                for (i, q) in out.to.iter_mut().enumerate() {
+                    let Some(p) = forward.at(i) else { continue };
+                    kept.1 += 1;
+                    let (x, y) = (p[0].round(), p[1].round());
+                    let back = (x >= 0.0 && y >= 0.0 && (x as usize) < width && (y as usize) < height)
+                        .then(|| backward.at(y as usize * width + x as usize))
+                        .flatten();
+                    let home = [(i % width) as f32, (i / width) as f32];
+                    match back {
+                        Some(b) if (b[0] - home[0]).hypot(b[1] - home[1]) <= tolerance => kept.0 += 1,
+                        _ => *q = [f32::NAN; 2],
+                    }
+                }
+            }
+        }
+        self.flows = checked;
+        if kept.1 == 0 {
+            1.0
+        } else {
+            kept.0 as f64 / kept.1 as f64
+        }
+    }
+
     /// Checks that every ordered pair of different poses has a flow.
     ///
     /// # Errors
@@ -265,6 +304,41 @@ mod tests {
             Some([2.25, 0.0]),
             "a landing on the character is kept"
         );
+        // Forward–backward: pixel 0 goes to 2 and comes back; a flow whose way back from 2
+        // lands on 3 fails the check.
+        let mut flows = Correspondences::new(2, 4);
+        flows
+            .set(
+                0,
+                1,
+                Flow {
+                    to: vec![[2.0, 0.0], [f32::NAN; 2], [f32::NAN; 2], [f32::NAN; 2]],
+                },
+            )
+            .expect("a pair");
+        flows
+            .set(
+                1,
+                0,
+                Flow {
+                    to: vec![[f32::NAN; 2], [f32::NAN; 2], [0.0, 0.0], [0.0, 0.0]],
+                },
+            )
+            .expect("a pair");
+        assert_eq!(flows.clone().keep_consistent(4, 1.0), 1.0);
+        flows
+            .set(
+                1,
+                0,
+                Flow {
+                    to: vec![[f32::NAN; 2], [f32::NAN; 2], [3.0, 0.0], [0.0, 0.0]],
+                },
+            )
+            .expect("a pair");
+        let kept = flows.keep_consistent(4, 1.0);
+        assert!((kept - 1.0 / 3.0).abs() < 1e-9, "{kept}");
+        assert_eq!(flows.get(0, 1).and_then(|f| f.at(0)), None);
+        assert_eq!(flows.get(1, 0).and_then(|f| f.at(3)), Some([0.0, 0.0]));
         for (bytes, needle) in [
             (flo(4, 1, &[[0.0; 2]; 3]), "bytes"),
             (flo(5, 1, &[[0.0; 2]; 5]), "5×1"),

@@ -120,6 +120,62 @@ pub fn true_correspondences(truth: &Truth, labels: &[Vec<u32>]) -> Result<Corres
     Ok(out)
 }
 
+/// A generated sprite sheet in memory: `poses` random poses of seed `seed`'s character at
+/// `size`² (the generator's default deformation and wobble, as `puppet synth --sprite-sheet`
+/// draws them), with the true part of each pixel of each pose.
+#[derive(Clone, Debug)]
+pub struct GeneratedSheet {
+    /// The generated sequence (character, frames, truth).
+    pub sequence: super::Sequence,
+    /// Its frames as poses.
+    pub poses: Vec<Pose>,
+    /// The true part of each pixel of each pose ([`NONE`] on the background).
+    pub labels: Vec<Vec<u32>>,
+}
+
+impl GeneratedSheet {
+    /// Generates the sheet.
+    ///
+    /// # Errors
+    /// As [`super::generate`].
+    pub fn new(seed: u64, poses: usize, size: u32) -> Result<Self> {
+        let options = super::SynthOptions {
+            seed,
+            frames: poses,
+            width: size,
+            height: size,
+            motion: super::Motion::Random,
+            ..super::SynthOptions::default()
+        };
+        let sequence = super::generate(&options, &crate::progress::Silent)?;
+        let labels = sequence
+            .frames
+            .iter()
+            .map(|f| {
+                f.labels
+                    .iter()
+                    .map(|&l| if l == super::draw::BACKGROUND { NONE } else { u32::from(l) })
+                    .collect()
+            })
+            .collect();
+        let poses = sequence
+            .frames
+            .iter()
+            .enumerate()
+            .map(|(k, f)| Pose::new(format!("pose {k}"), f.image.clone()))
+            .collect();
+        Ok(GeneratedSheet { sequence, poses, labels })
+    }
+
+    /// The exact correspondences between its poses.
+    ///
+    /// # Errors
+    /// As [`true_correspondences`].
+    pub fn correspondences(&self) -> Result<Correspondences> {
+        true_correspondences(&self.sequence.truth, &self.labels)
+    }
+}
+
 /// A sprite sheet written by `puppet synth --sprite-sheet`, read back with its truth.
 #[derive(Clone, Debug)]
 pub struct TruthSheet {
