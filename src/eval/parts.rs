@@ -11,8 +11,8 @@ use crate::parts::pose::Pose;
 use crate::parts::score::{part_iou, PartScores};
 use crate::parts::superpixels::{Superpixels, NONE};
 use crate::parts::{find_parts, PartsOptions};
-use crate::synth::sheet_flow::GeneratedSheet;
 use crate::synth;
+use crate::synth::sheet_flow::GeneratedSheet;
 
 /// One synthetic sheet scored.
 #[derive(Clone, Debug)]

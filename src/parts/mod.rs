@@ -10,6 +10,7 @@
 pub mod artwork;
 pub mod flow;
 pub mod hungarian;
+mod labelling;
 pub mod pose;
 pub mod score;
 pub mod segment;
