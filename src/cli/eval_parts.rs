@@ -167,7 +167,8 @@ fn synthetic(first: u64, end: u64, size: u32, s: &Session) -> anyhow::Result<()>
     table += &format!(
         "mean over {} sheets at {size}²: part IoU paper {:.3}, strict {:.3}, merged {:.3}; one part per region {:.3}/{:.3}; \
          superpixel ceiling {:.3}/{:.3}; |part count error| {:.2}; joints hinged {}/{}, median pivot error {:.2} px, \
-         joints stacked right {}/{}; {:.2} s per sheet",
+         joints stacked right {}/{}; poses rebuilt from the parts L2 {:.0} (the reference pose unchanged {:.0}); \
+         {:.2} s per sheet",
         rows.len(),
         mean(&|r| r.found.paper),
         mean(&|r| r.found.strict),
@@ -182,6 +183,8 @@ fn synthetic(first: u64, end: u64, size: u32, s: &Session) -> anyhow::Result<()>
         pivots.get(pivots.len() / 2).copied().unwrap_or(f32::NAN),
         sum(&|r| r.joints_ordered),
         sum(&|r| r.joints_matched),
+        mean(&|r| r.reconstruction_l2),
+        mean(&|r| r.unchanged_l2),
         mean(&|r| r.seconds),
     );
     s.ui.print(table)?;

@@ -7,7 +7,9 @@ use std::time::Instant;
 
 use crate::error::Result;
 use crate::geom::component_labels;
+use crate::metrics::l2;
 use crate::parts::pose::Pose;
+use crate::parts::reconstruct::reconstruct;
 use crate::parts::score::{part_iou, PartScores};
 use crate::parts::superpixels::{Superpixels, NONE};
 use crate::parts::{find_parts, PartsOptions};
@@ -37,6 +39,11 @@ pub struct SheetScores {
     pub pivot_error: Option<f32>,
     /// Of the matched joints, how many the found layer order stacks like the generator.
     pub joints_ordered: usize,
+    /// Mean over poses of the L2 (DESIGN.md) between each pose and its reconstruction from the
+    /// parts ([`crate::parts::reconstruct`]).
+    pub reconstruction_l2: f64,
+    /// The same for the reference pose itself standing in for every pose (no parts at all).
+    pub unchanged_l2: f64,
 }
 
 /// Generates the sprite sheet of `seed` (`poses` random poses at `size`², the generator's
@@ -62,6 +69,13 @@ pub fn score_synthetic_sheet(seed: u64, poses: usize, size: u32, options: &Parts
     let ceiling = superpixel_majority(&parts.superpixels, &truth_labels, true_parts);
     let ceiling = part_iou(&ceiling, &truth_labels, true_parts, true_parts);
     let joints = score_joints(&parts, &seq.truth, &seq.character, &truth_labels);
+    let n = parts.poses.len() as f64;
+    let reference = &parts.poses[parts.segmentation.reference].image;
+    let reconstruction_l2 = (0..parts.poses.len())
+        .map(|t| l2(&reconstruct(&parts, t), &parts.poses[t].image))
+        .sum::<f64>()
+        / n;
+    let unchanged_l2 = parts.poses.iter().map(|p| l2(reference, &p.image)).sum::<f64>() / n;
     Ok(SheetScores {
         seed,
         found,
@@ -73,6 +87,8 @@ pub fn score_synthetic_sheet(seed: u64, poses: usize, size: u32, options: &Parts
         joints_hinged: joints.hinged,
         pivot_error: joints.pivot_error,
         joints_ordered: joints.ordered,
+        reconstruction_l2,
+        unchanged_l2,
     })
 }
 

@@ -1,10 +1,12 @@
 //! What `puppet parts` writes (issue 16 item 3): the reference pose and its label map with a
 //! `character.toml` (root, joints, back-to-front layers) that `puppet build` reads, the label
-//! map of every pose laid out like the input, and `parts.png`, the poses beside their parts.
+//! map of every pose laid out like the input, and `parts.png`, the poses above their parts and
+//! their reconstructions.
 
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 
+use super::reconstruct::reconstruct;
 use super::superpixels::NONE;
 use super::Parts;
 use crate::error::{Error, Result};
@@ -178,7 +180,8 @@ fn character_toml(parts: &Parts, name: &str) -> String {
     text
 }
 
-/// Every pose on white (top row) above its parts (bottom row), hinges of the reference marked.
+/// Every pose on white (top row) above its parts (middle row, hinges of the reference marked)
+/// and the pose rebuilt from the parts (bottom row, [`super::reconstruct`]).
 fn preview_sheet(parts: &Parts) -> Picture {
     let seg = &parts.segmentation;
     let width = parts.poses[0].image.width;
@@ -200,6 +203,7 @@ fn preview_sheet(parts: &Parts) -> Picture {
         }
         cells.push(coloured);
     }
+    cells.extend((0..parts.poses.len()).map(|t| reconstruct(parts, t)));
     let refs: Vec<&Picture> = cells.iter().collect();
     let sheet = contact_sheet(&refs, parts.poses.len());
     if sheet.width < 600 {

@@ -1,8 +1,9 @@
 //! Articulated parts from a sprite sheet of poses (APES, apes-part-extraction.md; issue 16), so a
 //! puppet needs no hand-painted label map: the poses ([`pose`]), their superpixels
 //! ([`superpixels`]), correspondences between every pair ([`flow`]), parts from how superpixels
-//! move ([`segment`]), hinges, joint tree and layer order ([`skeleton`]), the artwork
-//! `puppet build` reads ([`artwork`]), and part IoU against a truth ([`score`]).
+//! move ([`segment`]), hinges, joint tree and layer order ([`skeleton`]), the poses rebuilt from
+//! the parts ([`reconstruct`]), the artwork `puppet build` reads ([`artwork`]), and part IoU
+//! against a truth ([`score`]).
 //!
 //! Correspondences come from outside this module: today from the generator's truth (the oracle,
 //! `crate::synth::sheet_flow`), which measures the back end alone.
@@ -12,6 +13,7 @@ pub mod flow;
 pub mod hungarian;
 mod labelling;
 pub mod pose;
+pub mod reconstruct;
 pub mod score;
 pub mod segment;
 pub mod skeleton;
