@@ -85,6 +85,18 @@ fn parts_of_a_synthetic_sheet_score_well_and_build_into_a_puppet() {
     assert!(same.stdout.contains("paper 1.000, strict 1.000, merged 1.000"), "{}", same.stdout);
     puppet(d, &["build", "parts", "-o", "built"]).assert_ok();
     assert!(d.join("built/puppet.json").is_file());
+    // A rerun may replace what it wrote, but not a character.toml the user edited since:
+    // refused, and every file as it was.
+    puppet(d, &["parts", "sheet", "--truth", "-o", "parts"]).assert_ok();
+    let edited = format!("{toml}\n# my joints\n");
+    std::fs::write(d.join("parts/character.toml"), &edited).unwrap();
+    let labels = std::fs::read(d.join("parts/labels.png")).unwrap();
+    puppet(d, &["parts", "sheet", "--truth", "--parts", "4", "-o", "parts"]).assert_error(&["character.toml"]);
+    assert_eq!(std::fs::read_to_string(d.join("parts/character.toml")).unwrap(), edited);
+    assert_eq!(std::fs::read(d.join("parts/labels.png")).unwrap(), labels);
+    // A run that fails finding parts leaves no folder behind.
+    puppet(d, &["parts", "sheet", "--truth", "--superpixels", "0", "-o", "none"]).assert_error(&["superpixels"]);
+    assert!(!d.join("none").exists());
 }
 
 #[test]

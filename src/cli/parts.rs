@@ -113,7 +113,6 @@ pub fn run(args: PartsArgs, s: &Session) -> anyhow::Result<()> {
         }
         (poses, flows, sheet_size)
     };
-    s.outputs.claim_folder(&args.output)?;
     let name = args.name.clone().unwrap_or_else(|| {
         args.input
             .file_name()
@@ -122,8 +121,10 @@ pub fn run(args: PartsArgs, s: &Session) -> anyhow::Result<()> {
     let started = std::time::Instant::now();
     let parts = find_parts(poses, &flows, &options).context("while finding parts")?;
     let seconds = started.elapsed().as_secs_f64();
-    let written =
-        write_artwork(&parts, &args.output, &name, sheet_size).with_context(|| format!("while writing {}", args.output.display()))?;
+    // Claimed only now: a run that fails before this point leaves no folder behind.
+    s.outputs.claim_folder(&args.output)?;
+    let written = write_artwork(&parts, &args.output, &name, sheet_size, &s.outputs)
+        .with_context(|| format!("while writing {}", args.output.display()))?;
     record(&std::path::absolute(&args.output)?)?;
     s.ui.say(format!(
         "{} parts from {} poses in {seconds:.2} s (reference pose {}, {} hinges): {} (build it with `puppet build {}`), {}, {}",
@@ -142,8 +143,13 @@ pub fn run(args: PartsArgs, s: &Session) -> anyhow::Result<()> {
 /// Writes the poses as `dir/poses/pose_NNN.png`.
 fn cut_only(poses: &[puppet::parts::pose::Pose], dir: &std::path::Path, s: &Session) -> anyhow::Result<()> {
     let folder = dir.join("poses");
-    for (k, pose) in poses.iter().enumerate() {
-        s.save_png(&folder.join(format!("pose_{k:03}.png")), &pose.image)?;
+    let paths: Vec<_> = (0..poses.len()).map(|k| folder.join(format!("pose_{k:03}.png"))).collect();
+    // Every file claimed before the first is written: a refusal changes nothing.
+    for path in &paths {
+        s.outputs.claim(path)?;
+    }
+    for (pose, path) in poses.iter().zip(&paths) {
+        s.save_png(path, &pose.image)?;
     }
     s.ui.say(format!("{} poses → {}", poses.len(), folder.display()))?;
     Ok(())

@@ -9,7 +9,8 @@ use std::path::{Path, PathBuf};
 use super::reconstruct::reconstruct;
 use super::superpixels::NONE;
 use super::Parts;
-use crate::error::{Error, Result};
+use crate::atomic_file::Outputs;
+use crate::error::Result;
 use crate::picture::{contact_sheet, draw, Picture};
 
 /// Well-separated colours for the first parts (Trubetskoy's list of 20 distinct colours).
@@ -87,20 +88,26 @@ pub fn label_picture(labels: &[u32], width: u32) -> Picture {
     }
 }
 
-/// Writes the artwork of `parts` into `dir` (which must exist): `frame.png`, `labels.png`,
-/// `character.toml`, `parts.png`, and the poses' label maps — on a `sheet_size` canvas at each
-/// pose's origin when the poses came from one sheet, else as `pose_labels/<pose>.png`.
+/// Writes the artwork of `parts` into `dir`: `frame.png`, `labels.png`, `character.toml`,
+/// `parts.png`, and the poses' label maps — on a `sheet_size` canvas at each pose's origin when
+/// the poses came from one sheet, else as `pose_labels/pose_NNN.png`. Every file is claimed
+/// through `outputs` before the first is written, so a file the user made or edited since (an
+/// edited `character.toml`) is refused and nothing changes.
 ///
 /// # Errors
-/// [`Error::Io`] or [`Error::Image`] naming the file.
-pub fn write_artwork(parts: &Parts, dir: &Path, name: &str, sheet_size: Option<(u32, u32)>) -> Result<Written> {
+/// As [`Outputs::claim`] and [`Outputs::write`]; [`crate::Error::Image`] if a PNG cannot be encoded.
+pub fn write_artwork(parts: &Parts, dir: &Path, name: &str, sheet_size: Option<(u32, u32)>, outputs: &Outputs) -> Result<Written> {
     let seg = &parts.segmentation;
-    let reference = &parts.poses[seg.reference];
-    let width = reference.image.width;
-    reference.image.save_png(&dir.join("frame.png"))?;
-    label_picture(&seg.labels[seg.reference], width).save_png(&dir.join("labels.png"))?;
+    let width = parts.poses[seg.reference].image.width;
+    let png = |picture: &Picture, path: PathBuf| -> Result<(PathBuf, Vec<u8>)> { Ok((path.clone(), picture.png_bytes(&path)?)) };
     let character = dir.join("character.toml");
-    crate::atomic_file::write_atomic(&character, character_toml(parts, name).as_bytes())?;
+    let preview = dir.join("parts.png");
+    let mut files = vec![
+        png(&parts.poses[seg.reference].image, dir.join("frame.png"))?,
+        png(&label_picture(&seg.labels[seg.reference], width), dir.join("labels.png"))?,
+        (character.clone(), character_toml(parts, name).into_bytes()),
+        png(&preview_sheet(parts), preview.clone())?,
+    ];
     let pose_labels = match sheet_size {
         Some((w, h)) => {
             let mut sheet = Picture::filled(w, h, [0.0; 4]);
@@ -113,21 +120,23 @@ pub fn write_artwork(parts: &Parts, dir: &Path, name: &str, sheet_size: Option<(
                     }
                 }
             }
-            let path = dir.join("pose_labels.png");
-            sheet.save_png(&path)?;
-            path
+            files.push(png(&sheet, dir.join("pose_labels.png"))?);
+            dir.join("pose_labels.png")
         }
         None => {
             let folder = dir.join("pose_labels");
-            std::fs::create_dir_all(&folder).map_err(|e| Error::io(&folder, e))?;
             for (k, labels) in seg.labels.iter().enumerate() {
-                label_picture(labels, width).save_png(&folder.join(format!("pose_{k:03}.png")))?;
+                files.push(png(&label_picture(labels, width), folder.join(format!("pose_{k:03}.png")))?);
             }
             folder
         }
     };
-    let preview = dir.join("parts.png");
-    preview_sheet(parts).save_png(&preview)?;
+    for (path, _) in &files {
+        outputs.claim(path)?;
+    }
+    for (path, bytes) in &files {
+        outputs.write(path, bytes)?;
+    }
     Ok(Written {
         character,
         preview,

@@ -187,12 +187,17 @@ impl Flow {
     /// # Panics
     /// If the sizes differ (a caller bug).
     pub fn from_displacements(displacement: &[[f32; 2]], from: &Pose, to: &Pose) -> Flow {
+        Self::snapped(displacement, from, &nearest_foreground(&to.mask, to.width(), to.height()))
+    }
+
+    /// [`Flow::from_displacements`] with the target pose's nearest-foreground map already made
+    /// (one per pose, not one per pair).
+    fn snapped(displacement: &[[f32; 2]], from: &Pose, nearest: &[usize]) -> Flow {
         let (w, h) = (from.width(), from.height());
         assert!(
-            displacement.len() == w * h && to.mask.len() == w * h,
+            displacement.len() == w * h && nearest.len() == w * h,
             "flow and poses differ in size"
         );
-        let nearest = nearest_foreground(&to.mask, w, h);
         let to = from
             .mask
             .iter()
@@ -254,12 +259,13 @@ fn nearest_foreground(mask: &[bool], w: usize, h: usize) -> Vec<usize> {
 pub fn read_flows(dir: &std::path::Path, poses: &[Pose]) -> Result<Correspondences> {
     let (w, h) = (poses[0].image.width, poses[0].image.height);
     let mut out = Correspondences::new(poses.len(), w as usize * h as usize);
+    let nearest: Vec<Vec<usize>> = poses.iter().map(|p| nearest_foreground(&p.mask, p.width(), p.height())).collect();
     for s in 0..poses.len() {
         for t in (0..poses.len()).filter(|&t| t != s) {
             let path = dir.join(format!("flow_{s:03}_{t:03}.flo"));
             let bytes = crate::user_file::read_bytes(&path, 12 + 8 * u64::from(w) * u64::from(h))?;
             let displacement = parse_flo(&bytes, &path, w, h)?;
-            out.set(s, t, Flow::from_displacements(&displacement, &poses[s], &poses[t]))?;
+            out.set(s, t, Flow::snapped(&displacement, &poses[s], &nearest[t]))?;
         }
     }
     Ok(out)

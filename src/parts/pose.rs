@@ -19,6 +19,10 @@ const JOIN_ALPHA: f32 = 0.05;
 /// The most poses a sheet may hold (every pair is compared, so the work grows with the square).
 pub const MAX_POSES: usize = 64;
 
+/// The most pixels of correspondences a sheet may need: one target per pixel of every pose
+/// towards every other pose, 8 bytes each, so 2 GiB (64 poses of 64² or 10 poses of 1700²).
+pub const MAX_PAIR_PIXELS: u64 = 1 << 28;
+
 /// The most grid cells a sheet may be cut into (empty cells are skipped, so a grid may have
 /// more cells than poses).
 pub const MAX_CELLS: usize = 4096;
@@ -384,6 +388,15 @@ pub fn check(poses: &[Pose], source: &Path) -> Result<()> {
         _ => {}
     }
     let (w, h) = (poses[0].image.width, poses[0].image.height);
+    let pairs = (poses.len() * (poses.len() - 1)) as u64;
+    if pairs * u64::from(w) * u64::from(h) > MAX_PAIR_PIXELS {
+        return Err(Error::limit(
+            format!("correspondences between {} poses of {w}×{h} in {}", poses.len(), source.display()),
+            pairs * u64::from(w) * u64::from(h),
+            MAX_PAIR_PIXELS,
+            "pixels",
+        ));
+    }
     for pose in poses {
         if (pose.image.width, pose.image.height) != (w, h) {
             return Err(Error::format(
@@ -528,6 +541,25 @@ mod tests {
             .expect_err("a blue stranger")
             .to_string();
         assert!(err.contains("blue") && err.contains("different characters"), "{err}");
+    }
+
+    #[test]
+    fn sheets_needing_too_many_correspondences_are_refused_before_any_is_made() {
+        // 3 poses of 7000 × 7000 pixels: 6 ordered pairs × 49 M pixels, past the limit.
+        let big = Pose {
+            name: "big".into(),
+            image: Picture {
+                width: 7000,
+                height: 7000,
+                pixels: Vec::new(),
+            },
+            mask: Vec::new(),
+            origin: [0, 0],
+        };
+        let err = check(&[big.clone(), big.clone(), big], Path::new("huge"))
+            .expect_err("too big")
+            .to_string();
+        assert!(err.contains("correspondences between 3 poses") && err.contains("huge"), "{err}");
     }
 
     #[test]

@@ -163,8 +163,7 @@ fn enforce_connectivity(labels: &mut [u32], mask: &[bool], w: usize, min_size: u
             }
         }
     }
-    let unlabelled: Vec<bool> = (0..count).map(|_| false).collect();
-    let mut unlabelled = unlabelled;
+    let mut unlabelled = vec![false; count];
     for i in (0..n).filter(|&i| mask[i] && labels[i] == NONE) {
         unlabelled[piece[i]] = true;
     }
