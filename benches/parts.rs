@@ -3,8 +3,12 @@
 //! the same poses), the generator's exact correspondences between every ordered pair of a
 //! 10-pose sheet (`parts/true_flows/10x128`), and the whole finder on that sheet — superpixels
 //! of every pose, merging, refinement, labelling every pose, hinges and order
-//! (`parts/find/10x128`). The sheet is synthetic seed 9000's generator at 10 poses. Results:
-//! benches/README.md "parts".
+//! (`parts/find/10x128`); and the built-in correspondence network's correspondences between
+//! every ordered pair of that sheet (`parts/network_flows/10x128`: features of the 10 poses,
+//! then the nearest feature of every foreground pixel in each other pose). The sheet is
+//! synthetic seed 9000's generator at 10 poses. And one training step of the network
+//! (`parts/train_step/4x2x128`: 4 pairs of 128² poses, InfoNCE both ways, Adam), the step
+//! `bench/parts_net_torch.py` times in PyTorch. Results: benches/README.md "parts".
 //!
 //! ```sh
 //! cargo bench --bench parts
@@ -14,9 +18,12 @@
 #![allow(missing_docs)]
 
 use criterion::{criterion_group, criterion_main, Criterion};
+use puppet::parts::learn::{LearnConfig, PairSource, TrainedNet, Trainer};
+use puppet::parts::matching::network_correspondences;
 use puppet::parts::superpixels::slic;
 use puppet::parts::{find_parts, PartsOptions};
-use puppet::synth::sheet_flow::{true_correspondences, GeneratedSheet};
+use puppet::progress::Silent;
+use puppet::synth::sheet_flow::{true_correspondences, GeneratedSheet, SyntheticPairs};
 
 // The binary's allocator and its setting (src/allocator.rs), so a call costs what it costs in
 // `puppet parts`.
@@ -38,6 +45,29 @@ fn parts(c: &mut Criterion) {
     c.bench_function("parts/find/10x128", |b| {
         b.iter(|| find_parts(poses.clone(), &flows, &options).expect("parts"))
     });
+    let device = puppet::backend::device();
+    let net = TrainedNet::shipped(&device).expect("the built-in network");
+    let mut group = c.benchmark_group("parts");
+    group.sample_size(10);
+    group.bench_function("network_flows/10x128", |b| {
+        b.iter(|| network_correspondences(&net.net, net.size, poses, &device, &Silent).expect("flows"))
+    });
+    // One training step of the network as configs/parts-net.toml trains it (batch 4 pairs).
+    let config = LearnConfig::default();
+    let source = SyntheticPairs {
+        first_seed: 1_000_000,
+        size: 128,
+    };
+    let pairs: Vec<_> = (0..config.batch as u64).map(|k| source.pair(k).expect("a pair")).collect();
+    let mut trainer = Trainer::new(&config, &puppet::backend::train_device());
+    let mut step = 0;
+    group.bench_function("train_step/4x2x128", |b| {
+        b.iter(|| {
+            trainer.step(step, &pairs).expect("a step");
+            step += 1;
+        })
+    });
+    group.finish();
 }
 
 criterion_group!(benches, parts);

@@ -145,11 +145,127 @@ fn bad_sheets_are_refused_with_the_reason_and_nothing_written() {
         puppet(d, &["parts", input, "-o", "out"]).assert_error(needles);
         assert!(!d.join("out").exists(), "{input}: a refused run wrote its output folder");
     }
-    // A good sheet of drawn poses: read, then refused for want of a correspondence method.
-    puppet(d, &["parts", "three.png", "-o", "out"]).assert_error(&["three.png", "3 poses", "correspondence network", "--truth"]);
+    // A good sheet of drawn poses with a network that is not there: refused, naming it.
+    puppet(d, &["parts", "three.png", "--net", "nonet", "-o", "out"]).assert_error(&["nonet", "net.json"]);
     // --truth needs a synthetic sheet's truth.json.
     puppet(d, &["parts", "sizes", "--truth", "-o", "out"]).assert_error(&["truth.json"]);
     assert!(!d.join("out").exists());
+    // With the built-in network it runs.
+    puppet(d, &["parts", "three.png", "-o", "out"]).assert_ok();
+    assert!(d.join("out/character.toml").is_file());
+}
+
+/// `puppet synth --sprite-sheet` of six 96² poses of seed `seed` into `d/sheet`.
+fn six_pose_sheet(d: &Path, seed: u32) {
+    let seed = seed.to_string();
+    puppet(
+        d,
+        &[
+            "synth",
+            "--sprite-sheet",
+            "--frames",
+            "6",
+            "--size",
+            "96x96",
+            "--seed",
+            &seed,
+            "-o",
+            "sheet",
+        ],
+    )
+    .assert_ok();
+}
+
+/// A correspondence-network config small enough to train in seconds, at 64².
+fn tiny_net_config(path: &Path, extra: &str) {
+    let text = "steps = 6\nbatch = 2\nanchors = 64\nnegatives = 128\nheld_out = 2\neval_every = 3\n\
+                checkpoint_every = 3\nfeatures = 8\nbase_channels = 4\nmax_channels = 8\ndepth = 3\ninput_size = 64\n";
+    std::fs::write(path, format!("{text}{extra}")).unwrap();
+}
+
+#[test]
+fn the_correspondence_network_trains_resumes_to_the_same_weights_and_finds_parts() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    tiny_net_config(&d.join("net.toml"), "");
+    let whole = puppet(d, &["train-parts", "net.toml", "-o", "whole"]);
+    whole.assert_ok();
+    assert!(
+        whole.stdout.contains("held-out pairs") && whole.stdout.contains("untrained"),
+        "{}",
+        whole.stdout
+    );
+    for file in ["config.toml", "net.json", "weights.bpk", "log.csv", "curves.png"] {
+        assert!(d.join("whole").join(file).is_file(), "{file} missing");
+    }
+    // Paused at step 3 and resumed: the same losses and held-out scores as the uninterrupted run
+    // (weights files differ in the parameters' random ids even between two whole runs).
+    puppet(d, &["train-parts", "net.toml", "-o", "split", "--pause-at", "3"]).assert_ok();
+    let log = |name: &str| std::fs::read_to_string(d.join(name).join("log.csv")).unwrap();
+    assert_eq!(log("split").lines().count(), 4, "{}", log("split"));
+    puppet(d, &["train-parts", "net.toml", "-o", "split", "--resume"]).assert_ok();
+    let scores = |text: String| -> Vec<String> {
+        text.lines()
+            .map(|l| {
+                l.split(',')
+                    .enumerate()
+                    .filter(|&(k, _)| k != 1)
+                    .map(|(_, v)| v)
+                    .collect::<Vec<_>>()
+                    .join(",")
+            })
+            .collect()
+    };
+    assert_eq!(scores(log("split")), scores(log("whole")), "paused and resumed ≠ uninterrupted");
+    let weights = |name: &str| std::fs::read(d.join(name).join("weights.bpk")).unwrap();
+    let trained = weights("whole");
+    // A fresh run into a trained folder, or a resume with another config: refused, nothing changed.
+    puppet(d, &["train-parts", "net.toml", "-o", "whole"]).assert_error(&["whole", "--resume"]);
+    tiny_net_config(&d.join("other.toml"), "temperature = 0.5\n");
+    puppet(d, &["train-parts", "other.toml", "-o", "whole", "--resume"]).assert_error(&["temperature"]);
+    tiny_net_config(&d.join("bad.toml"), "depth = 9\n");
+    puppet(d, &["train-parts", "bad.toml", "-o", "bad"]).assert_error(&["bad.toml", "depth"]);
+    assert!(!d.join("bad").exists());
+    assert!(weights("whole") == trained, "a refused run changed the weights");
+    // The trained network drives `puppet parts` on a synthetic sheet (poses letterboxed to 64²).
+    six_pose_sheet(d, 4243);
+    let run = puppet(d, &["parts", "sheet/sheet.png", "--net", "whole", "-o", "parts"]);
+    run.assert_ok();
+    assert!(
+        d.join("parts/character.toml").is_file() && d.join("parts/parts.png").is_file(),
+        "{}",
+        run.stderr
+    );
+}
+
+#[test]
+fn auto_goes_from_a_sheet_of_poses_to_a_trained_puppet_and_its_page() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    six_pose_sheet(d, 4244);
+    // An output folder holding a page puppet did not write: refused before anything is written.
+    std::fs::create_dir_all(d.join("mine")).unwrap();
+    std::fs::write(d.join("mine/index.html"), "my page").unwrap();
+    puppet(d, &["auto", "sheet/sheet.png", "--steps", "2", "-o", "mine"]).assert_error(&["index.html"]);
+    assert!(!d.join("mine/artwork").exists() && !d.join("mine/model").exists());
+    let run = puppet(d, &["auto", "sheet/sheet.png", "--steps", "2", "-o", "auto"]);
+    run.assert_ok();
+    assert!(run.stdout.contains("parts found from 6 poses"), "{}", run.stdout);
+    for file in [
+        "artwork/character.toml",
+        "artwork/parts.png",
+        "artwork/frames/pose_005.png",
+        "model/weights.bpk",
+        "index.html",
+        "fits.png",
+    ] {
+        assert!(d.join("auto").join(file).is_file(), "{file} missing:\n{}", run.stderr);
+    }
+    let page = std::fs::read_to_string(d.join("auto/index.html")).unwrap();
+    assert!(
+        page.contains("from nothing but drawn poses") && page.contains("artwork/parts.png"),
+        "{page}"
+    );
 }
 
 /// A `.flo` file of one displacement everywhere.

@@ -10,7 +10,7 @@ use std::time::Instant;
 
 use burn::module::Module;
 use burn::optim::{GradientsParams, ModuleOptimizer};
-use burn::tensor::{Bytes, Device, Tensor, TensorData};
+use burn::tensor::{Device, Tensor, TensorData};
 
 use super::config::{AppearanceConfig, TrainingFit};
 use super::pairs::{split_pairs, Pairs};
@@ -29,8 +29,8 @@ use crate::progress::Progress;
 use crate::rng::Rng;
 use crate::train::checkpoint::{self, Checkpoint, CheckpointState};
 use crate::train::log::{plot_curves, CsvRow, Curve, TrainLog};
-use crate::train::optim::adam;
-use crate::train::trainer::{changed_keys, BatchOrder};
+use crate::train::optim::{adam, optimizer_bytes, optimizer_from_bytes};
+use crate::train::trainer::BatchOrder;
 
 /// How to run.
 #[derive(Clone, Debug, Default)]
@@ -156,33 +156,11 @@ pub fn train_appearance(
     let model = Model::load(model_dir, &inference)?;
     let previous = checkpoint::latest(folder.dir())?.map(|dir| checkpoint::load(&dir)).transpose()?;
     let config_json = serde_json::to_value(config).map_err(|e| Error::format(folder.config(), e.to_string()))?;
-    match (&previous, options.resume) {
-        (Some(c), false) => {
-            return Err(Error::RunExists {
-                path: folder.dir().to_path_buf(),
-                step: c.state.step,
-            })
-        }
-        (None, true) => {
-            return Err(Error::Resume {
-                path: folder.dir().to_path_buf(),
-                problem: "there is no checkpoint to resume from".into(),
-            })
-        }
-        (Some(c), true) => {
-            let changed = changed_keys(&c.state.config, &config_json, &["epochs"]);
-            if !changed.is_empty() {
-                return Err(Error::Resume {
-                    path: folder.dir().to_path_buf(),
-                    problem: format!(
-                        "the config differs from the checkpoint's in {} (only epochs may change)",
-                        changed.join(", ")
-                    ),
-                });
-            }
-        }
+    checkpoint::check_run(folder.dir(), previous.as_ref(), options.resume)?;
+    match &previous {
+        Some(c) => checkpoint::check_same_config(folder.dir(), c, &config_json, &["epochs"])?,
         // A fresh run may fill only a folder puppet made, or an empty one.
-        (None, false) => Outputs::new(false).claim_folder(folder.dir())?,
+        None => Outputs::new(false).claim_folder(folder.dir())?,
     }
     let fit_options = match config.fit {
         TrainingFit::Default => fit.clone(),
@@ -437,11 +415,7 @@ impl Run {
     }
 
     fn state_bytes(&self, dir: &Path) -> Result<Vec<(&'static str, Vec<u8>)>> {
-        let optimizer = |o: &ModuleOptimizer| {
-            o.into_bytes()
-                .map(|b| b.to_vec())
-                .map_err(|e| Error::format(dir, format!("cannot encode optimiser state: {e:?}")))
-        };
+        let optimizer = |o: &ModuleOptimizer| optimizer_bytes(o, dir);
         Ok(vec![
             (GENERATOR, weights_bytes(&self.generator, dir)?),
             (CRITIC, weights_bytes(&self.critic, dir)?),
@@ -456,9 +430,7 @@ impl Run {
         self.generator = load_weights(self.generator.clone(), checkpoint.file(GENERATOR, g_limit)?, &dir.join(GENERATOR))?;
         self.critic = load_weights(self.critic.clone(), checkpoint.file(CRITIC, d_limit)?, &dir.join(CRITIC))?;
         let optimizer = |o: &ModuleOptimizer, name: &str, limit: u64| -> Result<ModuleOptimizer> {
-            o.clone()
-                .from_bytes(Bytes::from_bytes_vec(checkpoint.file(name, limit)?))
-                .map_err(|e| Error::format(dir.join(name), format!("cannot read optimiser state: {e:?}")))
+            optimizer_from_bytes(o, checkpoint.file(name, limit)?, &dir.join(name))
         };
         self.generator_optimizer = optimizer(&self.generator_optimizer, GENERATOR_OPTIMIZER, 2 * g_limit)?;
         self.critic_optimizer = optimizer(&self.critic_optimizer, CRITIC_OPTIMIZER, 2 * d_limit)?;

@@ -2,10 +2,11 @@
 
 use std::path::PathBuf;
 
-use puppet::eval::parts::{score_synthetic_sheet, SheetScores};
+use puppet::eval::parts::{score_synthetic_sheet, SheetScores, Source};
+use puppet::parts::learn::TrainedNet;
 use puppet::parts::pose::{crop_like, load_poses, Layout};
 use puppet::parts::score::{labels_by_colour, part_iou};
-use puppet::parts::PartsOptions;
+use puppet::parts::{PartsOptions, ESTIMATED_RIGID_CHECK};
 use puppet::picture::Picture;
 use puppet::progress::Progress;
 
@@ -21,7 +22,8 @@ use super::Session;
 /// true part it overlaps most: for truth coarser than the prediction), and the part counts.
 ///
 /// With --synthetic FIRST..END instead: generates the sprite sheet of each seed (6 to 10 random
-/// poses), finds its parts from the generator's exact correspondences, and prints part IoU
+/// poses), finds its parts from the generator's exact correspondences (or, with --net, from
+/// the correspondence network's, and scores those against the exact ones), and prints part IoU
 /// beside two references on the same sheets — one part per connected region, and the
 /// superpixel-majority ceiling — with the skeleton's joints against the generator's.
 #[derive(Debug, clap::Args)]
@@ -34,6 +36,22 @@ pub struct EvalPartsArgs {
     /// Score the part finder on the synthetic sheets of these seeds, FIRST..END (END excluded).
     #[arg(long, value_name = "FIRST..END", value_parser = parse_seeds, conflicts_with_all = ["truth", "predicted", "grid"])]
     pub synthetic: Option<(u64, u64)>,
+    /// With --synthetic: correspondences from the network trained in DIR (`--net` alone: the
+    /// built-in one) instead of the exact ones.
+    #[arg(long, value_name = "DIR", num_args = 0..=1, conflicts_with_all = ["truth", "predicted"])]
+    pub net: Option<Option<PathBuf>>,
+    /// With --net: drop correspondences whose way back misses the start by more than this many
+    /// pixels (0: keep all).
+    #[arg(long, default_value_t = 2.0, value_name = "PX")]
+    pub flow_check: f32,
+    /// With --synthetic: the part finder's largest RMS motion residual of a merged part, as a
+    /// fraction of the pose size (as `puppet parts --merge-residual`).
+    #[arg(long, default_value_t = PartsOptions::default().segment.merge_residual, value_name = "FRACTION", conflicts_with_all = ["truth", "predicted"])]
+    pub merge_residual: f32,
+    /// With --synthetic: drop correspondences more than this many pixels from their
+    /// superpixel's similarity (as `puppet parts --rigid-check`; default 4 with --net, else 0).
+    #[arg(long, value_name = "PX", conflicts_with_all = ["truth", "predicted"])]
+    pub rigid_check: Option<f32>,
     /// Pose size of the synthetic sheets (square).
     #[arg(long, default_value_t = 128, value_name = "PX", value_parser = clap::value_parser!(u32).range(64..=1024))]
     pub size: u32,
@@ -59,7 +77,25 @@ fn parse_seeds(s: &str) -> Result<(u64, u64), String> {
 /// Runs `puppet eval-parts`.
 pub fn run(args: EvalPartsArgs, s: &Session) -> anyhow::Result<()> {
     if let Some((first, end)) = args.synthetic {
-        return synthetic(first, end, args.size, s);
+        let device = puppet::backend::device();
+        let trained = match &args.net {
+            Some(Some(dir)) => Some(TrainedNet::load(dir, &device)?),
+            Some(None) => Some(TrainedNet::shipped(&device)?),
+            None => None,
+        };
+        let source = match &trained {
+            Some(net) => Source::Network {
+                net,
+                check: args.flow_check,
+            },
+            None => Source::Truth,
+        };
+        let mut options = PartsOptions::default();
+        options.segment.merge_residual = args.merge_residual;
+        options.rigid_check = args
+            .rigid_check
+            .unwrap_or(if trained.is_some() { ESTIMATED_RIGID_CHECK } else { 0.0 });
+        return synthetic(first, end, args.size, &options, source, s);
     }
     let (Some(truth_path), Some(predicted_path)) = (&args.truth, &args.predicted) else {
         anyhow::bail!("give --truth LABELS and the predicted label maps, or --synthetic FIRST..END");
@@ -127,14 +163,13 @@ pub fn run(args: EvalPartsArgs, s: &Session) -> anyhow::Result<()> {
 }
 
 /// The synthetic evaluation: one row per seed, then the means.
-fn synthetic(first: u64, end: u64, size: u32, s: &Session) -> anyhow::Result<()> {
-    let options = PartsOptions::default();
+fn synthetic(first: u64, end: u64, size: u32, options: &PartsOptions, source: Source, s: &Session) -> anyhow::Result<()> {
     s.ui.stage("sheets", end - first);
     let mut rows = Vec::new();
     for seed in first..end {
         // 6 to 10 poses, the range of the paper's sheets.
         let poses = 6 + (seed % 5) as usize;
-        rows.push((poses, score_synthetic_sheet(seed, poses, size, &options)?));
+        rows.push((poses, score_synthetic_sheet(seed, poses, size, options, source)?));
         s.ui.advance(1);
     }
     s.ui.finish();
@@ -142,6 +177,7 @@ fn synthetic(first: u64, end: u64, size: u32, s: &Session) -> anyhow::Result<()>
         "{:>6} {:>5} {:>11} {:>7} {:>7} {:>7} {:>13} {:>13} {:>8} {:>9} {:>7} {:>6}\n",
         "seed", "poses", "parts f/t", "paper", "strict", "merged", "regions p/s", "ceiling p/s", "hinged", "pivot px", "order", "s"
     );
+    let estimated = matches!(source, Source::Network { .. });
     for (poses, r) in &rows {
         table += &format!(
             "{:>6} {:>5} {:>11} {:>7.3} {:>7.3} {:>7.3} {:>13} {:>13} {:>8} {:>9} {:>7} {:>6.2}\n",
@@ -168,7 +204,7 @@ fn synthetic(first: u64, end: u64, size: u32, s: &Session) -> anyhow::Result<()>
         "mean over {} sheets at {size}²: part IoU paper {:.3}, strict {:.3}, merged {:.3}; one part per region {:.3}/{:.3}; \
          superpixel ceiling {:.3}/{:.3}; |part count error| {:.2}; joints hinged {}/{}, median pivot error {:.2} px, \
          joints stacked right {}/{}; poses rebuilt from the parts L2 {:.0} (the reference pose unchanged {:.0}); \
-         {:.2} s per sheet",
+         {:.2} s per sheet{}",
         rows.len(),
         mean(&|r| r.found.paper),
         mean(&|r| r.found.strict),
@@ -186,6 +222,15 @@ fn synthetic(first: u64, end: u64, size: u32, s: &Session) -> anyhow::Result<()>
         mean(&|r| r.reconstruction_l2),
         mean(&|r| r.unchanged_l2),
         mean(&|r| r.seconds),
+        if estimated {
+            format!(
+                "; correspondences: {:.1} % of the visible ones given, {:.1} % of those within 2 px of the truth",
+                100.0 * mean(&|r| r.matching.coverage),
+                100.0 * mean(&|r| r.matching.within_2px)
+            )
+        } else {
+            String::new()
+        }
     );
     s.ui.print(table)?;
     Ok(())
@@ -199,8 +244,11 @@ mod tests {
     fn parses_the_truth_and_prediction() {
         parses(&["eval-parts", "--truth", "sheet_labels.png", "out/pose_labels.png", "--grid", "4x2"]);
         parses(&["eval-parts", "--synthetic", "9000..9024", "--size", "256"]);
+        parses(&["eval-parts", "--synthetic", "9000..9024", "--net"]);
+        parses(&["eval-parts", "--synthetic", "9000..9024", "--net", "runs/net", "--flow-check", "0"]);
         for bad in [
-            &["eval-parts", "--synthetic", "9..3"][..],
+            &["eval-parts", "--truth", "a", "b", "--net", "n"][..],
+            &["eval-parts", "--synthetic", "9..3"],
             &["eval-parts", "--synthetic", "1..5", "--truth", "x", "y"],
             &["eval-parts"],
         ] {

@@ -8,6 +8,7 @@ use puppet::error::FolderKind;
 
 mod appearance;
 mod args;
+mod auto;
 mod build;
 mod correspond;
 mod demo;
@@ -25,6 +26,7 @@ mod rig;
 mod serve;
 mod synth;
 mod train;
+mod train_parts;
 mod ui;
 
 pub use ui::Ui;
@@ -73,6 +75,7 @@ impl Session {
 #[derive(Debug, Subcommand)]
 enum Command {
     Appearance(appearance::AppearanceArgs),
+    Auto(auto::AutoArgs),
     Build(build::BuildArgs),
     Correspond(correspond::CorrespondArgs),
     Demo(demo::DemoArgs),
@@ -90,6 +93,7 @@ enum Command {
     Serve(serve::ServeArgs),
     Synth(synth::SynthArgs),
     Train(train::TrainArgs),
+    TrainParts(train_parts::TrainPartsArgs),
 }
 
 /// Runs the parsed command line.
@@ -104,6 +108,7 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
     let s = &session;
     let result = match cli.command {
         Command::Appearance(args) => appearance::run(args, s),
+        Command::Auto(args) => auto::run(args, s),
         Command::Build(args) => build::run(args, s),
         Command::Correspond(args) => correspond::run(args, s),
         Command::Demo(args) => demo::run(args, s),
@@ -121,6 +126,7 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
         Command::Serve(args) => serve::run(args, s),
         Command::Synth(args) => synth::run(args, s),
         Command::Train(args) => train::run(args, s),
+        Command::TrainParts(args) => train_parts::run(args, s),
     };
     session.ui.finish();
     result

@@ -7,11 +7,14 @@ use anyhow::Context;
 use puppet::atomic_file::record;
 use puppet::parts::artwork::write_artwork;
 use puppet::parts::flow::read_flows;
+use puppet::parts::learn::TrainedNet;
+use puppet::parts::matching::network_correspondences;
 use puppet::parts::pose::{check_one_character, load_poses, Layout};
-use puppet::parts::{find_parts, PartsOptions};
+use puppet::parts::{find_parts, PartsOptions, ESTIMATED_RIGID_CHECK};
 use puppet::synth::sheet_flow::TruthSheet;
 
 use super::args::parse_size;
+
 use super::Session;
 
 /// Find a character's articulated parts from a sprite sheet of its poses, and write them as a
@@ -21,10 +24,11 @@ use super::Session;
 ///
 /// Parts are superpixels of the reference pose merged while one similarity per pose explains
 /// their motion in every pose; every pixel of every pose then takes the part whose motion
-/// explains its correspondences best. Correspondences come from optical flow between every
-/// pair of poses (--flows: Middlebury .flo files, e.g. from bench/parts_flow.py; --cut-only
-/// writes the poses to compute them on) or from a synthetic sheet's truth (--truth); the
-/// correspondence network of APES is not built yet.
+/// explains its correspondences best. Correspondences come from the correspondence network
+/// (the one built in, trained on the generator's characters by `puppet train-parts`, or
+/// --net DIR), from optical flow between every pair of poses (--flows: Middlebury .flo files,
+/// e.g. from bench/parts_flow.py; --cut-only writes the poses to compute them on) or from a
+/// synthetic sheet's truth (--truth).
 #[derive(Debug, clap::Args)]
 pub struct PartsArgs {
     /// The poses: a sprite sheet (PNG), a folder of pose PNGs, or with --truth a folder written
@@ -42,10 +46,18 @@ pub struct PartsArgs {
     /// nearest pixel.
     #[arg(long, value_name = "DIR", conflicts_with = "cut_only")]
     pub flows: Option<PathBuf>,
-    /// With --flows: drop correspondences whose flow back misses the start by more than this
-    /// many pixels (0: keep all).
+    /// The correspondence network trained in DIR by `puppet train-parts` (default: the one
+    /// built in).
+    #[arg(long, value_name = "DIR", conflicts_with_all = ["flows", "cut_only", "truth"])]
+    pub net: Option<PathBuf>,
+    /// Drop correspondences (from flow or the network) whose way back misses the start by more
+    /// than this many pixels (0: keep all).
     #[arg(long, default_value_t = 2.0, value_name = "PX")]
     pub flow_check: f32,
+    /// Drop correspondences more than this many pixels from the similarity that best moves
+    /// their superpixel (stray matches; default 4 for the network and flow, 0 with --truth).
+    #[arg(long, value_name = "PX")]
+    pub rigid_check: Option<f32>,
     /// Only cut the sheet: write OUTPUT/poses/pose_NNN.png (to compute flows on) and stop.
     #[arg(long)]
     pub cut_only: bool,
@@ -78,6 +90,7 @@ impl PartsArgs {
         options.segment.parts = self.parts;
         options.segment.merge_residual = self.merge_residual;
         options.segment.reference = self.reference;
+        options.rigid_check = self.rigid_check.unwrap_or(if self.truth { 0.0 } else { ESTIMATED_RIGID_CHECK });
         options
     }
 }
@@ -97,16 +110,17 @@ pub fn run(args: PartsArgs, s: &Session) -> anyhow::Result<()> {
         if args.cut_only {
             return cut_only(&poses, &args.output, s);
         }
-        let Some(dir) = &args.flows else {
-            anyhow::bail!(
-                "{}: {} poses read, but finding parts needs correspondences between them: give --flows DIR \
-                 (optical flow between every pair; --cut-only writes the poses to compute it on), or --truth \
-                 for a sheet from `puppet synth --sprite-sheet` (the correspondence network of APES is not built yet)",
-                args.input.display(),
-                poses.len()
-            );
+        let mut flows = match &args.flows {
+            Some(dir) => read_flows(dir, &poses)?,
+            None => {
+                let device = puppet::backend::device();
+                let trained = match &args.net {
+                    Some(dir) => TrainedNet::load(dir, &device)?,
+                    None => TrainedNet::shipped(&device)?,
+                };
+                network_correspondences(&trained.net, trained.size, &poses, &device, &s.ui)?
+            }
         };
-        let mut flows = read_flows(dir, &poses)?;
         if args.flow_check > 0.0 {
             let kept = flows.keep_consistent(poses[0].width(), args.flow_check);
             s.ui.say(format!("forward–backward check: {:.1} % of the correspondences kept", 100.0 * kept))?;
@@ -178,5 +192,10 @@ mod tests {
         ]);
         parses(&["parts", "sheet.png", "-o", "out", "--grid", "4x3", "--flows", "f"]);
         parses(&["parts", "sheet.png", "-o", "out", "--cut-only"]);
+        parses(&["parts", "sheet.png", "-o", "out", "--net", "runs/net", "--flow-check", "1"]);
+        parses(&["parts", "poses", "-o", "out"]);
+        assert!(
+            <crate::cli::Cli as clap::Parser>::try_parse_from(["puppet", "parts", "s", "-o", "o", "--net", "n", "--flows", "f"]).is_err()
+        );
     }
 }

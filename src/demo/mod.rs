@@ -7,6 +7,7 @@
 //! Everything goes into one output folder; a rerun replaces what an earlier demo wrote there (its
 //! model folder included) and refuses to touch anything else.
 
+pub mod auto;
 pub mod page;
 
 use std::path::{Path, PathBuf};
@@ -50,6 +51,9 @@ pub struct DemoOptions {
     pub force: bool,
     /// Also train the appearance stage for this many epochs (batch 1) and show its redraws.
     pub appearance_epochs: Option<u64>,
+    /// Where the character's parts came from, when `puppet auto` found them (else the
+    /// artwork's own label map).
+    pub found_parts: Option<page::FoundParts>,
 }
 
 impl DemoOptions {
@@ -61,6 +65,7 @@ impl DemoOptions {
             character: bundled_character(),
             force: false,
             appearance_epochs: None,
+            found_parts: None,
         }
     }
 }
@@ -142,17 +147,9 @@ pub fn run(options: &DemoOptions, progress: &dyn Progress) -> Result<DemoSummary
     let out = &options.output;
     let outputs = Outputs::new(options.force);
     // Everything is looked at before anything is written; each writer claims its own files.
-    for file in FILES {
-        outputs.check(&out.join(file))?;
-    }
+    check_outputs(options)?;
     let model_dir = out.join("model");
     if model_dir.exists() {
-        if !(options.force || written_by_puppet(&model_dir)?) {
-            return Err(Error::WouldOverwrite {
-                path: model_dir,
-                reason: "is not a model folder an earlier demo wrote".into(),
-            });
-        }
         // The demo trains from scratch: an earlier demo's model goes.
         std::fs::remove_dir_all(&model_dir).map_err(|e| Error::io(&model_dir, e))?;
     }
@@ -376,6 +373,7 @@ pub fn run(options: &DemoOptions, progress: &dyn Progress) -> Result<DemoSummary
         engine_files,
         spine_animations: exported.iter().map(|a| a.name.clone()).collect(),
         timings,
+        found_parts: options.found_parts.clone(),
         total: seconds,
     });
     let index = out.join("index.html");
@@ -440,6 +438,25 @@ fn redress(
         rig_ms,
     };
     Ok((outfit, worn))
+}
+
+/// Checks that the demo may write everything it writes into its output folder.
+///
+/// # Errors
+/// [`Error::WouldOverwrite`] naming a file or model folder puppet did not write (unless forced).
+pub fn check_outputs(options: &DemoOptions) -> Result<()> {
+    let outputs = Outputs::new(options.force);
+    for file in FILES {
+        outputs.check(&options.output.join(file))?;
+    }
+    let model_dir = options.output.join("model");
+    if model_dir.exists() && !(options.force || written_by_puppet(&model_dir)?) {
+        return Err(Error::WouldOverwrite {
+            path: model_dir,
+            reason: "is not a model folder an earlier demo wrote".into(),
+        });
+    }
+    Ok(())
 }
 
 /// The short training run: the robot at 64×64 working pixels, batch 8, cosine decay.

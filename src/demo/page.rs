@@ -31,6 +31,19 @@ pub struct Outfit {
     pub rig_ms: f64,
 }
 
+/// Parts found by `puppet auto` from the user's poses (APES), in place of a painted label map.
+#[derive(Clone, Debug, PartialEq)]
+pub struct FoundParts {
+    /// Poses they were found from.
+    pub poses: usize,
+    /// Parts found.
+    pub parts: usize,
+    /// Seconds finding them took.
+    pub seconds: f64,
+    /// `parts.png`, relative to the page.
+    pub preview: String,
+}
+
 /// Everything the page shows.
 #[derive(Clone, Debug)]
 pub struct PageData {
@@ -76,6 +89,8 @@ pub struct PageData {
     pub engine_files: Vec<(String, u64)>,
     /// The animations in the Spine export.
     pub spine_animations: Vec<String>,
+    /// The parts `puppet auto` found, if it ran the demo.
+    pub found_parts: Option<FoundParts>,
     /// Wall time of the whole run, seconds.
     pub total: f64,
 }
@@ -116,11 +131,22 @@ pub fn render(d: &PageData) -> String {
          body{{font-family:sans-serif;max-width:1100px;margin:1em auto;color:#222}} img{{image-rendering:pixelated;border:1px solid #ccc;margin:4px}}\
          table{{border-collapse:collapse}} td,th{{padding:2px 10px;border-bottom:1px solid #eee;text-align:right}} th{{text-align:left}}\
          .row{{display:flex;flex-wrap:wrap;align-items:flex-start;gap:8px}} figcaption{{font-size:90%;color:#555}}</style></head><body>\n\
-         <h1>puppet demo: {}</h1>\n<p>Neural Puppet (§3–4) end to end on a bundled CC0 Kenney character: a layered puppet built from one labelled frame, \
+         <h1>puppet demo: {}</h1>\n<p>Neural Puppet (§3–4) end to end {}, \
          a deformation network trained for {} steps ({:.1} images/s) on {} frames with {} held out, then fits, in-betweens and a dragged pose. {} \
          Whole run: <b>{:.0} s</b>.</p>",
         escape(&d.character),
         escape(&d.character),
+        match &d.found_parts {
+            None => "on a bundled CC0 Kenney character: a layered puppet built from one labelled frame".to_string(),
+            Some(f) => format!(
+                "from nothing but drawn poses: {} parts found in {:.1} s from {} poses by the correspondence network and \
+                 part finder (APES, apes-part-extraction.md; <a href=\"{}\">the poses and their parts</a>), a layered puppet built from them",
+                f.parts,
+                f.seconds,
+                f.poses,
+                escape(&f.preview)
+            ),
+        },
         d.steps,
         d.images_per_second,
         d.split.0,
@@ -282,6 +308,7 @@ mod tests {
             timings: vec![("train".into(), 1.0)],
             engine_files: vec![("spine/puppet.json".into(), 2048)],
             spine_animations: vec!["inbetween_walk".into()],
+            found_parts: None,
             total: 2.0,
         });
         assert!(!page.contains("<script>") && page.contains("&lt;script&gt;") && page.contains("a&lt;b.png"));

@@ -8,11 +8,15 @@ use std::time::Instant;
 use crate::error::Result;
 use crate::geom::component_labels;
 use crate::metrics::l2;
+use crate::parts::flow::Correspondences;
+use crate::parts::learn::TrainedNet;
+use crate::parts::matching::network_correspondences;
 use crate::parts::pose::Pose;
 use crate::parts::reconstruct::reconstruct;
 use crate::parts::score::{part_iou, PartScores};
 use crate::parts::superpixels::{Superpixels, NONE};
 use crate::parts::{find_parts, PartsOptions};
+use crate::progress::Silent;
 use crate::synth;
 use crate::synth::sheet_flow::GeneratedSheet;
 
@@ -27,7 +31,8 @@ pub struct SheetScores {
     pub components: PartScores,
     /// Each superpixel labelled with its most common true part.
     pub ceiling: PartScores,
-    /// Seconds the part finder took (superpixels, merging, labelling, skeleton).
+    /// Seconds the part finder took (correspondences unless exact, superpixels, merging,
+    /// labelling, skeleton).
     pub seconds: f64,
     /// The generator's joints whose two parts were both found (matched on the reference pose).
     pub joints_matched: usize,
@@ -44,23 +49,62 @@ pub struct SheetScores {
     pub reconstruction_l2: f64,
     /// The same for the reference pose itself standing in for every pose (no parts at all).
     pub unchanged_l2: f64,
+    /// The correspondences against the generator's.
+    pub matching: MatchQuality,
+}
+
+/// Where the part finder's correspondences come from.
+#[derive(Clone, Copy, Debug)]
+pub enum Source<'a> {
+    /// The generator's exact correspondences (the oracle).
+    Truth,
+    /// The correspondence network, then the forward–backward check at `check` pixels (0: none).
+    Network {
+        /// The trained network.
+        net: &'a TrainedNet,
+        /// The check's tolerance.
+        check: f32,
+    },
+}
+
+/// How good a sheet's correspondences are against the generator's: over every ordered pair and
+/// every pixel whose point shows in the other pose.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct MatchQuality {
+    /// Share of those pixels given a correspondence (after any check).
+    pub coverage: f64,
+    /// Of the ones given, the share within 2 px of the truth.
+    pub within_2px: f64,
 }
 
 /// Generates the sprite sheet of `seed` (`poses` random poses at `size`², the generator's
-/// default deformation and wobble) and scores the part finder on it.
+/// default deformation and wobble) and scores the part finder on it, its correspondences from
+/// `source`.
 ///
 /// # Errors
 /// As [`GeneratedSheet::new`] and [`find_parts`].
-pub fn score_synthetic_sheet(seed: u64, poses: usize, size: u32, options: &PartsOptions) -> Result<SheetScores> {
+pub fn score_synthetic_sheet(seed: u64, poses: usize, size: u32, options: &PartsOptions, source: Source) -> Result<SheetScores> {
     let generated = GeneratedSheet::new(seed, poses, size)?;
-    let flows = generated.correspondences()?;
+    let truth = generated.correspondences()?;
+    let start = Instant::now();
+    let flows = match source {
+        Source::Truth => truth.clone(),
+        Source::Network { net, check } => {
+            let device = crate::backend::device();
+            let mut flows = network_correspondences(&net.net, net.size, &generated.poses, &device, &Silent)?;
+            if check > 0.0 {
+                flows.keep_consistent(size as usize, check);
+            }
+            flows
+        }
+    };
+    let matching = match_quality(&flows, &truth, &generated.labels, size as usize);
     let GeneratedSheet {
         sequence: seq,
         poses: sheet,
         labels: truth_labels,
     } = generated;
     let true_parts = seq.truth.parts.len();
-    let start = Instant::now();
     let parts = find_parts(sheet, &flows, options)?;
     let seconds = start.elapsed().as_secs_f64();
     let found = part_iou(&parts.segmentation.labels, &truth_labels, parts.segmentation.parts, true_parts);
@@ -89,7 +133,42 @@ pub fn score_synthetic_sheet(seed: u64, poses: usize, size: u32, options: &Parts
         joints_ordered: joints.ordered,
         reconstruction_l2,
         unchanged_l2,
+        matching,
     })
+}
+
+/// `flows` against the exact correspondences `truth` of poses labelled `labels` (`width` wide).
+fn match_quality(flows: &Correspondences, truth: &Correspondences, labels: &[Vec<u32>], width: usize) -> MatchQuality {
+    let n = labels.len();
+    let (mut visible, mut given, mut near) = (0usize, 0usize, 0usize);
+    for s in 0..n {
+        for t in (0..n).filter(|&t| t != s) {
+            let (Some(found), Some(exact)) = (flows.get(s, t), truth.get(s, t)) else {
+                continue;
+            };
+            for i in 0..labels[s].len() {
+                let Some(q) = exact.at(i) else { continue };
+                let (x, y) = (q[0].round(), q[1].round());
+                let shows = x >= 0.0
+                    && y >= 0.0
+                    && (x as usize) < width
+                    && (y as usize) * width + (x as usize) < labels[t].len()
+                    && labels[t][y as usize * width + x as usize] == labels[s][i];
+                if !shows {
+                    continue;
+                }
+                visible += 1;
+                if let Some(p) = found.at(i) {
+                    given += 1;
+                    near += usize::from((p[0] - q[0]).hypot(p[1] - q[1]) <= 2.0);
+                }
+            }
+        }
+    }
+    MatchQuality {
+        coverage: given as f64 / visible.max(1) as f64,
+        within_2px: near as f64 / given.max(1) as f64,
+    }
 }
 
 struct JointScores {
@@ -250,7 +329,7 @@ mod tests {
     #[test]
     fn exact_correspondences_find_parts_above_the_floor_and_beat_the_references() {
         for (seed, floor) in [(71, 0.80), (72, 0.70)] {
-            let s = score_synthetic_sheet(seed, 6, 128, &PartsOptions::default()).expect("scores");
+            let s = score_synthetic_sheet(seed, 6, 128, &PartsOptions::default(), Source::Truth).expect("scores");
             assert!(s.found.strict >= floor && s.found.paper >= 0.85, "seed {seed}: {:?}", s.found);
             assert!(
                 s.found.strict > s.components.strict && s.found.paper > s.components.paper,

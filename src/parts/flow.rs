@@ -3,7 +3,9 @@
 //! the generator's truth (the oracle, `synth`), or from a correspondence method.
 
 use super::pose::Pose;
+use super::superpixels::{Superpixels, NONE};
 use crate::error::{Error, Result};
+use crate::geom::similarity::{Moments, Similarity};
 
 /// Where each pixel of a source pose lies in a target pose, pixels; NaN where it has no
 /// correspondence (background, or a pixel the method could not place).
@@ -107,6 +109,57 @@ impl Correspondences {
         }
     }
 
+    /// Drops correspondences their superpixel's motion does not explain: for every ordered pair
+    /// and every superpixel of the source pose (`superpixels[s]`, poses `width` wide), the
+    /// least-squares similarity of its correspondences is fitted, those landing more than
+    /// `tolerance` pixels from it are set aside, the similarity is refitted to the rest, and
+    /// every correspondence more than `tolerance` from the refit goes. A superpixel is nearly
+    /// rigid, so what no similarity of it explains is a matching error (a learned or optical
+    /// flow's stray matches, which the part finder's least squares would otherwise read as
+    /// motion). Returns the share kept.
+    pub fn keep_rigid(&mut self, superpixels: &[Superpixels], width: usize, tolerance: f32) -> f64 {
+        let n = self.poses;
+        let (mut kept, mut total) = (0usize, 0usize);
+        for (s, pixels) in superpixels.iter().enumerate().take(n) {
+            let (labels, count) = (&pixels.labels, pixels.count);
+            for t in (0..n).filter(|&t| t != s) {
+                let Some(flow) = self.flows[s * n + t].as_mut() else { continue };
+                let home = |i: usize| [(i % width) as f32, (i / width) as f32];
+                let fit = |keep: &dyn Fn(usize, [f32; 2]) -> bool| -> Vec<Option<Similarity>> {
+                    let mut moments = vec![Moments::default(); count];
+                    for (i, &l) in labels.iter().enumerate() {
+                        if let Some(q) = flow.at(i).filter(|&q| l != NONE && keep(i, q)) {
+                            moments[l as usize].add(home(i), q);
+                        }
+                    }
+                    moments.iter().map(Moments::fit).collect()
+                };
+                let near = |fits: &[Option<Similarity>], i: usize, q: [f32; 2]| {
+                    fits[labels[i] as usize].is_none_or(|f| {
+                        let p = f.apply(home(i));
+                        (p[0] - q[0]).hypot(p[1] - q[1]) <= tolerance
+                    })
+                };
+                let first = fit(&|_, _| true);
+                let second = fit(&|i, q| near(&first, i, q));
+                for (i, &l) in labels.iter().enumerate() {
+                    let Some(q) = flow.at(i) else { continue };
+                    total += 1;
+                    if l == NONE || near(&second, i, q) {
+                        kept += 1;
+                    } else {
+                        flow.to[i] = [f32::NAN; 2];
+                    }
+                }
+            }
+        }
+        if total == 0 {
+            1.0
+        } else {
+            kept as f64 / total as f64
+        }
+    }
+
     /// Checks that every ordered pair of different poses has a flow.
     ///
     /// # Errors
@@ -192,7 +245,7 @@ impl Flow {
 
     /// [`Flow::from_displacements`] with the target pose's nearest-foreground map already made
     /// (one per pose, not one per pair).
-    fn snapped(displacement: &[[f32; 2]], from: &Pose, nearest: &[usize]) -> Flow {
+    pub(super) fn snapped(displacement: &[[f32; 2]], from: &Pose, nearest: &[usize]) -> Flow {
         let (w, h) = (from.width(), from.height());
         assert!(
             displacement.len() == w * h && nearest.len() == w * h,
@@ -225,7 +278,7 @@ impl Flow {
 
 /// For every pixel, the index of a nearest foreground pixel (8-connected breadth-first search
 /// from all foreground pixels at once), `usize::MAX` if there is none.
-fn nearest_foreground(mask: &[bool], w: usize, h: usize) -> Vec<usize> {
+pub(super) fn nearest_foreground(mask: &[bool], w: usize, h: usize) -> Vec<usize> {
     let mut nearest = vec![usize::MAX; mask.len()];
     let mut queue = std::collections::VecDeque::new();
     for (i, &m) in mask.iter().enumerate() {
@@ -275,6 +328,41 @@ pub fn read_flows(dir: &std::path::Path, poses: &[Pose]) -> Result<Correspondenc
 mod tests {
     use super::*;
     use crate::picture::Picture;
+
+    #[test]
+    fn stray_matches_go_and_the_superpixels_motion_stays() {
+        // One 10×10 superpixel moved by a rotation and shift; two of its correspondences are
+        // strays 6 px off, and a second superpixel of one pixel has nothing to be checked by.
+        let (w, h) = (12, 10);
+        let motion = Similarity::new(0.3, 1.1, [2.0, 1.0]);
+        let mut labels = vec![0u32; w * h];
+        labels[11] = 1;
+        labels[23] = NONE;
+        let superpixels = Superpixels {
+            labels: labels.clone(),
+            count: 2,
+            sizes: vec![w * h - 2, 1],
+            centroids: vec![[5.0, 5.0], [11.0, 0.0]],
+        };
+        let to: Vec<[f32; 2]> = (0..w * h)
+            .map(|i| {
+                let q = motion.apply([(i % w) as f32, (i / w) as f32]);
+                if i == 40 || i == 77 {
+                    [q[0] + 6.0, q[1]]
+                } else {
+                    q
+                }
+            })
+            .collect();
+        let mut flows = Correspondences::new(2, w * h);
+        flows.set(0, 1, Flow { to: to.clone() }).unwrap();
+        flows.set(1, 0, Flow { to }).unwrap();
+        let kept = flows.keep_rigid(&[superpixels.clone(), superpixels], w, 2.0);
+        let forward = flows.get(0, 1).unwrap();
+        assert!(forward.at(40).is_none() && forward.at(77).is_none());
+        assert!((0..w * h).filter(|&i| i != 40 && i != 77).all(|i| forward.at(i).is_some()));
+        assert!((kept - (w * h - 2) as f64 / (w * h) as f64).abs() < 1e-9, "{kept}");
+    }
 
     fn flo(w: i32, h: i32, d: &[[f32; 2]]) -> Vec<u8> {
         let mut bytes = Vec::new();

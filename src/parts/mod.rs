@@ -12,6 +12,8 @@ pub mod artwork;
 pub mod flow;
 pub mod hungarian;
 mod labelling;
+pub mod learn;
+pub mod matching;
 pub mod pose;
 pub mod reconstruct;
 pub mod score;
@@ -33,6 +35,9 @@ pub struct PartsOptions {
     pub superpixels: usize,
     /// SLIC's compactness.
     pub compactness: f32,
+    /// Drop correspondences more than this many pixels from their superpixel's similarity
+    /// ([`Correspondences::keep_rigid`]) before merging; 0 keeps all.
+    pub rigid_check: f32,
     /// Merging and labelling.
     pub segment: SegmentOptions,
 }
@@ -42,10 +47,16 @@ impl Default for PartsOptions {
         PartsOptions {
             superpixels: 100,
             compactness: 10.0,
+            rigid_check: 0.0,
             segment: SegmentOptions::default(),
         }
     }
 }
+
+/// [`PartsOptions::rigid_check`] for estimated correspondences (network or flow), pixels, chosen
+/// on the tuning seeds (README "Parts from a sprite sheet"); exact correspondences take none,
+/// as any check only drops true ones there.
+pub const ESTIMATED_RIGID_CHECK: f32 = 4.0;
 
 /// The most superpixels per pose [`find_parts`] accepts (merging compares every adjacent pair
 /// after each merge).
@@ -76,6 +87,9 @@ pub fn find_parts(poses: Vec<Pose>, flows: &Correspondences, options: &PartsOpti
             format!("1 to {MAX_SUPERPIXELS}"),
         ));
     }
+    if !(options.rigid_check >= 0.0 && options.rigid_check.is_finite()) {
+        return Err(Error::setting("rigid_check", options.rigid_check, "a number ≥ 0 (pixels)"));
+    }
     if !(options.compactness > 0.0 && options.compactness.is_finite()) {
         return Err(Error::setting("compactness", options.compactness, "a positive number"));
     }
@@ -85,6 +99,15 @@ pub fn find_parts(poses: Vec<Pose>, flows: &Correspondences, options: &PartsOpti
             .par_iter()
             .map(|p| superpixels::slic(p, options.superpixels, options.compactness))
             .collect()
+    };
+    let checked;
+    let flows = if options.rigid_check > 0.0 {
+        let mut copy = flows.clone();
+        copy.keep_rigid(&superpixels, poses[0].width(), options.rigid_check);
+        checked = copy;
+        &checked
+    } else {
+        flows
     };
     let segmentation = segment::segment(&poses, &superpixels, flows, &options.segment)?;
     let skeleton = skeleton::skeleton(&segmentation, poses[0].width());

@@ -10,6 +10,8 @@ use super::deformation::InverseMap;
 use super::truth::Truth;
 use crate::error::{Error, Result};
 use crate::parts::flow::{Correspondences, Flow};
+use crate::parts::learn::{PairSource, TrainingPair};
+use crate::parts::matching::WorkingPose;
 use crate::parts::pose::{check, crop_like, Pose};
 use crate::parts::superpixels::NONE;
 use crate::picture::Picture;
@@ -173,6 +175,49 @@ impl GeneratedSheet {
     /// As [`true_correspondences`].
     pub fn correspondences(&self) -> Result<Correspondences> {
         true_correspondences(&self.sequence.truth, &self.labels)
+    }
+}
+
+/// Training pairs for the correspondence network: pair `index` is two random poses of the
+/// character of seed `first_seed + index`, drawn at `size`², with every pixel of the first whose
+/// point shows in the second (same part there: not hidden).
+#[derive(Clone, Copy, Debug)]
+pub struct SyntheticPairs {
+    /// The generator's seed of pair 0.
+    pub first_seed: u64,
+    /// Pose side, pixels (the network's working size).
+    pub size: u32,
+}
+
+impl PairSource for SyntheticPairs {
+    fn size(&self) -> usize {
+        self.size as usize
+    }
+
+    fn pair(&self, index: u64) -> Result<TrainingPair> {
+        let sheet = GeneratedSheet::new(self.first_seed.wrapping_add(index), 2, self.size)?;
+        let flows = sheet.correspondences()?;
+        let flow = flows.get(0, 1).expect("the truth holds every pair");
+        let w = self.size as usize;
+        let labels = &sheet.labels;
+        let matches = (0..labels[0].len())
+            .filter_map(|i| {
+                let q = flow.at(i)?;
+                let (x, y) = (q[0].round(), q[1].round());
+                if x < 0.0 || y < 0.0 || x >= w as f32 || y >= w as f32 {
+                    return None;
+                }
+                let j = y as usize * w + x as usize;
+                (labels[1][j] == labels[0][i]).then_some([i as u32, j as u32])
+            })
+            .collect();
+        let [a, b] = [0, 1].map(|k| WorkingPose::new(&sheet.poses[k], self.size));
+        Ok(TrainingPair {
+            a: a.planes,
+            b: b.planes,
+            matches,
+            masks: [a.mask, b.mask],
+        })
     }
 }
 

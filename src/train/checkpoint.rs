@@ -127,6 +127,46 @@ pub fn load(dir: &Path) -> Result<Checkpoint> {
     })
 }
 
+/// Whether a run into `dir` whose newest checkpoint is `previous` may go on: a fresh run needs
+/// no checkpoint, a resume needs one.
+///
+/// # Errors
+/// [`Error::RunExists`] for a checkpoint when not resuming; [`Error::Resume`] for a resume
+/// without one.
+pub fn check_run(dir: &Path, previous: Option<&Checkpoint>, resume: bool) -> Result<()> {
+    match (previous, resume) {
+        (Some(c), false) => Err(Error::RunExists {
+            path: dir.to_path_buf(),
+            step: c.state.step,
+        }),
+        (None, true) => Err(Error::Resume {
+            path: dir.to_path_buf(),
+            problem: "there is no checkpoint to resume from".into(),
+        }),
+        _ => Ok(()),
+    }
+}
+
+/// Checks that a resumed run's `config` (as JSON) is its checkpoint's, but for the keys in
+/// `may_change`.
+///
+/// # Errors
+/// [`Error::Resume`] naming the keys that differ.
+pub fn check_same_config(dir: &Path, checkpoint: &Checkpoint, config: &serde_json::Value, may_change: &[&str]) -> Result<()> {
+    let changed = crate::train::trainer::changed_keys(&checkpoint.state.config, config, may_change);
+    if changed.is_empty() {
+        return Ok(());
+    }
+    Err(Error::Resume {
+        path: dir.to_path_buf(),
+        problem: format!(
+            "the config differs from the checkpoint's in {} (only {} may change)",
+            changed.join(", "),
+            may_change.join(", ")
+        ),
+    })
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

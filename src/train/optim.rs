@@ -120,6 +120,28 @@ pub fn adam(settings: &AdamSettings) -> ModuleOptimizer {
     })
 }
 
+/// An optimiser's state as bytes for a checkpoint in `dir`.
+///
+/// # Errors
+/// [`Error::Format`] naming `dir` if Burn cannot encode it.
+pub fn optimizer_bytes(optimizer: &ModuleOptimizer, dir: &std::path::Path) -> Result<Vec<u8>> {
+    optimizer
+        .into_bytes()
+        .map(|b| b.to_vec())
+        .map_err(|e| Error::format(dir, format!("cannot encode optimiser state: {e:?}")))
+}
+
+/// `optimizer` with the state `bytes` read from `path`.
+///
+/// # Errors
+/// [`Error::Format`] naming `path` if the bytes are not such a state.
+pub fn optimizer_from_bytes(optimizer: &ModuleOptimizer, bytes: Vec<u8>, path: &std::path::Path) -> Result<ModuleOptimizer> {
+    optimizer
+        .clone()
+        .from_bytes(burn::tensor::Bytes::from_bytes_vec(bytes))
+        .map_err(|e| Error::format(path, format!("cannot read optimiser state: {e:?}")))
+}
+
 /// Adam for one weight tensor at a time (Burn's per-tensor [`Optimizer`]); see the module doc.
 #[derive(Clone, Debug)]
 pub struct FusedAdam {

@@ -13,13 +13,13 @@ use std::time::Instant;
 
 use burn::module::Module;
 use burn::optim::{GradientsParams, ModuleOptimizer};
-use burn::tensor::{Bytes, Device, Tensor, TensorData};
+use burn::tensor::{Device, Tensor, TensorData};
 use serde::{Deserialize, Serialize};
 
 use super::checkpoint::{self, Checkpoint, CheckpointState};
 use super::config::{canonical, TrainConfig};
 use super::log::{plot, LogRow, TrainLog};
-use super::optim::adam;
+use super::optim::{adam, optimizer_bytes, optimizer_from_bytes};
 use super::split::{shuffled, split};
 use crate::atomic_file::{record, write_atomic, Outputs};
 use crate::backend::scalar;
@@ -144,21 +144,9 @@ pub fn train(config: &TrainConfig, options: &TrainOptions, progress: &dyn Progre
     let folder = ModelFolder::new(&config.output);
     let out = folder.dir();
     let previous = checkpoint::latest(out)?.map(|dir| checkpoint::load(&dir)).transpose()?;
-    match (&previous, options.resume) {
-        (Some(c), false) => {
-            return Err(Error::RunExists {
-                path: out.to_path_buf(),
-                step: c.state.step,
-            })
-        }
-        (None, true) => {
-            return Err(Error::Resume {
-                path: out.to_path_buf(),
-                problem: "there is no checkpoint to resume from".into(),
-            })
-        }
-        (None, false) => Outputs::new(options.force).claim_folder(out)?,
-        (Some(_), true) => {}
+    checkpoint::check_run(out, previous.as_ref(), options.resume)?;
+    if previous.is_none() {
+        Outputs::new(options.force).claim_folder(out)?;
     }
 
     let image_limits = ImageLimits {
@@ -457,11 +445,7 @@ impl Trainer {
         let weights = checkpoint.file(checkpoint::WEIGHTS, limit)?;
         let optimizer = checkpoint.file(checkpoint::OPTIMIZER, 2 * limit)?;
         self.model.net = load_weights(self.model.net.clone(), weights, &dir.join(checkpoint::WEIGHTS))?;
-        self.optimizer = self
-            .optimizer
-            .clone()
-            .from_bytes(Bytes::from_bytes_vec(optimizer))
-            .map_err(|e| Error::format(dir.join(checkpoint::OPTIMIZER), format!("cannot read optimiser state: {e:?}")))?;
+        self.optimizer = optimizer_from_bytes(&self.optimizer, optimizer, &dir.join(checkpoint::OPTIMIZER))?;
         Ok(())
     }
 
@@ -470,11 +454,7 @@ impl Trainer {
     /// # Errors
     /// [`Error::Format`] naming `dir` if Burn cannot encode them.
     pub fn state_bytes(&self, dir: &Path) -> Result<(Vec<u8>, Vec<u8>)> {
-        let optim = self
-            .optimizer
-            .into_bytes()
-            .map_err(|e| Error::format(dir, format!("cannot encode optimiser state: {e:?}")))?;
-        Ok((weights_bytes(&self.model.net, dir)?, optim.to_vec()))
+        Ok((weights_bytes(&self.model.net, dir)?, optimizer_bytes(&self.optimizer, dir)?))
     }
 
     fn images(&self, planes: &[&Vec<f32>], device: &Device) -> Tensor<4> {

@@ -1,0 +1,137 @@
+//! `puppet auto`: from drawn poses to a puppet in one command (issue 16 item 4). The poses' parts
+//! are found (`parts`: the built-in correspondence network, then the part finder) and written as
+//! artwork — label map, reference frame, `character.toml` with joints and layer order — with the
+//! poses as its `frames/`; the demo pipeline then builds, trains, fits, in-betweens and drags it
+//! and writes its page.
+
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+use super::page::FoundParts;
+use super::{check_outputs, DemoOptions, DemoSummary};
+use crate::atomic_file::{record, Outputs};
+use crate::error::{Error, Result};
+use crate::parts::artwork::write_artwork;
+use crate::parts::learn::TrainedNet;
+use crate::parts::matching::network_correspondences;
+use crate::parts::pose::{check_one_character, load_poses, Layout};
+use crate::parts::{find_parts, PartsOptions};
+use crate::progress::Progress;
+
+/// The forward–backward check on the network's correspondences, pixels (`puppet parts`'
+/// default).
+const CHECK: f32 = 2.0;
+
+/// What `puppet auto` runs on and where it writes.
+#[derive(Clone, Debug)]
+pub struct AutoOptions {
+    /// A sprite sheet, or a folder of pose images.
+    pub input: PathBuf,
+    /// How to cut a sheet (by its alpha when `None`).
+    pub layout: Option<Layout>,
+    /// The output folder: `artwork/` (the found parts and the poses as `frames/`), the model and
+    /// the demo's page.
+    pub output: PathBuf,
+    /// A correspondence network trained by `puppet train-parts` (default: the built-in one).
+    pub net: Option<PathBuf>,
+    /// How parts are found.
+    pub parts: PartsOptions,
+    /// Training steps.
+    pub steps: u64,
+    /// Replace files puppet did not write.
+    pub force: bool,
+}
+
+/// What `puppet auto` did.
+#[derive(Clone, Debug)]
+pub struct AutoSummary {
+    /// The parts it found.
+    pub found: FoundParts,
+    /// The demo run on them.
+    pub demo: DemoSummary,
+}
+
+/// Runs `puppet auto`.
+///
+/// # Errors
+/// Whatever reading the poses, finding parts, writing the artwork and the demo report; refusals
+/// to overwrite come before anything is written.
+pub fn run(options: &AutoOptions, progress: &dyn Progress) -> Result<AutoSummary> {
+    let artwork = options.output.join("artwork");
+    let demo = DemoOptions {
+        output: options.output.clone(),
+        steps: options.steps,
+        character: artwork.clone(),
+        force: options.force,
+        appearance_epochs: None,
+        found_parts: None,
+    };
+    check_outputs(&demo)?;
+    let (poses, sheet_size) = load_poses(&options.input, options.layout)?;
+    check_one_character(&poses, &options.input)?;
+    let outputs = Outputs::new(options.force);
+    let frames_dir = artwork.join("frames");
+    let frame_files: Vec<PathBuf> = (0..poses.len())
+        .map(|k| frames_dir.join(frame_name(sheet_size.is_none().then_some(poses[k].name.as_str()), k)))
+        .collect();
+    for path in &frame_files {
+        outputs.claim(path)?;
+    }
+    let started = Instant::now();
+    let device = crate::backend::device();
+    let trained = match &options.net {
+        Some(dir) => TrainedNet::load(dir, &device)?,
+        None => TrainedNet::shipped(&device)?,
+    };
+    let mut flows = network_correspondences(&trained.net, trained.size, &poses, &device, progress)?;
+    flows.keep_consistent(poses[0].width(), CHECK);
+    let parts = find_parts(poses, &flows, &options.parts)?;
+    let seconds = started.elapsed().as_secs_f64();
+    outputs.claim_folder(&options.output)?;
+    outputs.claim_folder(&artwork)?;
+    let name = options
+        .input
+        .file_stem()
+        .map_or_else(|| "character".into(), |n| n.to_string_lossy().into_owned());
+    let written = write_artwork(&parts, &artwork, &name, sheet_size, &outputs)?;
+    std::fs::create_dir_all(&frames_dir).map_err(|e| Error::io(&frames_dir, e))?;
+    for (pose, path) in parts.poses.iter().zip(&frame_files) {
+        outputs.write(path, &pose.image.png_bytes(path)?)?;
+    }
+    for dir in [&options.output, &artwork, &frames_dir] {
+        record(&std::path::absolute(dir).map_err(|e| Error::io(dir, e))?)?;
+    }
+    let found = FoundParts {
+        poses: parts.poses.len(),
+        parts: parts.segmentation.parts,
+        seconds,
+        preview: relative(&written.preview, &options.output),
+    };
+    let demo = super::run(
+        &DemoOptions {
+            found_parts: Some(found.clone()),
+            ..demo
+        },
+        progress,
+    )?;
+    Ok(AutoSummary { found, demo })
+}
+
+/// The file name of pose `k` among the frames: the stem of its own file name when it came from
+/// a folder (so `walk0` stays a walk frame), else numbered.
+fn frame_name(file: Option<&str>, k: usize) -> String {
+    let name = file
+        .and_then(|f| Path::new(f).file_stem())
+        .map_or(String::new(), |s| s.to_string_lossy().into_owned());
+    let safe = !name.is_empty() && name.chars().all(|c| c.is_ascii_alphanumeric() || "_-".contains(c));
+    if safe {
+        format!("{name}.png")
+    } else {
+        format!("pose_{k:03}.png")
+    }
+}
+
+/// `path` relative to `base` when inside it (for links on the page).
+fn relative(path: &Path, base: &Path) -> String {
+    path.strip_prefix(base).unwrap_or(path).to_string_lossy().replace('\\', "/")
+}

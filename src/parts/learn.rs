@@ -1,0 +1,637 @@
+//! Training the correspondence network (apes-part-extraction.md §3.1) with InfoNCE: for pairs
+//! of poses of one character with known correspondences, each sampled pixel of one pose must
+//! pick its true match in the other out of that match and many other pixels of the other pose,
+//! by feature similarity over a temperature. Both directions of every pair count.
+//!
+//! Pairs come from a [`PairSource`] (the generator's sprite sheets, `synth`), indexed, so a
+//! resumed run sees what an uninterrupted one would. Seeded, logged (with the held-out pairs'
+//! match accuracy), checkpointed atomically, resumable, stopped on NaN — as the other trainers.
+//!
+//! A model folder: `config.toml`, `net.json` (the network's shape), `weights.bpk` (the newest
+//! weights), `log.csv`, `curves.png`, `checkpoints/`.
+
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+use burn::module::Module;
+use burn::optim::{GradientsParams, ModuleOptimizer};
+use burn::tensor::{Device, Int, Tensor, TensorData};
+use rayon::prelude::*;
+use serde::{Deserialize, Serialize};
+
+use super::matching::{features, nearest_features};
+use crate::atomic_file::{record, write_atomic, Outputs};
+use crate::backend::scalar;
+use crate::error::{Error, Result};
+use crate::model::bundle::{load_weights, max_weights_bytes, weights_bytes};
+use crate::model::correspondence::{CorrespondenceNet, CorrespondenceNetConfig};
+use crate::progress::Progress;
+use crate::rng::Rng;
+use crate::train::checkpoint::{self, Checkpoint, CheckpointState, OPTIMIZER, WEIGHTS};
+use crate::train::log::{plot_curves, CsvRow, Curve, TrainLog};
+use crate::train::optim::{adam, optimizer_bytes, optimizer_from_bytes, AdamSettings};
+use crate::user_file;
+
+/// Two poses of one character in the network's working square, with the pixels of the first
+/// whose point shows in the second.
+#[derive(Clone, Debug)]
+pub struct TrainingPair {
+    /// The first pose's premultiplied planes `[4, S, S]`.
+    pub a: Vec<f32>,
+    /// The second's.
+    pub b: Vec<f32>,
+    /// (pixel of `a`, pixel of `b` showing the same point), row-major working indices.
+    pub matches: Vec<[u32; 2]>,
+    /// The working pixels of `a` and of `b` on the character.
+    pub masks: [Vec<bool>; 2],
+}
+
+/// Where training pairs come from: pair `index` is always the same pair.
+pub trait PairSource: Sync {
+    /// The working size S of its pairs.
+    fn size(&self) -> usize;
+    /// Pair number `index`.
+    ///
+    /// # Errors
+    /// Whatever making the pair reports.
+    fn pair(&self, index: u64) -> Result<TrainingPair>;
+}
+
+/// The training config (`puppet train-parts -o DIR [config.toml]`). Every key is optional:
+///
+/// ```toml
+/// steps = 3000            # optimiser steps
+/// batch = 4               # pairs per step
+/// anchors = 256           # sampled matched pixels per pair and direction
+/// negatives = 1024        # other pixels of the other pose each anchor is told apart from
+/// temperature = 0.07      # InfoNCE's τ (the usual value; APES does not give one)
+/// learning_rate = 1e-3
+/// seed = 1
+/// held_out = 16           # pairs scored every eval_every steps
+/// checkpoint_every = 100
+/// eval_every = 100
+/// features = 32           # the network: feature length, channels, downsamplings
+/// base_channels = 16
+/// max_channels = 64
+/// depth = 5
+/// input_size = 128
+///
+/// [adam]
+/// beta_1 = 0.9
+/// ```
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct LearnConfig {
+    /// Optimiser steps.
+    pub steps: u64,
+    /// Pairs per step.
+    pub batch: usize,
+    /// Matched pixels sampled per pair and direction.
+    pub anchors: usize,
+    /// Pixels of the other pose each anchor's match is told apart from.
+    pub negatives: usize,
+    /// InfoNCE temperature.
+    pub temperature: f64,
+    /// Adam's learning rate (constant).
+    pub learning_rate: f64,
+    /// Seeds the weights and the sampling.
+    pub seed: u64,
+    /// Held-out pairs scored during training.
+    pub held_out: usize,
+    /// Steps between checkpoints.
+    pub checkpoint_every: u64,
+    /// Steps between held-out scores.
+    pub eval_every: u64,
+    /// Feature length.
+    pub features: usize,
+    /// Channels of the first block.
+    pub base_channels: usize,
+    /// The channel ceiling.
+    pub max_channels: usize,
+    /// Downsamplings.
+    pub depth: usize,
+    /// Working size S.
+    pub input_size: usize,
+    /// The optimiser.
+    pub adam: AdamSettings,
+}
+
+impl Default for LearnConfig {
+    fn default() -> Self {
+        let net = CorrespondenceNetConfig::new();
+        LearnConfig {
+            steps: 3000,
+            batch: 4,
+            anchors: 256,
+            negatives: 1024,
+            temperature: 0.07,
+            learning_rate: 1e-3,
+            seed: 1,
+            held_out: 16,
+            checkpoint_every: 100,
+            eval_every: 100,
+            features: net.features,
+            base_channels: net.base_channels,
+            max_channels: net.max_channels,
+            depth: net.depth,
+            input_size: net.input_size,
+            adam: AdamSettings::default(),
+        }
+    }
+}
+
+impl LearnConfig {
+    /// Reads and checks a config file.
+    ///
+    /// # Errors
+    /// [`Error::Io`]/[`Error::Format`] naming the file; [`Error::Setting`] for a bad value.
+    pub fn load(path: &Path) -> Result<Self> {
+        Self::parse(&user_file::read_text(path, user_file::CONFIG)?, path)
+    }
+
+    /// Parses and checks config text read from `path` (named in errors).
+    ///
+    /// # Errors
+    /// As [`LearnConfig::load`], but reading.
+    pub fn parse(text: &str, path: &Path) -> Result<Self> {
+        let config: LearnConfig = toml::from_str(text).map_err(|e| Error::format(path, e.to_string()))?;
+        config.validate().map_err(|e| e.with_path(path))?;
+        Ok(config)
+    }
+
+    /// The network it trains.
+    pub fn net(&self) -> CorrespondenceNetConfig {
+        CorrespondenceNetConfig::new()
+            .with_input_size(self.input_size)
+            .with_base_channels(self.base_channels)
+            .with_max_channels(self.max_channels)
+            .with_depth(self.depth)
+            .with_features(self.features)
+    }
+
+    /// Checks every value.
+    ///
+    /// # Errors
+    /// [`Error::Setting`] naming the key, its value and what it must be.
+    pub fn validate(&self) -> Result<()> {
+        for (key, value) in [("temperature", self.temperature), ("learning_rate", self.learning_rate)] {
+            if !(value > 0.0 && value.is_finite()) {
+                return Err(Error::setting(key, value, "a positive number"));
+            }
+        }
+        for (key, value, most) in [
+            ("steps", self.steps, 10_000_000),
+            ("batch", self.batch as u64, 64),
+            ("anchors", self.anchors as u64, 4096),
+            ("negatives", self.negatives as u64, 16384),
+            ("held_out", self.held_out as u64, 1024),
+            ("checkpoint_every", self.checkpoint_every, u64::MAX),
+            ("eval_every", self.eval_every, u64::MAX),
+        ] {
+            if value == 0 || value > most {
+                return Err(Error::setting(key, value, format!("1 to {most}")));
+            }
+        }
+        self.net().validate()?;
+        self.adam.validate()
+    }
+}
+
+/// How to run.
+#[derive(Clone, Debug, Default)]
+pub struct LearnOptions {
+    /// Continue from the latest checkpoint.
+    pub resume: bool,
+    /// Pause after this many steps in total (checkpointed, resumable).
+    pub pause_at: Option<u64>,
+}
+
+/// Match quality on held-out pairs: each matched pixel of the first pose goes to its nearest
+/// feature in the second.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct MatchScore {
+    /// Share landing within 2 working pixels of the truth.
+    pub within_2px: f64,
+    /// Mean distance from the truth, working pixels.
+    pub mean_error: f64,
+}
+
+/// What a run did.
+#[derive(Clone, Debug)]
+pub struct LearnSummary {
+    /// Steps done in total.
+    pub steps: u64,
+    /// Whether all configured steps are done.
+    pub finished: bool,
+    /// Training seconds in total.
+    pub seconds: f64,
+    /// Pairs per second over this run's steps.
+    pub pairs_per_second: f64,
+    /// The held-out score at the end.
+    pub held_out: MatchScore,
+    /// The held-out score of the same network before training (its seeded initial weights).
+    pub untrained: MatchScore,
+    /// The network's parameters.
+    pub parameters: usize,
+}
+
+/// One step's numbers in `log.csv`.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct LearnRow {
+    /// Steps done.
+    pub step: u64,
+    /// Training seconds so far.
+    pub seconds: f64,
+    /// The InfoNCE loss.
+    pub loss: f64,
+    /// Held-out share within 2 px (NaN where not measured).
+    pub within_2px: f64,
+    /// Held-out mean error, px (NaN where not measured).
+    pub mean_error: f64,
+}
+
+impl CsvRow for LearnRow {
+    const HEADER: &'static str = "step,seconds,loss,held_out_within_2px,held_out_mean_error";
+    const MIN_COLUMNS: usize = 5;
+
+    fn step(&self) -> u64 {
+        self.step
+    }
+
+    fn values(&self) -> Vec<f64> {
+        vec![self.step as f64, self.seconds, self.loss, self.within_2px, self.mean_error]
+    }
+
+    fn from_values(v: &[f64]) -> Self {
+        LearnRow {
+            step: v[0] as u64,
+            seconds: v[1],
+            loss: v[2],
+            within_2px: v[3],
+            mean_error: v[4],
+        }
+    }
+}
+
+/// The files of a correspondence model folder.
+#[derive(Clone, Debug)]
+pub struct NetFolder(PathBuf);
+
+impl NetFolder {
+    /// The folder `dir`.
+    pub fn new(dir: &Path) -> Self {
+        NetFolder(dir.to_path_buf())
+    }
+    fn config(&self) -> PathBuf {
+        self.0.join("config.toml")
+    }
+    /// The network's shape.
+    pub fn net(&self) -> PathBuf {
+        self.0.join("net.json")
+    }
+    /// The newest weights.
+    pub fn weights(&self) -> PathBuf {
+        self.0.join(WEIGHTS)
+    }
+    fn log(&self) -> PathBuf {
+        self.0.join("log.csv")
+    }
+    fn plot(&self) -> PathBuf {
+        self.0.join("curves.png")
+    }
+}
+
+/// A trained network and its working size.
+#[derive(Clone, Debug)]
+pub struct TrainedNet {
+    /// The network (inference).
+    pub net: CorrespondenceNet,
+    /// Its working size S.
+    pub size: u32,
+}
+
+impl TrainedNet {
+    /// Reads a network from its shape (`net.json`) and weights (burnpack) bytes, `source`
+    /// naming them in errors.
+    ///
+    /// # Errors
+    /// [`Error::Format`] naming `source` if either is not what a trained network writes.
+    pub fn from_bytes(shape: &[u8], weights: Vec<u8>, source: &Path, device: &Device) -> Result<Self> {
+        let config: CorrespondenceNetConfig =
+            serde_json::from_slice(shape).map_err(|e| Error::format(source, format!("not a network shape: {e}")))?;
+        config.validate().map_err(|e| e.with_path(source))?;
+        let net = load_weights(config.init(device), weights, source)?;
+        Ok(TrainedNet {
+            net,
+            size: config.input_size as u32,
+        })
+    }
+
+    /// The network shipped with puppet (data/parts-net/, built into the binary: trained by
+    /// `puppet train-parts configs/parts-net.toml`).
+    ///
+    /// # Errors
+    /// [`Error::Format`] if the built-in files do not make a network (a build from a broken
+    /// checkout).
+    pub fn shipped(device: &Device) -> Result<Self> {
+        const SHAPE: &[u8] = include_bytes!("../../data/parts-net/net.json");
+        const WEIGHTS: &[u8] = include_bytes!("../../data/parts-net/weights.bpk");
+        Self::from_bytes(SHAPE, WEIGHTS.to_vec(), Path::new("data/parts-net (built in)"), device)
+    }
+
+    /// Reads the network trained in `dir`.
+    ///
+    /// # Errors
+    /// As [`TrainedNet::from_bytes`]; [`Error::Io`] naming a missing file.
+    pub fn load(dir: &Path, device: &Device) -> Result<Self> {
+        let folder = NetFolder::new(dir);
+        let shape = user_file::read_bytes(&folder.net(), user_file::CONFIG)?;
+        let config: CorrespondenceNetConfig =
+            serde_json::from_slice(&shape).map_err(|e| Error::format(folder.net(), format!("not a network shape: {e}")))?;
+        config.validate().map_err(|e| e.with_path(folder.net()))?;
+        let limit = max_weights_bytes(&config.init(device));
+        let weights = user_file::read_bytes(&folder.weights(), limit)?;
+        Self::from_bytes(&shape, weights, &folder.weights(), device)
+    }
+}
+
+/// Trains a correspondence network in `dir` on pairs from `train`, scoring pairs from
+/// `held_out`.
+///
+/// # Errors
+/// [`Error::RunExists`] if `dir` has a checkpoint and resuming was not asked for;
+/// [`Error::Resume`] for a resume without a checkpoint or with another config (only `steps`
+/// may change) — neither writes anything; [`Error::Diverged`] for a loss that is not finite;
+/// whatever making pairs or writing reports, naming the file.
+pub fn train_correspondence(
+    dir: &Path,
+    config: &LearnConfig,
+    train: &dyn PairSource,
+    held_out: &dyn PairSource,
+    options: &LearnOptions,
+    progress: &dyn Progress,
+) -> Result<LearnSummary> {
+    config.validate()?;
+    if train.size() != config.input_size || held_out.size() != config.input_size {
+        return Err(Error::setting(
+            "input_size",
+            config.input_size,
+            format!("the pairs' working size {}", train.size()),
+        ));
+    }
+    let folder = NetFolder::new(dir);
+    let previous = checkpoint::latest(dir)?.map(|d| checkpoint::load(&d)).transpose()?;
+    let config_json = serde_json::to_value(config).map_err(|e| Error::format(folder.config(), e.to_string()))?;
+    checkpoint::check_run(dir, previous.as_ref(), options.resume)?;
+    match &previous {
+        Some(c) => checkpoint::check_same_config(dir, c, &config_json, &["steps"])?,
+        None => Outputs::new(false).claim_folder(dir)?,
+    }
+    let held: Vec<TrainingPair> = (0..config.held_out as u64)
+        .into_par_iter()
+        .map(|i| held_out.pair(i))
+        .collect::<Result<_>>()?;
+    let net_config = config.net();
+    let mut run = Trainer::new(config, &crate::backend::train_device());
+    let untrained = run.score(&held);
+    let (mut step, mut elapsed) = (0u64, 0f64);
+    match &previous {
+        Some(c) => {
+            run.restore(c)?;
+            (step, elapsed) = (c.state.step, c.state.elapsed);
+        }
+        None => {
+            std::fs::create_dir_all(dir).map_err(|e| Error::io(dir, e))?;
+            let absolute = std::path::absolute(dir).map_err(|e| Error::io(dir, e))?;
+            record(&absolute)?;
+            let json = serde_json::to_vec_pretty(&net_config).map_err(|e| Error::format(folder.net(), e.to_string()))?;
+            write_atomic(&folder.net(), &json)?;
+        }
+    }
+    let toml = toml::to_string_pretty(config).map_err(|e| Error::format(folder.config(), e.to_string()))?;
+    write_atomic(&folder.config(), toml.as_bytes())?;
+    let mut log = TrainLog::<LearnRow>::open(&folder.log(), step)?;
+    let stop = options.pause_at.map_or(config.steps, |p| p.min(config.steps));
+    progress.stage("correspondence network", config.steps);
+    progress.advance(step);
+    let (started, first) = (Instant::now(), step);
+    let mut score = MatchScore {
+        within_2px: f64::NAN,
+        mean_error: f64::NAN,
+    };
+    while step < stop {
+        let t0 = Instant::now();
+        let pairs: Vec<TrainingPair> = (0..config.batch as u64)
+            .into_par_iter()
+            .map(|k| train.pair(step * config.batch as u64 + k))
+            .collect::<Result<_>>()?;
+        let loss = run.step(step, &pairs)?;
+        step += 1;
+        elapsed += t0.elapsed().as_secs_f64();
+        let mut row = LearnRow {
+            step,
+            seconds: elapsed,
+            loss,
+            within_2px: f64::NAN,
+            mean_error: f64::NAN,
+        };
+        if step % config.eval_every == 0 || step == config.steps {
+            score = run.score(&held);
+            (row.within_2px, row.mean_error) = (score.within_2px, score.mean_error);
+        }
+        log.push(row)?;
+        progress.advance(1);
+        progress.message(&format!("loss {loss:.3}, held-out within 2 px {:.3}", score.within_2px));
+        if step % config.checkpoint_every == 0 && step < stop {
+            save(&folder, &run, step, elapsed, &config_json, &log)?;
+        }
+    }
+    let seconds = started.elapsed().as_secs_f64();
+    if score.within_2px.is_nan() {
+        score = run.score(&held);
+    }
+    save(&folder, &run, step, elapsed, &config_json, &log)?;
+    Ok(LearnSummary {
+        steps: step,
+        finished: step >= config.steps,
+        seconds: elapsed,
+        pairs_per_second: ((step - first) as usize * config.batch) as f64 / seconds.max(1e-9),
+        held_out: score,
+        untrained,
+        parameters: run.net().num_params(),
+    })
+}
+
+fn save(folder: &NetFolder, run: &Trainer, step: u64, elapsed: f64, config: &serde_json::Value, log: &TrainLog<LearnRow>) -> Result<()> {
+    let weights = weights_bytes(run.net(), &folder.0)?;
+    let optimizer = optimizer_bytes(&run.optimizer, &folder.0)?;
+    let state = CheckpointState {
+        step,
+        elapsed,
+        config: config.clone(),
+    };
+    checkpoint::save(&folder.0, &state, &[(WEIGHTS, &weights), (OPTIMIZER, &optimizer)])?;
+    write_atomic(&folder.weights(), &weights)?;
+    let rows = log.rows();
+    let steps: Vec<u64> = rows.iter().map(|r| r.step).collect();
+    let curve = |name, colour, value: fn(&LearnRow) -> f64| Curve {
+        name,
+        colour,
+        values: rows.iter().map(value).collect(),
+    };
+    plot_curves(
+        &steps,
+        &[
+            curve("loss", [0.0, 0.0, 0.0], |r| r.loss),
+            curve("held-out within 2 px", [0.1, 0.35, 0.9], |r| r.within_2px),
+            curve("held-out mean error / 10", [0.85, 0.1, 0.1], |r| r.mean_error / 10.0),
+        ],
+    )
+    .save_png(&folder.plot())
+}
+
+/// The network and optimiser under training: one [`Trainer::step`] is one optimiser step on a
+/// batch of pairs (what `benches/parts.rs` times).
+pub struct Trainer {
+    /// Always `Some` between steps (taken so the optimiser holds the only reference).
+    net: Option<CorrespondenceNet>,
+    optimizer: ModuleOptimizer,
+    config: LearnConfig,
+    device: Device,
+}
+
+impl Trainer {
+    /// A fresh network of `config` (seeded) and its optimiser, on the training `device`.
+    pub fn new(config: &LearnConfig, device: &Device) -> Self {
+        device.seed(config.seed);
+        Trainer {
+            net: Some(config.net().init(device)),
+            optimizer: adam(&config.adam),
+            config: config.clone(),
+            device: device.clone(),
+        }
+    }
+
+    fn net(&self) -> &CorrespondenceNet {
+        self.net.as_ref().expect("a network between steps")
+    }
+
+    /// Optimiser step number `step` (from 0; it seeds the sampling) on `pairs`; returns the loss.
+    ///
+    /// # Errors
+    /// [`Error::Diverged`] for a loss that is not finite; [`Error::Format`] if no pair has a
+    /// matched pixel.
+    pub fn step(&mut self, step: u64, pairs: &[TrainingPair]) -> Result<f64> {
+        let mut rng = Rng::new(self.config.seed).fork(step);
+        let s = self.config.input_size;
+        let n = pairs.len();
+        let data: Vec<f32> = pairs
+            .iter()
+            .flat_map(|p| p.a.iter())
+            .chain(pairs.iter().flat_map(|p| p.b.iter()))
+            .copied()
+            .collect();
+        let x = Tensor::<4>::from_data(TensorData::new(data, [2 * n, 4, s, s]), &self.device);
+        let f = self.net().forward(x);
+        let channels = self.config.features;
+        let mut terms = Vec::new();
+        for (k, pair) in pairs.iter().enumerate() {
+            let (Some(a), Some(b)) = (image_features(&f, k, channels, s), image_features(&f, n + k, channels, s)) else {
+                continue;
+            };
+            let flipped: Vec<[u32; 2]> = pair.matches.iter().map(|m| [m[1], m[0]]).collect();
+            for (from, to, matches, mask) in [(&a, &b, &pair.matches, &pair.masks[1]), (&b, &a, &flipped, &pair.masks[0])] {
+                if let Some(term) = self.info_nce(from, to, matches, mask, &mut rng) {
+                    terms.push(term);
+                }
+            }
+        }
+        if terms.is_empty() {
+            return Err(Error::format(
+                "training pairs",
+                format!("step {}: no pair has a matched pixel", step + 1),
+            ));
+        }
+        let count = terms.len() as f64;
+        let loss = Tensor::cat(terms, 0).sum() / count;
+        let value = scalar(&loss);
+        if !value.is_finite() {
+            return Err(Error::Diverged {
+                step: step + 1,
+                losses: format!("InfoNCE {value}"),
+                checkpoint: None,
+            });
+        }
+        let net = self.net.take().expect("a network between steps");
+        let grads = GradientsParams::from_grads(loss.backward(), &net);
+        self.net = Some(self.optimizer.step(self.config.learning_rate, net, grads));
+        Ok(value)
+    }
+
+    /// The InfoNCE loss of anchors sampled from `matches` (pixel of `from`, pixel of `to`):
+    /// each must pick its match among itself and negatives drawn from `to`'s character pixels.
+    fn info_nce(&self, from: &Tensor<2>, to: &Tensor<2>, matches: &[[u32; 2]], mask: &[bool], rng: &mut Rng) -> Option<Tensor<1>> {
+        let foreground: Vec<u32> = (0..mask.len() as u32).filter(|&i| mask[i as usize]).collect();
+        if matches.is_empty() || foreground.is_empty() {
+            return None;
+        }
+        let anchors = self.config.anchors.min(matches.len());
+        let picked: Vec<[u32; 2]> = (0..anchors).map(|_| matches[rng.below(matches.len())]).collect();
+        let index = |v: Vec<i64>| Tensor::<1, Int>::from_data(TensorData::new(v.clone(), [v.len()]), &self.device);
+        let sources = index(picked.iter().map(|m| i64::from(m[0])).collect());
+        let candidates = index(
+            picked
+                .iter()
+                .map(|m| i64::from(m[1]))
+                .chain((0..self.config.negatives).map(|_| i64::from(foreground[rng.below(foreground.len())])))
+                .collect(),
+        );
+        let tau = self.config.temperature;
+        let a = from.clone().select(0, sources); // [N, F]
+        let b = to.clone().select(0, candidates); // [N + M, F]
+        let positive = (a.clone() * b.clone().narrow(0, 0, anchors)).sum_dim(1) / tau;
+        let logits = a.matmul(b.transpose()) / tau;
+        let peak = logits.clone().detach().max_dim(1);
+        let log_sum = (logits - peak.clone()).exp().sum_dim(1).log() + peak;
+        Some((log_sum - positive).mean())
+    }
+
+    /// The held-out pairs' match score with the current weights.
+    fn score(&self, pairs: &[TrainingPair]) -> MatchScore {
+        let device = crate::backend::device();
+        let net = self.net().valid();
+        let s = self.config.input_size;
+        let (mut near, mut total, mut error) = (0usize, 0usize, 0f64);
+        for pair in pairs {
+            let f = features(&net, &[&pair.a, &pair.b], s, &device);
+            let nearest = nearest_features((&f[0], &pair.masks[0]), (&f[1], &pair.masks[1]), self.config.features, &device);
+            for m in &pair.matches {
+                let Some(q) = nearest[m[0] as usize] else { continue };
+                let t = m[1] as usize;
+                let d = ((q % s) as f64 - (t % s) as f64).hypot((q / s) as f64 - (t / s) as f64);
+                near += usize::from(d <= 2.0);
+                error += d;
+                total += 1;
+            }
+        }
+        let n = total.max(1) as f64;
+        MatchScore {
+            within_2px: near as f64 / n,
+            mean_error: error / n,
+        }
+    }
+
+    fn restore(&mut self, checkpoint: &Checkpoint) -> Result<()> {
+        let dir = &checkpoint.dir;
+        let limit = max_weights_bytes(self.net());
+        let net = load_weights(self.net().clone(), checkpoint.file(WEIGHTS, limit)?, &dir.join(WEIGHTS))?;
+        self.net = Some(net);
+        self.optimizer = optimizer_from_bytes(&self.optimizer, checkpoint.file(OPTIMIZER, 2 * limit)?, &dir.join(OPTIMIZER))?;
+        Ok(())
+    }
+}
+
+/// Image `k`'s features of the batch `f` `[B, F, S, S]` as rows `[S², F]`, if it exists.
+fn image_features(f: &Tensor<4>, k: usize, channels: usize, size: usize) -> Option<Tensor<2>> {
+    (k < f.dims()[0]).then(|| f.clone().narrow(0, k, 1).reshape([channels, size * size]).transpose())
+}
