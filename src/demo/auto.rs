@@ -102,6 +102,7 @@ pub fn run(options: &AutoOptions, progress: &dyn Progress) -> Result<AutoSummary
         record(&std::path::absolute(dir).map_err(|e| Error::io(dir, e))?)?;
     }
     let found = FoundParts {
+        name: name.clone(),
         poses: parts.poses.len(),
         parts: parts.segmentation.parts,
         seconds,

@@ -349,10 +349,13 @@ pub fn run(options: &DemoOptions, progress: &dyn Progress) -> Result<DemoSummary
     // 7. The page.
     let seconds = started.elapsed().as_secs_f64();
     let html = page::render(&PageData {
-        character: options
-            .character
-            .file_name()
-            .map_or_else(String::new, |n| n.to_string_lossy().into_owned()),
+        character: match &options.found_parts {
+            Some(found) => found.name.clone(),
+            None => options
+                .character
+                .file_name()
+                .map_or_else(String::new, |n| n.to_string_lossy().into_owned()),
+        },
         outfit: outfit.map(|(o, _)| o),
         accessories: accessory_names(&model.puppet),
         layer_names: model.puppet.layers.iter().map(|l| l.name.clone()).collect(),

@@ -34,6 +34,8 @@ pub struct Outfit {
 /// Parts found by `puppet auto` from the user's poses (APES), in place of a painted label map.
 #[derive(Clone, Debug, PartialEq)]
 pub struct FoundParts {
+    /// The character's name (the poses' file or folder).
+    pub name: String,
     /// Poses they were found from.
     pub poses: usize,
     /// Parts found.
