@@ -5,7 +5,8 @@
 # pose scored against the character's hand-painted label map (data/kenney/*/labels.png, drawn on
 # the idle frame; coarser than APES parts, so the merged score counts most).
 #   bench/parts_kenney.sh [CHARACTER…]        default: robot male_adventurer female_adventurer
-# NET=DIR uses a network trained by `puppet train-parts`; OUT=DIR keeps the outputs there.
+# NET=DIR uses a network trained by `puppet train-parts`; RIGID_CHECK=PX sets `--rigid-check`;
+# OUT=DIR keeps the outputs there.
 set -euo pipefail
 puppet=${PUPPET:-target/release/puppet}
 characters=("$@")
@@ -19,7 +20,7 @@ for c in "${characters[@]}"; do
   done
   if [ "${METHOD:-net}" = dis ]; then
     python3 bench/parts_flow.py dis "$d/poses" "$d/flows"
-    $puppet -q parts "$d/poses" --flows "$d/flows" -o "$d/parts"
+    $puppet -q parts "$d/poses" --flows "$d/flows" ${RIGID_CHECK:+--rigid-check $RIGID_CHECK} -o "$d/parts"
   else
     $puppet -q parts "$d/poses" ${NET:+--net "$NET"} -o "$d/parts"
   fi

@@ -9,7 +9,7 @@ use std::time::Instant;
 
 use super::page::FoundParts;
 use super::{check_outputs, DemoOptions, DemoSummary};
-use crate::atomic_file::{record, Outputs};
+use crate::atomic_file::{record, written_by_puppet, Outputs, MANIFEST};
 use crate::error::{Error, Result};
 use crate::parts::artwork::write_artwork;
 use crate::parts::learn::TrainedNet;
@@ -77,6 +77,7 @@ pub fn run(options: &AutoOptions, progress: &dyn Progress) -> Result<AutoSummary
     for path in &frame_files {
         outputs.claim(path)?;
     }
+    let stale = stale_frames(&frames_dir, &frame_files, options.force)?;
     let started = Instant::now();
     let device = crate::backend::device();
     let trained = match &options.net {
@@ -95,6 +96,10 @@ pub fn run(options: &AutoOptions, progress: &dyn Progress) -> Result<AutoSummary
         .map_or_else(|| "character".into(), |n| n.to_string_lossy().into_owned());
     let written = write_artwork(&parts, &artwork, &name, sheet_size, &outputs)?;
     std::fs::create_dir_all(&frames_dir).map_err(|e| Error::io(&frames_dir, e))?;
+    // An earlier run's frames that this run does not write would be trained on as drawn frames.
+    for path in &stale {
+        std::fs::remove_file(path).map_err(|e| Error::io(path, e))?;
+    }
     for (pose, path) in parts.poses.iter().zip(&frame_files) {
         outputs.write(path, &pose.image.png_bytes(path)?)?;
     }
@@ -116,6 +121,36 @@ pub fn run(options: &AutoOptions, progress: &dyn Progress) -> Result<AutoSummary
         progress,
     )?;
     Ok(AutoSummary { found, demo })
+}
+
+/// The files in `frames_dir` other than this run's `frames`: frames an earlier `puppet auto`
+/// wrote there, to be removed.
+///
+/// # Errors
+/// [`Error::WouldOverwrite`] for a file there puppet did not write (unless `force`): the demo
+/// would train on it.
+fn stale_frames(frames_dir: &Path, frames: &[PathBuf], force: bool) -> Result<Vec<PathBuf>> {
+    if !frames_dir.is_dir() {
+        return Ok(Vec::new());
+    }
+    let mut stale = Vec::new();
+    for entry in std::fs::read_dir(frames_dir).map_err(|e| Error::io(frames_dir, e))? {
+        let path = entry.map_err(|e| Error::io(frames_dir, e))?.path();
+        let ours = frames.iter().any(|f| f.file_name() == path.file_name());
+        let manifest = path.file_name().is_some_and(|n| n == MANIFEST);
+        if ours || manifest || !path.is_file() {
+            continue;
+        }
+        if !(force || written_by_puppet(&path)?) {
+            return Err(Error::WouldOverwrite {
+                path,
+                reason: "is in the frames folder of an earlier run, which the puppet would be trained on, and puppet did not write it"
+                    .into(),
+            });
+        }
+        stale.push(path);
+    }
+    Ok(stale)
 }
 
 /// The file name of pose `k` among the frames: the stem of its own file name when it came from

@@ -87,25 +87,26 @@ pub fn score_synthetic_sheet(seed: u64, poses: usize, size: u32, options: &Parts
     let generated = GeneratedSheet::new(seed, poses, size)?;
     let truth = generated.correspondences()?;
     let start = Instant::now();
-    let flows = match source {
-        Source::Truth => truth.clone(),
+    let estimated = match source {
+        Source::Truth => None,
         Source::Network { net, check } => {
             let device = crate::backend::device();
             let mut flows = network_correspondences(&net.net, net.size, &generated.poses, &device, &Silent)?;
             if check > 0.0 {
                 flows.keep_consistent(size as usize, check);
             }
-            flows
+            Some(flows)
         }
     };
-    let matching = match_quality(&flows, &truth, &generated.labels, size as usize);
+    let flows = estimated.as_ref().unwrap_or(&truth);
+    let matching = match_quality(flows, &truth, &generated.labels, size as usize);
     let GeneratedSheet {
         sequence: seq,
         poses: sheet,
         labels: truth_labels,
     } = generated;
     let true_parts = seq.truth.parts.len();
-    let parts = find_parts(sheet, &flows, options)?;
+    let parts = find_parts(sheet, flows, options)?;
     let seconds = start.elapsed().as_secs_f64();
     let found = part_iou(&parts.segmentation.labels, &truth_labels, parts.segmentation.parts, true_parts);
     let (components, count) = connected_regions(&parts.poses);

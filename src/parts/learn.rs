@@ -19,7 +19,7 @@ use burn::tensor::{Device, Int, Tensor, TensorData};
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
-use super::matching::{features, nearest_features};
+use super::matching::{features, nearest, Foreground};
 use crate::atomic_file::{record, write_atomic, Outputs};
 use crate::backend::scalar;
 use crate::error::{Error, Result};
@@ -317,12 +317,9 @@ impl TrainedNet {
     /// # Errors
     /// [`Error::Format`] naming `source` if either is not what a trained network writes.
     pub fn from_bytes(shape: &[u8], weights: Vec<u8>, source: &Path, device: &Device) -> Result<Self> {
-        let config: CorrespondenceNetConfig =
-            serde_json::from_slice(shape).map_err(|e| Error::format(source, format!("not a network shape: {e}")))?;
-        config.validate().map_err(|e| e.with_path(source))?;
-        let net = load_weights(config.init(device), weights, source)?;
+        let config = read_shape(shape, source)?;
         Ok(TrainedNet {
-            net,
+            net: load_weights(config.init(device), weights, source)?,
             size: config.input_size as u32,
         })
     }
@@ -345,14 +342,22 @@ impl TrainedNet {
     /// As [`TrainedNet::from_bytes`]; [`Error::Io`] naming a missing file.
     pub fn load(dir: &Path, device: &Device) -> Result<Self> {
         let folder = NetFolder::new(dir);
-        let shape = user_file::read_bytes(&folder.net(), user_file::CONFIG)?;
-        let config: CorrespondenceNetConfig =
-            serde_json::from_slice(&shape).map_err(|e| Error::format(folder.net(), format!("not a network shape: {e}")))?;
-        config.validate().map_err(|e| e.with_path(folder.net()))?;
-        let limit = max_weights_bytes(&config.init(device));
-        let weights = user_file::read_bytes(&folder.weights(), limit)?;
-        Self::from_bytes(&shape, weights, &folder.weights(), device)
+        let config = read_shape(&user_file::read_bytes(&folder.net(), user_file::CONFIG)?, &folder.net())?;
+        let net = config.init(device);
+        let weights = user_file::read_bytes(&folder.weights(), max_weights_bytes(&net))?;
+        Ok(TrainedNet {
+            net: load_weights(net, weights, &folder.weights())?,
+            size: config.input_size as u32,
+        })
     }
+}
+
+/// A network shape (`net.json`) read from `source`, checked before any network is built.
+fn read_shape(bytes: &[u8], source: &Path) -> Result<CorrespondenceNetConfig> {
+    let config: CorrespondenceNetConfig =
+        serde_json::from_slice(bytes).map_err(|e| Error::format(source, format!("not a network shape: {e}")))?;
+    config.validate().map_err(|e| e.with_path(source))?;
+    Ok(config)
 }
 
 /// Trains a correspondence network in `dir` on pairs from `train`, scoring pairs from
@@ -604,9 +609,14 @@ impl Trainer {
         let (mut near, mut total, mut error) = (0usize, 0usize, 0f64);
         for pair in pairs {
             let f = features(&net, &[&pair.a, &pair.b], s, &device);
-            let nearest = nearest_features((&f[0], &pair.masks[0]), (&f[1], &pair.masks[1]), self.config.features, &device);
+            let channels = self.config.features;
+            let matched = nearest(
+                &Foreground::new(&f[0], &pair.masks[0], channels),
+                &Foreground::new(&f[1], &pair.masks[1], channels),
+                &device,
+            );
             for m in &pair.matches {
-                let Some(q) = nearest[m[0] as usize] else { continue };
+                let Some(q) = matched[m[0] as usize] else { continue };
                 let t = m[1] as usize;
                 let d = ((q % s) as f64 - (t % s) as f64).hypot((q / s) as f64 - (t / s) as f64);
                 near += usize::from(d <= 2.0);

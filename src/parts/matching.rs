@@ -56,35 +56,52 @@ pub fn features(net: &CorrespondenceNet, planes: &[&[f32]], size: usize, device:
     out
 }
 
-/// The foreground pixels of `mask` and their features (rows of `channels`), from channel-major
-/// `features`.
-fn rows(features: &[f32], mask: &[bool], channels: usize) -> (Vec<usize>, Vec<f32>) {
-    let pixels = mask.len();
-    let index: Vec<usize> = (0..pixels).filter(|&i| mask[i]).collect();
-    let values = index
-        .iter()
-        .flat_map(|&i| (0..channels).map(move |c| features[c * pixels + i]))
-        .collect();
-    (index, values)
+/// A pose's foreground pixels and their features as rows, ready to be matched.
+#[derive(Clone, Debug)]
+pub struct Foreground {
+    /// The pose's pixel count.
+    pixels: usize,
+    /// Feature length.
+    channels: usize,
+    /// Each foreground pixel's index.
+    index: Vec<usize>,
+    /// Their features, `channels` each.
+    rows: Vec<f32>,
 }
 
-/// For each pixel of the first pose, the pixel of the second whose feature is most similar
-/// (None off the first pose's foreground, or if the second has none). Features are
-/// channel-major with `channels` each; masks give the foreground.
-pub fn nearest_features(a: (&[f32], &[bool]), b: (&[f32], &[bool]), channels: usize, device: &Device) -> Vec<Option<usize>> {
-    let (a_index, a_rows) = rows(a.0, a.1, channels);
-    let (b_index, b_rows) = rows(b.0, b.1, channels);
-    let mut out = vec![None; a.1.len()];
-    if a_index.is_empty() || b_index.is_empty() {
+impl Foreground {
+    /// The pixels of `mask` from channel-major `features` of `channels` each.
+    pub fn new(features: &[f32], mask: &[bool], channels: usize) -> Self {
+        let pixels = mask.len();
+        let index: Vec<usize> = (0..pixels).filter(|&i| mask[i]).collect();
+        let rows = index
+            .iter()
+            .flat_map(|&i| (0..channels).map(move |c| features[c * pixels + i]))
+            .collect();
+        Foreground {
+            pixels,
+            channels,
+            index,
+            rows,
+        }
+    }
+}
+
+/// For each pixel of pose `a`, the pixel of pose `b` whose feature is most similar (None off
+/// `a`'s foreground, or if `b` has none).
+pub fn nearest(a: &Foreground, b: &Foreground, device: &Device) -> Vec<Option<usize>> {
+    let channels = a.channels;
+    let mut out = vec![None; a.pixels];
+    if a.index.is_empty() || b.index.is_empty() {
         return out;
     }
-    let targets = Tensor::<2>::from_data(TensorData::new(b_rows, [b_index.len(), channels]), device).transpose();
-    for (block, pixels) in a_rows.chunks(ROWS * channels).zip(a_index.chunks(ROWS)) {
+    let targets = Tensor::<2>::from_data(TensorData::new(b.rows.clone(), [b.index.len(), channels]), device).transpose();
+    for (block, pixels) in a.rows.chunks(ROWS * channels).zip(a.index.chunks(ROWS)) {
         let sources = Tensor::<2>::from_data(TensorData::new(block.to_vec(), [pixels.len(), channels]), device);
         let best: Tensor<2, Int> = sources.matmul(targets.clone()).argmax(1);
         let best = best.into_data().convert::<i64>().try_to_vec::<i64>().unwrap_or_default();
         for (&p, &q) in pixels.iter().zip(&best) {
-            out[p] = b_index.get(q as usize).copied();
+            out[p] = b.index.get(q as usize).copied();
         }
     }
     out
@@ -106,6 +123,11 @@ pub fn network_correspondences(
     let planes: Vec<&[f32]> = working.iter().map(|w| w.planes.as_slice()).collect();
     let features = features(net, &planes, size as usize, device);
     let channels = features.first().map_or(0, |f| f.len() / (size * size) as usize);
+    let foregrounds: Vec<Foreground> = features
+        .iter()
+        .zip(&working)
+        .map(|(f, w)| Foreground::new(f, &w.mask, channels))
+        .collect();
     let n = poses.len();
     let snaps: Vec<Vec<usize>> = poses
         .par_iter()
@@ -115,8 +137,8 @@ pub fn network_correspondences(
     progress.stage("matching", (n * n.saturating_sub(1)) as u64);
     for s in 0..n {
         for t in (0..n).filter(|&t| t != s) {
-            let nearest = nearest_features((&features[s], &working[s].mask), (&features[t], &working[t].mask), channels, device);
-            out.set(s, t, landing(&poses[s], &snaps[t], &working[s], &working[t], &nearest))?;
+            let matched = nearest(&foregrounds[s], &foregrounds[t], device);
+            out.set(s, t, landing(&poses[s], &snaps[t], &working[s], &working[t], &matched))?;
             progress.advance(1);
         }
     }
@@ -166,7 +188,9 @@ mod tests {
         let mask_a = vec![true; n];
         let mut mask_b = vec![true; n];
         mask_b[12] = false;
-        let nearest = nearest_features((&a, &mask_a), (&b, &mask_b), 2, &crate::backend::device());
+        let device = crate::backend::device();
+        let from = Foreground::new(&a, &mask_a, 2);
+        let nearest = nearest(&from, &Foreground::new(&b, &mask_b, 2), &device);
         for (i, got) in nearest.iter().enumerate() {
             let want = (i + 7) % n;
             if want == 12 {
@@ -175,7 +199,7 @@ mod tests {
                 assert_eq!(*got, Some(want), "pixel {i}");
             }
         }
-        let none = nearest_features((&a, &mask_a), (&b, &vec![false; n]), 2, &crate::backend::device());
+        let none = super::nearest(&from, &Foreground::new(&b, &vec![false; n], 2), &device);
         assert!(none.iter().all(Option::is_none));
     }
 }
