@@ -24,12 +24,16 @@ use burn::module::Module;
 use burn::nn::conv::{Conv2d, Conv2dConfig, ConvTranspose2d, ConvTranspose2dConfig};
 use burn::nn::{Dropout, DropoutConfig, Initializer, InstanceNorm, InstanceNormConfig, PaddingConfig2d};
 use burn::tensor::activation::{leaky_relu, relu, tanh};
-use burn::tensor::module::{conv2d, conv_transpose2d};
-use burn::tensor::ops::{ConvOptions, ConvTransposeOptions};
 use burn::tensor::{Device, Tensor};
+
+use super::conv_op::{conv2d, conv_transpose2d, convolve, convolve_transposed};
 
 /// Every convolution's kernel side (pix2pix).
 const KERNEL: usize = 4;
+/// Every convolution's zero padding (pix2pix).
+const PADDING: usize = 1;
+/// The generator's stride, down and up.
+const STRIDE: usize = 2;
 /// LeakyReLU's negative slope (pix2pix, both networks).
 pub const SLOPE: f64 = 0.2;
 /// The most downsamplings of the generator (pix2pix's U-Net at 256²: eight, down to 1×1).
@@ -126,7 +130,7 @@ impl AppearanceNetConfig {
         let downs = (0..depth)
             .map(|i| {
                 let input = if i == 0 { 4 } else { self.channels(i - 1) };
-                conv(input, self.channels(i), 2, device)
+                conv(input, self.channels(i), STRIDE, device)
             })
             .collect();
         let ups = (0..depth)
@@ -134,8 +138,8 @@ impl AppearanceNetConfig {
                 let input = if i == depth - 1 { self.channels(i) } else { 2 * self.channels(i) };
                 let output = if i == 0 { 4 } else { self.channels(i - 1) };
                 ConvTranspose2dConfig::new([input, output], [KERNEL, KERNEL])
-                    .with_stride([2, 2])
-                    .with_padding([1, 1])
+                    .with_stride([STRIDE, STRIDE])
+                    .with_padding([PADDING, PADDING])
                     .with_initializer(normal())
                     .init(device)
             })
@@ -184,7 +188,7 @@ fn normal() -> Initializer {
 fn conv(input: usize, output: usize, stride: usize, device: &Device) -> Conv2d {
     Conv2dConfig::new([input, output], [KERNEL, KERNEL])
         .with_stride([stride, stride])
-        .with_padding(PaddingConfig2d::Explicit(1, 1, 1, 1))
+        .with_padding(PaddingConfig2d::Explicit(PADDING, PADDING, PADDING, PADDING))
         .with_initializer(normal())
         .init(device)
 }
@@ -214,14 +218,14 @@ impl Generator {
             if i > 0 {
                 h = leaky_relu(h, SLOPE);
             }
-            h = down.forward(h);
+            h = conv2d(down, h, STRIDE, PADDING);
             if i > 0 && i + 1 < depth {
                 h = self.down_norms[i - 1].forward(h);
             }
             skips.push(h.clone());
         }
         for i in (0..depth).rev() {
-            h = self.ups[i].forward(relu(h));
+            h = conv_transpose2d(&self.ups[i], relu(h), STRIDE, PADDING);
             if i > 0 {
                 h = self.up_norms[i - 1].forward(h);
                 if i >= self.dropout_from && i < depth - 1 {
@@ -264,7 +268,7 @@ impl Critic {
             } else {
                 (weight, bias)
             };
-            h = conv2d(h, weight, bias, ConvOptions::new([stride, stride], [1, 1], [1, 1], 1));
+            h = convolve(h, weight, bias, stride, PADDING);
             if k + 1 < self.convs.len() {
                 pre.push(h.clone());
                 h = leaky_relu(h, SLOPE);
@@ -290,12 +294,7 @@ impl Critic {
         let mut g = Tensor::ones(scores.dims(), &scores.device());
         for k in (0..self.convs.len()).rev() {
             let stride = critic_stride(k);
-            let [height, width] = sizes[k];
-            let [_, _, out_h, out_w] = g.dims();
-            // The padding that gives the transposed convolution the layer's input size back.
-            let out_pad = |input: usize, output: usize| input + 2 - ((output - 1) * stride + KERNEL);
-            let options = ConvTransposeOptions::new([stride, stride], [1, 1], [out_pad(height, out_h), out_pad(width, out_w)], [1, 1], 1);
-            g = conv_transpose2d(g, self.convs[k].weight.val(), None, options);
+            g = convolve_transposed(g, self.convs[k].weight.val(), None, stride, PADDING, sizes[k]);
             if k > 0 {
                 g = g * slope_mask(pre[k - 1].clone());
             }
