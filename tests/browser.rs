@@ -1,13 +1,15 @@
 //! The web editor end to end in a real browser: `puppet serve` on the tiny hatted character,
 //! driven in Debian's headless Chromium by `tests/browser/editor.mjs` (Playwright): pin the
 //! hand, drag it, check the pin reached its target from the vertices the page shows, remove the
-//! pin, undo, redo, reset, click off the character, make and play an eased in-between to a frame uploaded from the page, hide and
+//! pin, undo, redo, reset, click off the character, make and play an eased in-between to a frame uploaded from the page, show the
+//! appearance stage's redraws of the pose and the in-between and download them as GIF, hide and
 //! show the hat, download the pose as PNG. Screenshots go to `target/browser-editor/`.
 //!
 //! The model is trained here for a few seconds on three frames of the arm (rest, raised,
 //! lowered): an untrained model's decoder ends in a zero layer, so every latent gives the rest
 //! pose and no drag can move the pin (measured: it stays 5.0 px from a 5 px drag's target), and
-//! the drag uses α1 = 2, α2 = 4 (below).
+//! the drag uses α1 = 2, α2 = 4 (below). Its appearance stage is trained for three steps: the
+//! page is checked for what it shows, not for how well the stage draws.
 //!
 //! It needs `/usr/bin/chromium`, `node` and `tests/browser/node_modules` (`npm ci` there). When
 //! one is missing the test says what and skips, unless `PUPPET_BROWSER_TESTS=1` (CI) makes that
@@ -51,7 +53,7 @@ impl Drop for Server {
 /// Starts `puppet serve` on any free port; returns it and the page's address.
 fn serve(cwd: &Path, model: &Path, frames: &Path) -> (Server, String) {
     let mut child = Command::new(env!("CARGO_BIN_EXE_puppet"))
-        .args(["serve", "--model"])
+        .args(["serve", "--appearance", "--model"])
         .arg(model)
         .arg("--frames")
         .arg(frames)
@@ -121,6 +123,15 @@ fn train(tmp: &Path, built: &Path, frames: &Path, out: &Path) {
     puppet(tmp, &["train", config.to_str().unwrap(), "-q"]).assert_ok();
 }
 
+/// Trains the model's appearance stage for 3 steps (seconds): the page shows what it draws, not
+/// how well.
+fn train_appearance(tmp: &Path, model: &Path) {
+    let config = tmp.join("appearance.toml");
+    std::fs::write(&config, "epochs = 1\nbatch = 1\nfit = \"one-pass\"\n").unwrap();
+    let (model, config) = (model.to_str().unwrap(), config.to_str().unwrap());
+    puppet(tmp, &["appearance", "train", "--model", model, config, "-q"]).assert_ok();
+}
+
 #[test]
 fn browser_editor_poses_plays_inbetweens_toggles_an_accessory_and_downloads() {
     let missing = missing_tools();
@@ -141,6 +152,7 @@ fn browser_editor_poses_plays_inbetweens_toggles_an_accessory_and_downloads() {
     arm_frames(&built, &frames);
     let model = tmp.path().join("model");
     train(tmp.path(), &built, &frames, &model);
+    train_appearance(tmp.path(), &model);
     let trained = started.elapsed();
     let (server, url) = serve(tmp.path(), &model, &frames);
     let out: PathBuf = repo().join("target/browser-editor");

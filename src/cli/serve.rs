@@ -1,4 +1,5 @@
-//! `puppet serve [--model DIR] [--port 8080] [--host 127.0.0.1] [--outfit ARTWORK]… [--open]`:
+//! `puppet serve [--model DIR] [--port 8080] [--host 127.0.0.1] [--outfit ARTWORK]… [--open]
+//! [--appearance]`:
 //! the web editor (issue 18) — a local HTTP server with a page that poses the model's puppet by
 //! drag pins and sliders, plays in-betweens, swaps outfits and downloads what it shows.
 
@@ -7,6 +8,7 @@ use std::path::PathBuf;
 use std::sync::Arc;
 
 use anyhow::Context as _;
+use puppet::appearance::AppearanceStage;
 use puppet::model::Model;
 use puppet::progress::Progress as _;
 use puppet::puppet::artwork;
@@ -25,7 +27,8 @@ const DEMO_MODEL: &str = "out/demo/model";
 /// Serve the web editor: a page that draws the model's puppet from its meshes and textures,
 /// poses it by drag pins (click the character to pin a point, drag it; right-click removes it)
 /// and sliders, plays in-betweens of two frames, swaps outfits and downloads PNG, GIF, APNG,
-/// sprite sheets and Spine skeletons. The frames to pose are those the model trained on (from
+/// sprite sheets and Spine skeletons; with --appearance, each pose also as the model's
+/// appearance stage redraws it. The frames to pose are those the model trained on (from
 /// its split.json) or --frames; the outfits are --outfit, or the outfits/ folder beside the
 /// frames the model trained on.
 #[derive(Debug, clap::Args)]
@@ -52,6 +55,10 @@ pub struct ServeArgs {
     /// Open the page in the default web browser once the server is listening.
     #[arg(long)]
     pub open: bool,
+    /// Let the page show each pose as the model's appearance stage redraws it (`puppet
+    /// appearance train`), beside the render, and download those frames.
+    #[arg(long)]
+    pub appearance: bool,
     #[command(flatten)]
     pub fit: LatentFitArgs,
 }
@@ -93,6 +100,10 @@ pub fn run(args: ServeArgs, s: &Session) -> anyhow::Result<()> {
     let fit = args.fit.options(&dir)?;
     let device = puppet::backend::device();
     let model = Model::load(&dir, &device)?;
+    let mut options = ServeOptions::new(fit);
+    if args.appearance {
+        options = options.with_appearance(AppearanceStage::load(&dir, &model, &device)?);
+    }
     let (frames, bad) = match &args.frames {
         Some(frames) => folder_frames(frames, &model, &[]).context("--frames")?,
         None => model_frames(&dir, &model)?,
@@ -121,7 +132,7 @@ pub fn run(args: ServeArgs, s: &Session) -> anyhow::Result<()> {
         }
     }
     let outfit_count = outfits.len();
-    let app = Arc::new(App::new(model, frames, outfits, ServeOptions::new(fit), &device)?);
+    let app = Arc::new(App::new(model, frames, outfits, options, &device)?);
     let runtime = tokio::runtime::Builder::new_multi_thread()
         .enable_io()
         .build()
@@ -173,6 +184,7 @@ mod tests {
             "--outfit",
             "b.ora",
             "--open",
+            "--appearance",
         ]);
         for bad in [vec!["serve", "--port", "70000"], vec!["serve", "--host", "localhost:1"]] {
             let args = std::iter::once("puppet").chain(bad.iter().copied());

@@ -235,7 +235,8 @@ pub fn render(d: &PageData) -> String {
              training frames, then held-out ones). Mean L2 on the training frames: rendered {:.0}, generated {:.0}; held out: rendered {:.0}, generated {:.0}.</p>\
              <div class=\"row\"><figure><img src=\"model/appearance/sheet.png\" width=\"576\"><figcaption>render | generated | drawn</figcaption></figure>\
              <figure><img src=\"{stem}.apng\" width=\"192\"><figcaption>the in-between, rendered</figcaption></figure>\
-             <figure><img src=\"{stem}_generated.apng\" width=\"192\"><figcaption>the same, redrawn</figcaption></figure></div>",
+             <figure><img src=\"{stem}_generated.apng\" width=\"192\"><figcaption>the same, redrawn</figcaption></figure></div>\
+             <p>In the web editor, <code>puppet serve --appearance</code> shows each pose and in-between redrawn beside the render.</p>",
             a.epochs,
             a.summary.train.rendered,
             a.summary.train.generated,

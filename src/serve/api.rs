@@ -1,5 +1,6 @@
 //! The HTTP routes of the web editor: the page, the puppet (in every outfit) and its textures,
-//! the frames, the editing sessions, in-betweens and downloads. Every request is validated
+//! the frames, the editing sessions, in-betweens, downloads and the appearance stage's redraws.
+//! Every request is validated
 //! before it reaches the editor (finite numbers, bounded counts, no unknown fields), and every
 //! refusal is a 4xx with `{"error": "…"}` in plain words; the library's errors keep their own
 //! messages.
@@ -18,7 +19,7 @@ use serde::Deserialize;
 use serde_json::json;
 
 use super::error::ApiError;
-use super::export::{export, ExportStyle, Format};
+use super::export::{export, redrawn_strip, ExportStyle, Format};
 use super::state::{App, EditorPose};
 use crate::edit::inbetween::MAX_STEPS;
 use crate::edit::pose::{Pin, PoseOptions};
@@ -50,6 +51,9 @@ pub const MAX_DRAG_STEPS: usize = 100;
 /// [`MAX_STEPS`]).
 pub const MAX_INBETWEENS: usize = 250;
 
+/// The most accessory layers a request may hide (more than any outfit has).
+pub const MAX_HIDDEN: usize = 256;
+
 /// The longest frame time of a download, milliseconds (APNG's limit is 65,535).
 pub const MAX_DELAY_MS: u32 = 10_000;
 
@@ -68,6 +72,7 @@ pub fn router(app: Arc<App>) -> Router {
         .route("/api/outfit", post(outfit))
         .route("/api/inbetween", post(inbetween))
         .route("/api/export", post(download))
+        .route("/api/appearance", post(appearance))
         .fallback(|| async { ApiError::not_found("no such page or API route") })
         .method_not_allowed_fallback(|| async {
             ApiError {
@@ -129,6 +134,7 @@ async fn puppet(State(app): State<Arc<App>>) -> Response {
         "sliders": app.directions().directions.len(),
         "easings": Easing::ALL.iter().map(|(_, n)| *n).collect::<Vec<_>>(),
         "max_inbetweens": MAX_INBETWEENS,
+        "appearance": app.appearance().is_ok(),
         "outfits": outfits,
     }))
     .into_response()
@@ -430,6 +436,9 @@ struct ExportRequest {
     /// `crisp` (default) or `soft`: a PNG of the pose as the soft rasterizer draws it at the
     /// σ the editor fits with (what the network compares frames with).
     render: Option<String>,
+    /// Each frame as the appearance stage redraws its crisp render (not for Spine or soft).
+    #[serde(default)]
+    appearance: bool,
 }
 
 async fn download(State(app): State<Arc<App>>, body: Result<Bytes, BytesRejection>) -> Result<Response, ApiError> {
@@ -447,8 +456,8 @@ async fn download(State(app): State<Arc<App>>, body: Result<Bytes, BytesRejectio
             "delay_ms is {delay_ms}; give from 1 to {MAX_DELAY_MS}"
         )));
     }
-    if request.hidden.len() > 256 {
-        return Err(ApiError::bad_request("more than 256 hidden layers"));
+    if request.hidden.len() > MAX_HIDDEN {
+        return Err(ApiError::bad_request(format!("more than {MAX_HIDDEN} hidden layers")));
     }
     let sigma = match request.render.as_deref() {
         None | Some("crisp") => 0.0,
@@ -456,22 +465,16 @@ async fn download(State(app): State<Arc<App>>, body: Result<Bytes, BytesRejectio
         Some("soft") => return Err(ApiError::bad_request("a soft render is a PNG of the pose only")),
         Some(other) => return Err(ApiError::bad_request(format!("render {other:?}: give crisp or soft"))),
     };
-    let style = ExportStyle {
-        hidden: request.hidden,
-        background,
-        delay_ms,
-        sigma,
-    };
     let file = blocking(move || {
-        let (outfit, poses, stem) = match (&request.session, &request.inbetween) {
-            (Some(id), None) => {
-                let (outfit, pose) = app.current_pose(id)?;
-                (outfit, vec![pose], "pose")
-            }
-            (None, Some(between)) => (between.outfit, between.poses(&app, &between.t()?)?, "inbetween"),
-            _ => return Err(ApiError::bad_request("give either a session (its pose) or an inbetween to export")),
+        let style = ExportStyle {
+            hidden: request.hidden.clone(),
+            background,
+            delay_ms,
+            sigma,
+            appearance: if request.appearance { Some(app.appearance()?) } else { None },
         };
-        Ok(export(&app.outfit(outfit)?.model, poses, format, &style, stem)?)
+        let d = drawn(&app, request.session.as_deref(), request.inbetween.as_ref(), "export")?;
+        Ok(export(&app.outfit(d.outfit)?.model, d.poses, format, &style, d.stem)?)
     })
     .await?;
     let disposition = format!("attachment; filename=\"{}\"", file.name);
@@ -483,4 +486,67 @@ async fn download(State(app): State<Arc<App>>, body: Result<Bytes, BytesRejectio
         file.bytes,
     )
         .into_response())
+}
+
+/// What a download or a redraw draws.
+struct Drawn {
+    /// The outfit.
+    outfit: usize,
+    /// The poses, frame pixels.
+    poses: Vec<Vec<[f32; 2]>>,
+    /// The file stem naming them.
+    stem: &'static str,
+}
+
+/// What a download or a redraw asks for: the session's current pose, or an in-between (keys
+/// included). Blocks for fits.
+fn drawn(app: &App, session: Option<&str>, inbetween: Option<&InbetweenRequest>, what: &str) -> Result<Drawn, ApiError> {
+    match (session, inbetween) {
+        (Some(id), None) => {
+            let (outfit, pose) = app.current_pose(id)?;
+            Ok(Drawn {
+                outfit,
+                poses: vec![pose],
+                stem: "pose",
+            })
+        }
+        (None, Some(between)) => Ok(Drawn {
+            outfit: between.outfit,
+            poses: between.poses(app, &between.t()?)?,
+            stem: "inbetween",
+        }),
+        _ => Err(ApiError::bad_request(format!(
+            "give either a session (its pose) or an inbetween to {what}"
+        ))),
+    }
+}
+
+/// `POST /api/appearance`: the session's pose or an in-between as the appearance stage redraws
+/// it.
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct AppearanceRequest {
+    /// The session whose current pose to redraw…
+    session: Option<String>,
+    /// …or an in-between.
+    inbetween: Option<InbetweenRequest>,
+    /// Accessory layers to leave out.
+    #[serde(default)]
+    hidden: Vec<String>,
+}
+
+/// One PNG of straight-alpha frames side by side (frame k at x = k × width).
+async fn appearance(State(app): State<Arc<App>>, body: Result<Bytes, BytesRejection>) -> Result<Response, ApiError> {
+    let request: AppearanceRequest = parse(body)?;
+    if request.hidden.len() > MAX_HIDDEN {
+        return Err(ApiError::bad_request(format!("more than {MAX_HIDDEN} hidden layers")));
+    }
+    let bytes = blocking(move || {
+        let (stage, device) = app.appearance()?;
+        let d = drawn(&app, request.session.as_deref(), request.inbetween.as_ref(), "redraw")?;
+        let strip = redrawn_strip(&app.outfit(d.outfit)?.model, &d.poses, &request.hidden, stage, device)?;
+        Ok(strip.png_bytes(std::path::Path::new("appearance.png"))?)
+    })
+    .await?;
+    Ok(png(bytes))
 }

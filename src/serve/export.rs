@@ -1,17 +1,22 @@
 //! Downloads from the web editor: a pose or an in-between as PNG, GIF, APNG, sprite sheet (with
 //! its atlas) or Spine skeleton, made by the same writers as the command line's outputs in a
 //! folder of the server's own under the system's temporary directory, read back, and removed.
-//! One file is sent as it is; several (a sheet and its atlas, a skeleton) as one ZIP.
+//! One file is sent as it is; several (a sheet and its atlas, a skeleton) as one ZIP. Poses are
+//! drawn as crisp renders, or as the appearance stage redraws them.
 
 use std::io::Write as _;
 use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicU64, Ordering};
 
+use burn::tensor::Device;
+
 use super::error::ApiError;
+use crate::appearance::AppearanceStage;
 use crate::atomic_file::Outputs;
 use crate::error::{Error, Result};
 use crate::export::spine::{self, PoseAnimation};
 use crate::model::Model;
+use crate::picture::Picture;
 use crate::progress::Silent;
 use crate::render::animation::{write_poses, AnimationFiles, AnimationWriter};
 use crate::render::{render_pose, Background};
@@ -64,7 +69,7 @@ pub struct Download {
 
 /// How the poses are drawn and played.
 #[derive(Clone, Debug)]
-pub struct ExportStyle {
+pub struct ExportStyle<'a> {
     /// Accessory layers left out (and whatever follows them in the rig).
     pub hidden: Vec<String>,
     /// What uncovered pixels show.
@@ -73,6 +78,8 @@ pub struct ExportStyle {
     pub delay_ms: u32,
     /// Soft-rasterizer σ in frame px² for a PNG of one pose (0: crisp, as every other format).
     pub sigma: f32,
+    /// The appearance stage redrawing each crisp render, and its device (`None`: the renders).
+    pub appearance: Option<(&'a AppearanceStage, &'a Device)>,
 }
 
 /// A folder of this server's own, removed when dropped (whatever was written in it).
@@ -117,7 +124,9 @@ fn without(model: &Model, hidden: &[String]) -> Result<Option<Model>> {
 /// `poses` of `model`'s puppet as `format`, named `stem`.
 ///
 /// # Errors
-/// As [`undress`] and [`Model::wearing`] for hidden layers; the writers' errors.
+/// As [`undress`] and [`Model::wearing`] for hidden layers; [`Error::Setting`] for a Spine
+/// skeleton or a soft render asked of the appearance stage (it draws pictures, not meshes, from
+/// crisp renders); the writers' errors.
 pub fn export(model: &Model, poses: Vec<Vec<[f32; 2]>>, format: Format, style: &ExportStyle, stem: &str) -> Result<Download> {
     let undressed = without(model, &style.hidden)?;
     let poses = match &undressed {
@@ -125,6 +134,17 @@ pub fn export(model: &Model, poses: Vec<Vec<[f32; 2]>>, format: Format, style: &
         None => poses,
     };
     let puppet = &undressed.as_ref().unwrap_or(model).puppet;
+    if style.appearance.is_some() && (format == Format::Spine || style.sigma > 0.0) {
+        return Err(Error::setting(
+            "appearance",
+            if format == Format::Spine {
+                "a Spine skeleton"
+            } else {
+                "a soft render"
+            },
+            "PNG, GIF, APNG or a sprite sheet of crisp renders (the stage redraws pictures, not meshes)",
+        ));
+    }
     let scratch = ScratchDir::new()?;
     let dir = &scratch.0;
     let outputs = Outputs::new(false);
@@ -155,10 +175,47 @@ pub fn export(model: &Model, poses: Vec<Vec<[f32; 2]>>, format: Format, style: &
             Format::Spine => unreachable!("handled above"),
         }
         let mut writer = AnimationWriter::new(&files, poses.len(), puppet.width, puppet.height, &outputs)?;
-        write_poses(puppet, &poses, &mut writer, |_, p| p, &Silent)?;
+        match style.appearance {
+            Some((stage, device)) => {
+                for (_, generated) in stage.render_and_redraw(puppet, &poses, device)? {
+                    writer.push(&generated)?;
+                }
+            }
+            None => write_poses(puppet, &poses, &mut writer, |_, p| p, &Silent)?,
+        }
         writer.finish()?
     };
     bundle(&written, stem)
+}
+
+/// `poses` of `model`'s puppet without the accessories `hidden`, rendered crisply and redrawn
+/// by `stage`, side by side in one picture (pose k at x = k × the frame width).
+///
+/// # Errors
+/// As [`undress`] and [`Model::wearing`] for hidden layers; as
+/// [`AppearanceStage::render_and_redraw`].
+pub fn redrawn_strip(
+    model: &Model,
+    poses: &[Vec<[f32; 2]>],
+    hidden: &[String],
+    stage: &AppearanceStage,
+    device: &Device,
+) -> Result<Picture> {
+    let undressed = without(model, hidden)?;
+    let drawn = undressed.as_ref().unwrap_or(model);
+    let poses: Vec<Vec<[f32; 2]>> = match &undressed {
+        Some(drawn) => poses.iter().map(|p| drawn.pose_from(model, p)).collect(),
+        None => poses.to_vec(),
+    };
+    let (w, h) = (drawn.puppet.width as usize, drawn.puppet.height as usize);
+    let mut strip = Picture::filled((w * poses.len()) as u32, h as u32, [0.0; 4]);
+    for (k, (_, generated)) in stage.render_and_redraw(&drawn.puppet, &poses, device)?.into_iter().enumerate() {
+        for (y, row) in generated.pixels.chunks_exact(w).enumerate() {
+            let at = y * w * poses.len() + k * w;
+            strip.pixels[at..at + w].copy_from_slice(row);
+        }
+    }
+    Ok(strip)
 }
 
 /// Columns of a sheet of `n` frames: about square.
@@ -200,12 +257,13 @@ mod tests {
     use super::*;
     use crate::edit::test_support::small_model;
 
-    fn style() -> ExportStyle {
+    fn style() -> ExportStyle<'static> {
         ExportStyle {
             hidden: Vec::new(),
             background: Background::Transparent,
             delay_ms: 80,
             sigma: 0.0,
+            appearance: None,
         }
     }
 

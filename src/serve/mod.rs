@@ -2,14 +2,16 @@
 //! mesh and textures and poses it by drag pins — the latent optimisation of neural-puppet.md
 //! §4.2 (eq. 7–9), one [`crate::edit::pose::PoseEditor`] per page — by sliders along the
 //! training frames' principal latent directions, and plays timed in-betweens (§4.1); it swaps
-//! outfits on the same body (accessory-rigs.md) and downloads what it shows.
+//! outfits on the same body (accessory-rigs.md), shows what the appearance stage (§3.3) draws
+//! of each pose when the model has one, and downloads what it shows.
 //!
 //! Routes (JSON unless a picture or a download; every refusal is a 4xx with `{"error": "…"}`):
 //!
 //! ```text
 //! GET  /                          the page (part of the binary)
 //! GET  /api/puppet                width, height, latent (its length), sliders (their count),
-//!                                 easings, max_inbetweens, outfits: [{name, vertex_count,
+//!                                 easings, max_inbetweens, appearance (whether the editor can
+//!                                 redraw with the appearance stage), outfits: [{name, vertex_count,
 //!                                 layers back to front: [{name, kind, offset, triangles, uvs,
 //!                                 rest, texture, rig_pins}]}] — outfit 0 is the model's own
 //! GET  /api/texture/<k>/<i>.png   outfit k's layer i texture (straight-alpha RGBA)
@@ -23,7 +25,10 @@
 //! POST /api/outfit                {session, outfit} → {fitted, fitted_latent, vertices, latent}
 //! POST /api/inbetween             {from, to, count?, easing?, spacing?, outfit?} → {t, poses}
 //! POST /api/export                {format: png|gif|apng|sheet|spine, session | inbetween,
-//!                                 hidden?, background?, delay_ms?} → the file (several: a ZIP)
+//!                                 hidden?, background?, delay_ms?, render?, appearance?}
+//!                                 → the file (several: a ZIP)
+//! POST /api/appearance            {session | inbetween, hidden?} → one PNG: each pose rendered
+//!                                 and redrawn by the appearance stage, side by side
 //! ```
 //!
 //! Points and vertices are frame pixels (origin top-left, y down) in the global numbering of

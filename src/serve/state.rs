@@ -9,6 +9,7 @@ use burn::tensor::{Device, Tensor, TensorData};
 
 use super::error::ApiError;
 use super::session::{lock, Session, Sessions};
+use crate::appearance::AppearanceStage;
 use crate::edit::directions::LatentDirections;
 use crate::edit::inbetween::Interpolator;
 use crate::edit::pose::{Dragged, Pin, PoseEditor, PoseOptions};
@@ -49,6 +50,8 @@ pub struct ServeOptions {
     pub fit: FitOptions,
     /// The most editing sessions kept; opening one more closes the least recently used.
     pub max_sessions: usize,
+    /// The model's appearance stage (neural-puppet.md §3.3), if the page may redraw poses with it.
+    pub appearance: Option<AppearanceStage>,
 }
 
 impl ServeOptions {
@@ -57,12 +60,21 @@ impl ServeOptions {
         ServeOptions {
             fit,
             max_sessions: DEFAULT_MAX_SESSIONS,
+            appearance: None,
         }
     }
 
     /// The same options keeping at most `max_sessions` sessions.
     pub fn with_max_sessions(self, max_sessions: usize) -> Self {
         ServeOptions { max_sessions, ..self }
+    }
+
+    /// The same options redrawing poses with `stage` on request.
+    pub fn with_appearance(self, stage: AppearanceStage) -> Self {
+        ServeOptions {
+            appearance: Some(stage),
+            ..self
+        }
     }
 }
 
@@ -313,6 +325,19 @@ impl App {
     /// px²).
     pub fn soft_sigma(&self) -> f32 {
         self.options.fit.sigma / self.model().letterbox.scale.powi(2)
+    }
+
+    /// The appearance stage and the device it runs on.
+    ///
+    /// # Errors
+    /// [`ApiError`] 422 when the editor was started without one.
+    pub fn appearance(&self) -> std::result::Result<(&AppearanceStage, &Device), ApiError> {
+        match &self.options.appearance {
+            Some(stage) => Ok((stage, &self.device)),
+            None => Err(ApiError::unprocessable(
+                "this editor has no appearance stage: train one (`puppet appearance train --model DIR`) and start `puppet serve --appearance`",
+            )),
+        }
     }
 
     /// How many sessions are open.

@@ -10,7 +10,9 @@ use tower::ServiceExt as _;
 
 use super::api::{MAX_BODY, MAX_INBETWEENS, MAX_PINS};
 use super::{router, App, EditorFrame, ServeOptions};
+use crate::appearance::AppearanceStage;
 use crate::fit::FitOptions;
+use crate::model::appearance::AppearanceNetConfig;
 
 /// The tiny test character with a small untrained model whose decoder's last layer is random
 /// (an untrained one predicts the rest pose whatever the latent, so no drag could move it),
@@ -525,4 +527,112 @@ async fn an_uploaded_frame_can_be_posed_and_in_betweened_and_bad_uploads_are_ref
     let (status, answer) = upload(&app, "?name=one_more.png", png).await;
     assert_eq!(status, StatusCode::CONFLICT, "{answer}");
     assert!(answer["error"].as_str().unwrap().contains("restart"));
+}
+
+/// The app of [`app`] with an untrained appearance stage (pix2pix's random weights: its redraw
+/// is not the render, so a route answering with the render would be caught).
+fn app_with_appearance() -> (Arc<App>, AppearanceStage) {
+    let (model, device) = crate::edit::test_support::small_model(0.3);
+    let config = AppearanceNetConfig::new(model.letterbox.size as usize).with_max_channels(16);
+    let stage = AppearanceStage::new(config.clone(), config.init_generator(&device), model.letterbox);
+    let rest = model.puppet.rest_vertices();
+    let up: Vec<[f32; 2]> = rest.iter().map(|v| [v[0], v[1] - 3.0]).collect();
+    let frames = [("rest.png", &rest), ("up.png", &up)]
+        .into_iter()
+        .map(|(name, v)| EditorFrame {
+            name: name.into(),
+            held_out: false,
+            picture: crate::render::render_crisp(&model.puppet, v, 48, 40).unwrap(),
+        })
+        .collect();
+    let options = ServeOptions::new(FitOptions::one_pass()).with_appearance(stage.clone());
+    (Arc::new(App::new(model, frames, Vec::new(), options, &device).unwrap()), stage)
+}
+
+/// Frame `k` of a strip of frames `width` wide.
+fn strip_frame(strip: &image::RgbaImage, k: u32, width: u32) -> image::RgbaImage {
+    image::imageops::crop_imm(strip, k * width, 0, width, strip.height()).to_image()
+}
+
+#[tokio::test]
+async fn the_appearance_stage_redraws_the_pose_and_every_inbetween_and_downloads_them() {
+    let (app, stage) = app_with_appearance();
+    let device = crate::backend::device();
+    let (_, puppet, _) = call(&app, "GET", "/api/puppet", "").await;
+    assert_eq!(puppet["appearance"], json!(true));
+    let (_, opened, _) = call(&app, "POST", "/api/session", r#"{"frame": 0}"#).await;
+    let session = opened["session"].as_str().unwrap_or_else(|| panic!("{opened}"));
+    let pose = points(&opened["vertices"]);
+    let expected = |pose: &[[f32; 2]]| {
+        let redrawn = stage.render_and_redraw(&app.model().puppet, &[pose.to_vec()], &device).unwrap();
+        let (render, generated) = &redrawn[0];
+        (render.to_rgba8(), generated.to_rgba8())
+    };
+
+    let (status, _, png) = call(&app, "POST", "/api/appearance", &json!({ "session": session }).to_string()).await;
+    assert_eq!(status, StatusCode::OK);
+    let one = image::load_from_memory(&png).unwrap().to_rgba8();
+    let (render, generated) = expected(&pose);
+    assert_eq!(one.dimensions(), (48, 40));
+    assert!(
+        one == generated && one != render,
+        "the redraw of the session's pose, not its render"
+    );
+
+    let keys = json!({ "from": 0, "to": 1, "count": 2 });
+    let (_, between, _) = call(&app, "POST", "/api/inbetween", &keys.to_string()).await;
+    let (status, _, png) = call(&app, "POST", "/api/appearance", &json!({ "inbetween": keys }).to_string()).await;
+    assert_eq!(status, StatusCode::OK);
+    let strip = image::load_from_memory(&png).unwrap().to_rgba8();
+    assert_eq!(strip.dimensions(), (4 * 48, 40), "keys and two in-betweens side by side");
+    for k in [0, 3] {
+        let pose = points(&between["poses"][k]);
+        assert!(strip_frame(&strip, k as u32, 48) == expected(&pose).1, "frame {k}");
+    }
+
+    let gif = json!({ "format": "gif", "session": session, "appearance": true }).to_string();
+    let (status, _, bytes) = call(&app, "POST", "/api/export", &gif).await;
+    assert!(status == StatusCode::OK && bytes.starts_with(b"GIF89a"), "{status}");
+    for (body, says) in [
+        (json!({ "format": "spine", "session": session, "appearance": true }), "Spine"),
+        (
+            json!({ "format": "png", "session": session, "appearance": true, "render": "soft" }),
+            "soft",
+        ),
+    ] {
+        let (status, answer, _) = call(&app, "POST", "/api/export", &body.to_string()).await;
+        assert_eq!(status, StatusCode::BAD_REQUEST, "{body}");
+        assert!(answer["error"].as_str().unwrap().contains(says), "{answer}");
+    }
+    for (body, says) in [
+        (json!({}), "either a session"),
+        (
+            json!({ "session": session, "inbetween": { "from": 0, "to": 1 } }),
+            "either a session",
+        ),
+        (json!({ "session": "nope" }), "session"),
+        (json!({ "session": session, "hidden": ["nothing"] }), "nothing"),
+        (json!({ "session": session, "colour": "red" }), "colour"),
+    ] {
+        let (status, answer, _) = call(&app, "POST", "/api/appearance", &body.to_string()).await;
+        assert!(status.is_client_error(), "{body}: {status}");
+        assert!(answer["error"].as_str().unwrap().contains(says), "{body}: {answer}");
+    }
+}
+
+#[tokio::test]
+async fn an_editor_without_an_appearance_stage_says_how_to_get_one() {
+    let app = app(2);
+    let (_, puppet, _) = call(&app, "GET", "/api/puppet", "").await;
+    assert_eq!(puppet["appearance"], json!(false));
+    let (_, opened, _) = call(&app, "POST", "/api/session", r#"{"frame": 0}"#).await;
+    let session = opened["session"].as_str().unwrap();
+    for (route, body) in [
+        ("/api/appearance", json!({ "session": session })),
+        ("/api/export", json!({ "format": "png", "session": session, "appearance": true })),
+    ] {
+        let (status, answer, _) = call(&app, "POST", route, &body.to_string()).await;
+        assert_eq!(status, StatusCode::UNPROCESSABLE_ENTITY, "{route}");
+        assert!(answer["error"].as_str().unwrap().contains("--appearance"), "{route}: {answer}");
+    }
 }

@@ -5,10 +5,12 @@
 // Loads the page at URL, pins the character's "hand" with the mouse, drags it, checks that the
 // pin reached its target (recomputed here from the vertices the page holds), removes the pin
 // with a right-click, undoes and redoes that, resets to the fit, clicks off the character and
-// checks the page says so; then makes and plays an in-between, hides and shows an accessory,
+// checks the page says so; then makes and plays an in-between, shows the appearance stage's
+// redraws of the pose and of an in-between and downloads them (when served with --appearance),
+// hides and shows an accessory,
 // downloads the pose as PNG, and opens a second page that drags its own pin unseen by the first. Screenshots in OUT_DIR: loaded.png, dragged.png, removed.png,
-// inbetween.png, accessory_hidden.png (failure.png when a step could not finish), and the
-// download, export.png.
+// inbetween.png, appearance.png, accessory_hidden.png (failure.png when a step could not finish), and the
+// downloads, export.png and appearance.gif.
 // Prints one PASS/FAIL line per check; exits 1 if any failed. Run by tests/browser.rs
 // (`cargo test --release browser`), which starts the server on the tiny test character.
 //
@@ -133,13 +135,13 @@ function pickHand(st, box) {
 // Each gets { page, state, idle, box, check, must, shot } (box: frame ↔ screen pixels) and
 // returns null when it ran its checks, or why it was skipped.
 
-// A hash of the canvas's pixels (the WebGL canvas keeps its drawing buffer).
-const canvasHash = (page) => page.evaluate(() => {
-  const d = document.getElementById('stage').toDataURL();
+// A hash of a canvas's pixels (the WebGL canvas keeps its drawing buffer).
+const canvasHash = (page, id = 'stage') => page.evaluate((id) => {
+  const d = document.getElementById(id).toDataURL();
   let h = 0;
   for (let i = 0; i < d.length; i++) h = (h * 31 + d.charCodeAt(i)) | 0;
   return h;
-});
+}, id);
 // Sets a range or select input as a person would, firing its events.
 const setInput = (page, id, value) => page.evaluate(([id, value]) => {
   const e = document.getElementById(id);
@@ -234,6 +236,52 @@ async function exportPng({ page, state, check, must }) {
   return null;
 }
 
+// The appearance stage (served with --appearance): the redraw of the pose beside the render,
+// one per frame of an in-between, following the scrubber, and a GIF of the redrawn in-between.
+async function appearanceStage({ page, state, idle, check, must, shot }) {
+  let st = await state();
+  if (!st.appearance.available) return 'the editor has no appearance stage (puppet serve --appearance)';
+  must('the appearance panel is shown', await page.locator('#apppanel').isVisible());
+  await page.locator('#appearance').check();
+  await idle('redrawing the pose');
+  st = await state();
+  const opaque = () => page.evaluate(() => {
+    const c = document.getElementById('generated');
+    const d = c.getContext('2d').getImageData(0, 0, c.width, c.height).data;
+    let n = 0;
+    for (let i = 3; i < d.length; i += 4) if (d[i] > 128) n++;
+    return n;
+  });
+  const drawn = await opaque();
+  must('the redraw of the pose is shown beside the render', st.appearance.shown && st.appearance.frames === 1
+    && await page.locator('#generated').isVisible() && drawn > 50,
+    `${st.appearance.frames} frame(s), ${drawn} opaque pixels (#error: ${JSON.stringify(await page.locator('#error').textContent())})`);
+  await page.click('#ib-make');
+  await page.waitForFunction(() => window.puppetEditor.state().inbetween, null, { timeout: 30000 });
+  await idle('redrawing the in-between');
+  st = await state();
+  must('every frame of the in-between is redrawn', st.appearance.frames === st.inbetween.frames,
+    `${st.appearance.frames} redrawn of ${st.inbetween.frames}`);
+  await setInput(page, 'ib-scrub', 0);
+  const first = await canvasHash(page, 'generated');
+  await setInput(page, 'ib-scrub', st.inbetween.frames - 1);
+  check('the redraw follows the scrubber', (await canvasHash(page, 'generated')) !== first);
+  console.log(`  screenshot ${await shot('appearance.png')} (the last key: render, redraw)`);
+  await page.selectOption('#export-what', 'inbetween');
+  await page.selectOption('#export-format', 'gif');
+  await page.locator('#export-appearance').check();
+  const [download] = await Promise.all([page.waitForEvent('download', { timeout: 60000 }), page.click('#export')]);
+  const file = path.join(outDir, 'appearance.gif');
+  await download.saveAs(file);
+  const bytes = fs.readFileSync(file);
+  check('the redrawn in-between downloads as a GIF', bytes.subarray(0, 6).toString() === 'GIF89a', `${download.suggestedFilename()}, ${bytes.length} bytes`);
+  await page.locator('#export-appearance').uncheck();
+  await page.click('#ib-close');
+  await page.locator('#appearance').uncheck();
+  check('unchecking hides the redraw', !(await page.locator('#generated').isVisible()));
+  return null;
+}
+
 // A second page on the same server drags its own pin; neither page sees the other's.
 async function twoPages({ page, state, check, must, hand, dragScreen }) {
   const other = await browser.newPage({ viewport: { width: 1280, height: 800 }, deviceScaleFactor: 1 });
@@ -263,8 +311,11 @@ async function twoPages({ page, state, check, must, hand, dragScreen }) {
     await page.mouse.up();
     await page.waitForFunction(() => !window.puppetEditor.busy(), null, { timeout: 30000, polling: 20 });
     const again = await otherState();
-    check('a drag on the first page leaves the second as it was', (await state()).pins.length === 1
-      && JSON.stringify(again.vertices) === JSON.stringify(theirs.vertices) && again.pins.length === 1);
+    const first = await state();
+    check('a drag on the first page leaves the second as it was', first.pins.length === 1
+      && JSON.stringify(again.vertices) === JSON.stringify(theirs.vertices) && again.pins.length === 1,
+      `first page: ${first.pins.length} pins (#error: ${JSON.stringify(await page.locator('#error').textContent())}); second page: ${again.pins.length} pins, `
+      + `pose ${JSON.stringify(again.vertices) === JSON.stringify(theirs.vertices) ? 'unchanged' : 'changed'}`);
   } finally {
     await other.close();
   }
@@ -441,8 +492,8 @@ try {
 
   // 4–6. Later steps.
   const tools = { page, state, idle, box, check, must, shot, hand, dragScreen };
-  for (const [name, step] of [['in-between', playInbetween], ['accessory toggle', toggleAccessory], ['PNG export', exportPng],
-    ['two pages', twoPages]]) {
+  for (const [name, step] of [['in-between', playInbetween], ['appearance', appearanceStage], ['accessory toggle', toggleAccessory],
+    ['PNG export', exportPng], ['two pages', twoPages]]) {
     const skipped = await step(tools);
     if (skipped) console.log(`SKIP ${name}: ${skipped}`);
   }
