@@ -85,6 +85,15 @@ fn parts_of_a_synthetic_sheet_score_well_and_build_into_a_puppet() {
     assert!(same.stdout.contains("paper 1.000, strict 1.000, merged 1.000"), "{}", same.stdout);
     puppet(d, &["build", "parts", "-o", "built"]).assert_ok();
     assert!(d.join("built/puppet.json").is_file());
+    // The paper's set cover chooses the parts instead, and says what it did.
+    let cover = puppet(d, &["parts", "sheet", "--truth", "--select", "cover", "-o", "covered"]);
+    cover.assert_ok();
+    assert!(
+        cover.stdout.contains("set cover: ") && cover.stdout.contains("roundings scored"),
+        "{}",
+        cover.stdout
+    );
+    assert!(d.join("covered/character.toml").is_file());
     // A rerun may replace what it wrote, but not a character.toml the user edited since:
     // refused, and every file as it was.
     puppet(d, &["parts", "sheet", "--truth", "-o", "parts"]).assert_ok();

@@ -11,6 +11,7 @@ use puppet::picture::Picture;
 use puppet::progress::Progress;
 
 use super::args::parse_size;
+use super::parts::SelectArg;
 use super::Session;
 
 /// Score predicted parts against true parts: both are label maps drawn one flat colour per part
@@ -52,6 +53,9 @@ pub struct EvalPartsArgs {
     /// superpixel's similarity (as `puppet parts --rigid-check`; default 4 with --net, else 0).
     #[arg(long, value_name = "PX", conflicts_with_all = ["truth", "predicted"])]
     pub rigid_check: Option<f32>,
+    /// With --synthetic: how parts are chosen.
+    #[arg(long, value_enum, default_value_t = SelectArg::Synchronised, conflicts_with_all = ["truth", "predicted"])]
+    pub select: SelectArg,
     /// Pose size of the synthetic sheets (square).
     #[arg(long, default_value_t = 128, value_name = "PX", value_parser = clap::value_parser!(u32).range(64..=1024))]
     pub size: u32,
@@ -92,6 +96,7 @@ pub fn run(args: EvalPartsArgs, s: &Session) -> anyhow::Result<()> {
         };
         let mut options = PartsOptions::default();
         options.segment.merge_residual = args.merge_residual;
+        options.select = args.select.selection();
         options.rigid_check = args
             .rigid_check
             .unwrap_or(if trained.is_some() { ESTIMATED_RIGID_CHECK } else { 0.0 });
@@ -245,6 +250,7 @@ mod tests {
         parses(&["eval-parts", "--truth", "sheet_labels.png", "out/pose_labels.png", "--grid", "4x2"]);
         parses(&["eval-parts", "--synthetic", "9000..9024", "--size", "256"]);
         parses(&["eval-parts", "--synthetic", "9000..9024", "--net"]);
+        parses(&["eval-parts", "--synthetic", "9000..9024", "--net", "--select", "cover"]);
         parses(&["eval-parts", "--synthetic", "9000..9024", "--net", "runs/net", "--flow-check", "0"]);
         for bad in [
             &["eval-parts", "--truth", "a", "b", "--net", "n"][..],

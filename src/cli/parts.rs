@@ -6,11 +6,12 @@ use std::path::PathBuf;
 use anyhow::Context;
 use puppet::atomic_file::record;
 use puppet::parts::artwork::write_artwork;
+use puppet::parts::cover::CoverOptions;
 use puppet::parts::flow::read_flows;
 use puppet::parts::learn::TrainedNet;
 use puppet::parts::matching::network_correspondences;
 use puppet::parts::pose::{check_one_character, load_poses, Layout};
-use puppet::parts::{find_parts, PartsOptions, ESTIMATED_RIGID_CHECK};
+use puppet::parts::{find_parts, PartsOptions, Selection, ESTIMATED_RIGID_CHECK};
 use puppet::synth::sheet_flow::TruthSheet;
 
 use super::args::parse_size;
@@ -76,6 +77,9 @@ pub struct PartsArgs {
     /// The reference pose, counted from 0 (default: the pose with the most foreground).
     #[arg(long, value_name = "K")]
     pub reference: Option<usize>,
+    /// How parts are chosen.
+    #[arg(long, value_enum, default_value_t = SelectArg::Synchronised)]
+    pub select: SelectArg,
     /// The character's name in character.toml (default: the input's file name).
     #[arg(long)]
     pub name: Option<String>,
@@ -91,7 +95,29 @@ impl PartsArgs {
         options.segment.merge_residual = self.merge_residual;
         options.segment.reference = self.reference;
         options.rigid_check = self.rigid_check.unwrap_or(if self.truth { 0.0 } else { ESTIMATED_RIGID_CHECK });
+        options.select = self.select.selection();
         options
+    }
+}
+
+/// How `--select` chooses parts.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
+pub enum SelectArg {
+    /// Superpixels of the reference pose merged while they move together in every pose.
+    Synchronised,
+    /// The paper's set cover: candidates from every pair of poses, the fewest covering every
+    /// superpixel of every pose (LP relaxation, randomised rounding), the rounding whose parts
+    /// rebuild the poses best.
+    Cover,
+}
+
+impl SelectArg {
+    /// The part finder's setting.
+    pub fn selection(self) -> Selection {
+        match self {
+            SelectArg::Synchronised => Selection::Synchronised,
+            SelectArg::Cover => Selection::Cover(CoverOptions::default()),
+        }
     }
 }
 
@@ -151,6 +177,17 @@ pub fn run(args: PartsArgs, s: &Session) -> anyhow::Result<()> {
         written.preview.display(),
         written.pose_labels.display()
     ))?;
+    if let Some(c) = &parts.cover {
+        s.ui.say(format!(
+            "set cover: {} candidates from every pair of poses; {} of {} superpixels covered; LP bound {:.2}; {} distinct roundings scored, the best keeps {} candidates",
+            c.candidates,
+            c.superpixels - c.uncovered,
+            c.superpixels,
+            c.lp_bound,
+            c.selections,
+            c.selected
+        ))?;
+    }
     Ok(())
 }
 
@@ -194,6 +231,7 @@ mod tests {
         parses(&["parts", "sheet.png", "-o", "out", "--cut-only"]);
         parses(&["parts", "sheet.png", "-o", "out", "--net", "runs/net", "--flow-check", "1"]);
         parses(&["parts", "poses", "-o", "out"]);
+        parses(&["parts", "poses", "-o", "out", "--select", "cover"]);
         assert!(
             <crate::cli::Cli as clap::Parser>::try_parse_from(["puppet", "parts", "s", "-o", "o", "--net", "n", "--flows", "f"]).is_err()
         );

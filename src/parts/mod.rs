@@ -1,7 +1,8 @@
 //! Articulated parts from a sprite sheet of poses (APES, apes-part-extraction.md; issue 16), so a
 //! puppet needs no hand-painted label map: the poses ([`pose`]), their superpixels
 //! ([`superpixels`]), correspondences between every pair ([`flow`]), parts from how superpixels
-//! move ([`segment`]), hinges, joint tree and layer order ([`skeleton`]), the poses rebuilt from
+//! move ([`segment`], or the paper's set cover over candidates from every pair, [`cover`]),
+//! hinges, joint tree and layer order ([`skeleton`]), the poses rebuilt from
 //! the parts ([`reconstruct`]), the artwork `puppet build` reads ([`artwork`]), and part IoU
 //! against a truth ([`score`]).
 //!
@@ -9,6 +10,7 @@
 //! `crate::synth::sheet_flow`), which measures the back end alone.
 
 pub mod artwork;
+pub mod cover;
 pub mod flow;
 pub mod hungarian;
 mod labelling;
@@ -22,6 +24,7 @@ pub mod skeleton;
 pub mod superpixels;
 
 use crate::error::{Error, Result};
+use cover::{CoverOptions, CoverReport};
 use flow::Correspondences;
 use pose::Pose;
 use segment::{SegmentOptions, Segmentation};
@@ -40,6 +43,18 @@ pub struct PartsOptions {
     pub rigid_check: f32,
     /// Merging and labelling.
     pub segment: SegmentOptions,
+    /// How parts are chosen.
+    pub select: Selection,
+}
+
+/// How parts are chosen from the correspondences.
+#[derive(Clone, Debug, PartialEq)]
+pub enum Selection {
+    /// Superpixels of one reference pose merged while they move together in every pose
+    /// ([`segment::segment`]).
+    Synchronised,
+    /// The paper's set cover over candidates from every pair of poses ([`cover::cover`]).
+    Cover(CoverOptions),
 }
 
 impl Default for PartsOptions {
@@ -49,6 +64,7 @@ impl Default for PartsOptions {
             compactness: 10.0,
             rigid_check: 0.0,
             segment: SegmentOptions::default(),
+            select: Selection::Synchronised,
         }
     }
 }
@@ -73,6 +89,8 @@ pub struct Parts {
     pub segmentation: Segmentation,
     /// Hinges, tree and order.
     pub skeleton: Skeleton,
+    /// What the set cover did, when it chose the parts.
+    pub cover: Option<CoverReport>,
 }
 
 /// Finds the parts of `poses` given correspondences between every pair.
@@ -109,12 +127,19 @@ pub fn find_parts(poses: Vec<Pose>, flows: &Correspondences, options: &PartsOpti
     } else {
         flows
     };
-    let segmentation = segment::segment(&poses, &superpixels, flows, &options.segment)?;
+    let (segmentation, cover) = match &options.select {
+        Selection::Synchronised => (segment::segment(&poses, &superpixels, flows, &options.segment)?, None),
+        Selection::Cover(cover) => {
+            let (segmentation, report) = cover::cover(&poses, &superpixels, flows, &options.segment, cover)?;
+            (segmentation, Some(report))
+        }
+    };
     let skeleton = skeleton::skeleton(&segmentation, poses[0].width());
     Ok(Parts {
         poses,
         superpixels,
         segmentation,
         skeleton,
+        cover,
     })
 }

@@ -72,6 +72,7 @@ mod tests {
                 hinges: Vec::new(),
                 order: vec![0],
             },
+            cover: None,
         };
         let moved = reconstruct(&parts, 1);
         let drawn: Vec<usize> = (0..36).filter(|&k| moved.pixels[k][3] > 0.0).collect();

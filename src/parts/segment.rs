@@ -120,13 +120,7 @@ pub fn segment(poses: &[Pose], superpixels: &[Superpixels], flows: &Corresponden
             "a positive fraction of the pose size",
         ));
     }
-    let reference = match options.reference {
-        Some(r) if r >= poses.len() => return Err(Error::setting("reference pose", r, format!("a pose number below {}", poses.len()))),
-        Some(r) => r,
-        None => (0..poses.len())
-            .max_by_key(|&k| (poses[k].area(), std::cmp::Reverse(k)))
-            .unwrap_or(0),
-    };
+    let reference = reference_pose(poses, options)?;
     let (w, h) = (poses[reference].width(), poses[reference].height());
     let size = w.max(h) as f64;
     let sp = &superpixels[reference];
@@ -197,20 +191,53 @@ pub fn segment(poses: &[Pose], superpixels: &[Superpixels], flows: &Corresponden
             }
         })
         .collect();
-    let context = Reference {
-        pose: &poses[reference],
-        sp,
-        flows,
-        index: reference,
-        others,
-        size: [w, h],
-        options,
-        min_size,
-        threshold,
-    };
     // The merging above cannot undo an early merge across a boundary: refine, then merge parts
     // that still move together, until none do.
-    let (mut reference_labels, mut parts) = context.refine(merged, live.len());
+    Ok(settle(poses, superpixels, flows, options, reference, merged, live.len()))
+}
+
+/// The pose whose parts are found: the one asked for, or the one with the most foreground
+/// (where parts hide each other least).
+///
+/// # Errors
+/// [`Error::Setting`] for a reference out of range.
+pub(super) fn reference_pose(poses: &[Pose], options: &SegmentOptions) -> Result<usize> {
+    match options.reference {
+        Some(r) if r >= poses.len() => Err(Error::setting("reference pose", r, format!("a pose number below {}", poses.len()))),
+        Some(r) => Ok(r),
+        None => Ok((0..poses.len())
+            .max_by_key(|&k| (poses[k].area(), std::cmp::Reverse(k)))
+            .unwrap_or(0)),
+    }
+}
+
+/// Parts of every pose from a first labelling of the reference pose (`parts` parts,
+/// [`NONE`] where it has none): Lloyd-style rounds refit the parts' motions and relabel the
+/// reference's pixels, touching parts that still move together merge (unless the part count
+/// is fixed), and every pixel of every pose takes the part whose motions explain it best.
+/// `flows` must be complete and the options checked.
+pub(super) fn settle(
+    poses: &[Pose],
+    superpixels: &[Superpixels],
+    flows: &Correspondences,
+    options: &SegmentOptions,
+    reference: usize,
+    initial: Vec<u32>,
+    parts: usize,
+) -> Segmentation {
+    let (w, h) = (poses[reference].width(), poses[reference].height());
+    let context = Reference {
+        pose: &poses[reference],
+        sp: &superpixels[reference],
+        flows,
+        index: reference,
+        others: (0..poses.len()).filter(|&t| t != reference).collect(),
+        size: [w, h],
+        options,
+        min_size: (options.min_part as f64 * poses[reference].area() as f64) as usize,
+        threshold: options.merge_residual as f64 * w.max(h) as f64,
+    };
+    let (mut reference_labels, mut parts) = context.refine(initial, parts);
     if options.parts.is_none() {
         while let Some(fewer) = context.merge_touching(&reference_labels, parts) {
             (reference_labels, parts) = context.refine(fewer, parts - 1);
@@ -236,12 +263,12 @@ pub fn segment(poses: &[Pose], superpixels: &[Superpixels], flows: &Corresponden
             }
         })
         .collect();
-    Ok(Segmentation {
+    Segmentation {
         reference,
         parts,
         labels,
         motions,
-    })
+    }
 }
 
 /// The reference pose and what refining its parts needs.
