@@ -42,6 +42,9 @@ fn config(dir: &Path, name: &str, seq: &Path, extra: &str) -> PathBuf {
     path
 }
 
+/// Poses the template draws itself, one per drawn frame of a batch (`[train.sampled]`).
+const SAMPLED: &str = "[train.sampled]\nshare = 1.0\n";
+
 fn losses(model: &Path) -> Vec<f64> {
     let text = std::fs::read_to_string(model.join("log.csv")).unwrap();
     text.lines()
@@ -158,7 +161,7 @@ fn training_lowers_the_reconstruction_loss_and_fit_and_eval_run() {
 fn a_killed_run_resumes_to_the_weights_of_an_uninterrupted_one() {
     let tmp = tempfile::tempdir().unwrap();
     let seq = synth(tmp.path(), 4, "64x64");
-    let settings = "steps = 40\ncheckpoint_every = 4\n";
+    let settings = &format!("steps = 40\ncheckpoint_every = 4\n{SAMPLED}");
     let whole = config(tmp.path(), "whole", &seq, settings);
     puppet(tmp.path(), &["train", whole.to_str().unwrap()]).assert_ok();
 
@@ -256,4 +259,47 @@ fn bad_configs_get_errors_naming_the_problem() {
         &["test_fraction = 0.3", "leave no frame for training"],
     );
     case("key", base.replace("batch = 4", "batch = 4\nbatches = 2"), &["key.toml", "batches"]);
+    case(
+        "sampled",
+        format!("{base}[train.sampled]\nshare = -1\n"),
+        &["train.sampled.share", "-1"],
+    );
+}
+
+/// The poses the template draws itself (`[train.sampled]`): their vertex loss is logged, and it
+/// is what teaches the network their vertices — the same run with the loss weighted 0 (the same
+/// sampled poses at every step: they depend on the seed and the step only) ends further from
+/// them. A resumed run's samples are an uninterrupted one's (the resume test above runs with
+/// them).
+#[test]
+fn sampled_poses_are_logged_and_their_vertex_loss_teaches_them() {
+    let tmp = tempfile::tempdir().unwrap();
+    let seq = synth(tmp.path(), 4, "64x64");
+    // At 64², as the first test (at 32² the limbs are a pixel wide), turns wide.
+    let run = |name: &str, weight: f64| -> Vec<f64> {
+        let extra = format!("steps = 60\ncheckpoint_every = 20\n{SAMPLED}vertex_weight = {weight}\nmax_degrees = 60.0\n");
+        let cfg = config(tmp.path(), name, &seq, &extra);
+        let text = std::fs::read_to_string(&cfg)
+            .unwrap()
+            .replace("input_size = 32", "input_size = 64")
+            .replace("learning_rate = 3e-4", "learning_rate = 2e-3");
+        std::fs::write(&cfg, text).unwrap();
+        puppet(tmp.path(), &["train", cfg.to_str().unwrap()]).assert_ok();
+        let text = std::fs::read_to_string(tmp.path().join(name).join("log.csv")).unwrap();
+        assert!(text.starts_with("step,total,rec,arap,joints,area,sigma,seconds,held_out,vertex\n"));
+        assert!(tmp.path().join(name).join("sampled.png").is_file(), "the sheet of sampled poses");
+        text.lines()
+            .skip(1)
+            .map(|l| l.rsplit(',').next().unwrap().parse().unwrap())
+            .collect()
+    };
+    let (taught, shown) = (run("taught", 1000.0), run("shown", 0.0));
+    assert!(taught.iter().chain(&shown).all(|v| v.is_finite()), "every step has sampled poses");
+    let last = |v: &[f64]| v[v.len() - 20..].iter().sum::<f64>() / 20.0;
+    assert!(
+        last(&taught) < 0.97 * last(&shown),
+        "the sampled poses' vertex loss over the last 20 steps: {:.2} px² with its weight, {:.2} without",
+        last(&taught),
+        last(&shown)
+    );
 }

@@ -8,6 +8,7 @@
 use crate::error::Result;
 use crate::metrics::l2;
 use crate::picture::Picture;
+use crate::puppet::limbs::{limbs, Limb};
 use crate::puppet::Puppet;
 use crate::render::soft_raster::{Background, Params, SoftRasterizer};
 use crate::render::straight_picture;
@@ -32,15 +33,6 @@ impl Default for LimbSearch {
             step_degrees: 10.0,
         }
     }
-}
-
-/// One limb: the layers that turn together about a joint.
-#[derive(Clone, Debug)]
-struct Limb {
-    /// Global index of the child layer's joint vertex: the pivot.
-    pivot: usize,
-    /// Global vertex indices of the child layer and every layer hanging from it.
-    vertices: Vec<usize>,
 }
 
 impl LimbSearch {
@@ -97,73 +89,12 @@ impl LimbSearch {
 
 /// `pose` with `limb` turned by `angle` radians about its pivot, its accessories placed by `map`.
 fn turned(pose: &[[f32; 2]], limb: &Limb, angle: f32, map: Option<&RigMap>) -> Vec<[f32; 2]> {
-    let (s, c) = angle.sin_cos();
-    let [px, py] = pose[limb.pivot];
     let mut out = pose.to_vec();
-    for &v in &limb.vertices {
-        let [x, y] = pose[v];
-        let (dx, dy) = (x - px, y - py);
-        out[v] = [px + c * dx - s * dy, py + s * dx + c * dy];
-    }
+    limb.turn(&mut out, angle);
     if let Some(map) = map {
         map.apply(&mut out);
     }
     out
-}
-
-/// The limbs of `puppet` in breadth-first order from its root layer: for each joint leading
-/// away from the root, the child layer and all layers beyond it.
-fn limbs(puppet: &Puppet) -> Vec<Limb> {
-    let n = puppet.layers.len();
-    let offsets = puppet.vertex_offsets();
-    // Layer adjacency through joints, with the joint's vertex on each side.
-    let mut links: Vec<Vec<(usize, usize)>> = vec![Vec::new(); n];
-    for j in &puppet.joints {
-        links[j.a.layer].push((j.b.layer, puppet.global_index(j.b)));
-        links[j.b.layer].push((j.a.layer, puppet.global_index(j.a)));
-    }
-    let mut parent = vec![usize::MAX; n];
-    let mut order = vec![puppet.root];
-    parent[puppet.root] = puppet.root;
-    let mut pivots = vec![0usize; n];
-    let mut k = 0;
-    while k < order.len() {
-        let layer = order[k];
-        for &(next, pivot) in &links[layer] {
-            if parent[next] == usize::MAX {
-                parent[next] = layer;
-                pivots[next] = pivot;
-                order.push(next);
-            }
-        }
-        k += 1;
-    }
-    let below = |layer: usize| -> Vec<usize> {
-        // Layers whose chain of parents passes through `layer`.
-        (0..n)
-            .filter(|&l| {
-                let mut at = l;
-                while parent[at] != usize::MAX && at != puppet.root {
-                    if at == layer {
-                        return true;
-                    }
-                    at = parent[at];
-                }
-                false
-            })
-            .collect()
-    };
-    order
-        .iter()
-        .skip(1)
-        .map(|&layer| Limb {
-            pivot: pivots[layer],
-            vertices: below(layer)
-                .into_iter()
-                .flat_map(|l| offsets[l]..offsets[l] + puppet.layers[l].mesh.vertices.len())
-                .collect(),
-        })
-        .collect()
 }
 
 #[cfg(test)]

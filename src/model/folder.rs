@@ -36,6 +36,8 @@ impl ModelFolder {
     pub const LOG: &'static str = "log.csv";
     /// The loss plot's file name.
     pub const PLOT: &'static str = "loss.png";
+    /// The sheet of poses the template draws itself for training (`[train.sampled]`).
+    pub const SAMPLED: &'static str = "sampled.png";
     /// The checkpoints' subfolder.
     pub const CHECKPOINTS: &'static str = "checkpoints";
 
@@ -109,6 +111,11 @@ impl ModelFolder {
     /// `loss.png`.
     pub fn plot(&self) -> PathBuf {
         self.dir.join(Self::PLOT)
+    }
+
+    /// `sampled.png`.
+    pub fn sampled(&self) -> PathBuf {
+        self.dir.join(Self::SAMPLED)
     }
 
     /// `checkpoints/`.

@@ -11,6 +11,7 @@ pub mod build;
 pub mod character;
 pub mod format;
 pub mod joints;
+pub mod limbs;
 pub mod mesh;
 pub mod ora;
 pub mod pose_file;

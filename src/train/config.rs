@@ -21,6 +21,13 @@
 //! checkpoint_every = 100
 //! eval_every = 100                  # the held-out frames' loss, logged and plotted
 //!
+//! [train.sampled]                   # poses the template draws itself (issue 19; not the
+//! share = 0.0                       #   paper's): per drawn frame of a batch, 0 = off
+//! vertex_weight = 10.0              # their vertex loss, per working px² of mean error
+//! max_degrees = 30.0                # each limb turned about its joint within ± this
+//! scale = 0.1                       # the figure scaled within 1 ± this
+//! shift = 0.05                      # and shifted within ± this share of the frame
+//!
 //! [train.adam]                      # the optimiser; all optional (PyTorch's defaults)
 //! beta_1 = 0.9
 //! beta_2 = 0.999
@@ -51,6 +58,7 @@ use crate::puppet::sequence::FrameCheck;
 use crate::user_file;
 
 use super::optim::AdamSettings;
+use super::sampled::SampledPoses;
 use crate::error::{Context, Error, Result};
 pub use crate::objective::LossWeights;
 
@@ -163,6 +171,9 @@ pub struct TrainSettings {
     pub eval_every: u64,
     /// Adam's settings besides the learning rate.
     pub adam: AdamSettings,
+    /// Poses the template draws itself, shown beside the drawn frames (off by default).
+    #[serde(skip_serializing_if = "SampledPoses::is_off")]
+    pub sampled: SampledPoses,
 }
 
 impl Default for TrainSettings {
@@ -176,6 +187,7 @@ impl Default for TrainSettings {
             checkpoint_every: 100,
             eval_every: 100,
             adam: AdamSettings::new(),
+            sampled: SampledPoses::default(),
         }
     }
 }
@@ -307,7 +319,8 @@ impl TrainConfig {
         if let Some((_, problem)) = checks.into_iter().find(|(bad, _)| *bad) {
             return Err(problem);
         }
-        t.adam.validate()
+        t.adam.validate()?;
+        t.sampled.validate()
     }
 
     /// The frame checks of this run for frames of a `width` × `height` puppet.

@@ -12,7 +12,7 @@ use crate::picture::Picture;
 use crate::user_file;
 
 /// The CSV header; [`LogRow`] writes the same columns.
-pub const HEADER: &str = "step,total,rec,arap,joints,area,sigma,seconds,held_out";
+pub const HEADER: &str = "step,total,rec,arap,joints,area,sigma,seconds,held_out,vertex";
 
 /// One step's numbers (weighted terms are not stored: the config holds the weights).
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -35,6 +35,8 @@ pub struct LogRow {
     pub seconds: f64,
     /// Eq. 4's total on the held-out frames after this step (NaN where not measured).
     pub held_out: f64,
+    /// The sampled poses' vertex loss, unweighted (NaN without sampled poses).
+    pub vertex: f64,
 }
 
 /// A row of a training log: numbers in the order of its header.
@@ -70,6 +72,7 @@ impl CsvRow for LogRow {
             self.sigma,
             self.seconds,
             self.held_out,
+            self.vertex,
         ]
     }
 
@@ -84,6 +87,7 @@ impl CsvRow for LogRow {
             sigma: v[6],
             seconds: v[7],
             held_out: v.get(8).copied().unwrap_or(f64::NAN),
+            vertex: v.get(9).copied().unwrap_or(f64::NAN),
         }
     }
 }
@@ -277,6 +281,7 @@ mod tests {
             sigma: 1.0,
             seconds: step as f64,
             held_out: if step % 2 == 0 { 2.0 / step as f64 } else { f64::NAN },
+            vertex: if step % 2 == 0 { 3.0 / step as f64 } else { f64::NAN },
         }
     }
 
@@ -291,8 +296,11 @@ mod tests {
         let log = TrainLog::<LogRow>::open(&path, 3).unwrap();
         assert_eq!(log.rows().iter().map(|r| r.step).collect::<Vec<_>>(), [1, 2, 3]);
         assert_eq!(std::fs::read_to_string(&path).unwrap().lines().count(), 4);
-        assert_eq!(log.rows()[1], row(2, 0.5), "a measured held-out loss reads back");
-        assert!(log.rows()[0].held_out.is_nan(), "an unmeasured one reads back as NaN");
+        assert_eq!(log.rows()[1], row(2, 0.5), "a measured held-out loss and vertex loss read back");
+        assert!(
+            log.rows()[0].held_out.is_nan() && log.rows()[0].vertex.is_nan(),
+            "unmeasured ones read back as NaN"
+        );
     }
 
     #[test]

@@ -6,6 +6,7 @@ pub mod checkpoint;
 pub mod config;
 pub mod log;
 pub mod optim;
+pub mod sampled;
 pub mod split;
 pub mod trainer;
 

@@ -20,6 +20,7 @@ use super::checkpoint::{self, Checkpoint, CheckpointState};
 use super::config::{canonical, TrainConfig};
 use super::log::{plot, LogRow, TrainLog};
 use super::optim::{adam, optimizer_bytes, optimizer_from_bytes};
+use super::sampled::PoseSampler;
 use super::split::{shuffled, split};
 use crate::atomic_file::{record, write_atomic, Outputs};
 use crate::backend::scalar;
@@ -29,10 +30,11 @@ use crate::model::decoder::Decoder;
 use crate::model::deformation::DeformationNetConfig;
 use crate::model::{Model, ModelFolder};
 use crate::objective::{LossTerms, Objective};
-use crate::picture::{ImageLimits, Picture};
+use crate::picture::{contact_sheet, ImageLimits, Picture};
 use crate::progress::Progress;
 use crate::puppet::sequence::Frames;
 use crate::puppet::{artwork, build, format, Puppet};
+use crate::render::render_crisp;
 use crate::rig::{build_rigged, RigOptions};
 use crate::rng::Rng;
 use crate::user_file;
@@ -203,6 +205,9 @@ pub fn train(config: &TrainConfig, options: &TrainOptions, progress: &dyn Progre
             write_config(&folder, config)?;
             let split_json = serde_json::to_vec_pretty(&record).map_err(|e| Error::format(folder.split(), e.to_string()))?;
             write_atomic(&folder.split(), &split_json)?;
+            if let Some(sheet) = trainer.sampled_sheet()? {
+                sheet.save_png(&folder.sampled())?;
+            }
             record_folder(out)?;
         }
     }
@@ -254,8 +259,13 @@ pub fn train(config: &TrainConfig, options: &TrainOptions, progress: &dyn Progre
         log.push(row)?;
         last = Some(row);
         progress.advance(1);
+        let vertex = if row.vertex.is_nan() {
+            String::new()
+        } else {
+            format!(", sampled poses' vertices {:.2e}", row.vertex)
+        };
         progress.message(&format!(
-            "loss {:.3e} (rec {:.3e}, arap {:.2e}, joints {:.2e}) σ {:.2}",
+            "loss {:.3e} (rec {:.3e}, arap {:.2e}, joints {:.2e}{vertex}) σ {:.2}",
             row.total, row.rec, row.arap, row.joints, row.sigma
         ));
     }
@@ -389,6 +399,9 @@ fn save_checkpoint(
     plot(log.rows(), weights).save_png(&folder.plot())
 }
 
+/// Poses on the sheet of sampled poses (two rows).
+const SHEET_POSES: usize = 12;
+
 /// One model under training: the network, its optimiser, the objective, and the training and
 /// held-out frames as network inputs. [`Trainer::step`] is one optimiser step.
 pub struct Trainer {
@@ -401,6 +414,8 @@ pub struct Trainer {
     inputs: Vec<Vec<f32>>,
     held_out: Vec<Vec<f32>>,
     batches: BatchOrder,
+    /// Draws the poses shown beside the drawn frames, when the config asks for them.
+    sampler: Option<PoseSampler>,
     config: TrainConfig,
     device: Device,
 }
@@ -427,10 +442,26 @@ impl Trainer {
             decoder: model.decoder(device),
             objective,
             batches: BatchOrder::new(frames.len(), config.train.batch.min(frames.len()), config.seed),
+            sampler: (!config.train.sampled.is_off()).then(|| PoseSampler::new(&model, &config.train.sampled, config.seed)),
             config: config.clone(),
             device: device.clone(),
             model,
         })
+    }
+
+    /// A sheet of sampled poses as the network is shown them (`None` without sampling).
+    ///
+    /// # Errors
+    /// As [`PoseSampler::step`].
+    pub fn sampled_sheet(&self) -> Result<Option<Picture>> {
+        let Some(sampler) = &self.sampler else { return Ok(None) };
+        // A stream of its own: the sheet does not take any step's samples.
+        let mut rng = Rng::new(self.config.seed).fork(u64::MAX);
+        let puppet = &self.model.puppet;
+        let renders = (0..SHEET_POSES)
+            .map(|_| render_crisp(puppet, &sampler.pose(&self.model, &mut rng), puppet.width, puppet.height))
+            .collect::<Result<Vec<_>>>()?;
+        Ok(Some(contact_sheet(&renders.iter().collect::<Vec<_>>(), SHEET_POSES / 2)))
     }
 
     /// Loads a checkpoint's weights and optimiser state.
@@ -472,12 +503,39 @@ impl Trainer {
     /// # Errors
     /// Shape errors from the rasterizer or ARAP operations.
     pub fn losses(&self, step: u64) -> Result<(LogRow, LossTerms)> {
-        let batch: Vec<&Vec<f32>> = self.batches.batch(step).into_iter().map(|i| &self.inputs[i]).collect();
+        let mut batch: Vec<&Vec<f32>> = self.batches.batch(step).into_iter().map(|i| &self.inputs[i]).collect();
+        let drawn = batch.len();
+        let sampled = match &self.sampler {
+            Some(sampler) => Some(sampler.step(&self.model, step, drawn)?),
+            None => None,
+        };
+        if let Some(s) = &sampled {
+            batch.extend(&s.planes);
+        }
         let images = self.images(&batch, &self.device);
         let sigma = self.config.sigma_at(step);
         let net = &self.model.net;
         let vertices = self.decoder.vertices(net, net.encode(images.clone()));
-        let terms = self.objective.evaluate(vertices, images, sigma, &self.device)?;
+        let (mut terms, vertex) = match &sampled {
+            Some(s) if !s.vertices.is_empty() => {
+                // Eq. 4 on the drawn frames; the sampled poses' vertices against their own.
+                let [_, count, _] = vertices.dims();
+                let terms = self.objective.evaluate(
+                    vertices.clone().narrow(0, 0, drawn),
+                    images.narrow(0, 0, drawn),
+                    sigma,
+                    &self.device,
+                )?;
+                let flat: Vec<f32> = s.vertices.iter().flatten().flatten().copied().collect();
+                let target = Tensor::<3>::from_data(TensorData::new(flat, [s.vertices.len(), count, 2]), &self.device);
+                let vertex = (vertices.narrow(0, drawn, s.vertices.len()) - target).powi_scalar(2).mean();
+                (terms, Some(vertex))
+            }
+            _ => (self.objective.evaluate(vertices, images, sigma, &self.device)?, None),
+        };
+        if let Some(vertex) = &vertex {
+            terms.total = terms.total + vertex.clone().mul_scalar(self.config.train.sampled.vertex_weight);
+        }
         let row = LogRow {
             step: step + 1,
             total: scalar(&terms.total),
@@ -488,6 +546,7 @@ impl Trainer {
             sigma: sigma as f64,
             seconds: 0.0,
             held_out: f64::NAN,
+            vertex: vertex.as_ref().map_or(f64::NAN, scalar),
         };
         Ok((row, terms))
     }
