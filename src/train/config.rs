@@ -27,6 +27,7 @@
 //! max_degrees = 30.0                # each limb turned about its joint within ± this
 //! scale = 0.1                       # the figure scaled within 1 ± this
 //! shift = 0.05                      # and shifted within ± this share of the frame
+//! around = "rest"                   # or "fits": turned from the network's poses of the batch
 //!
 //! [train.adam]                      # the optimiser; all optional (PyTorch's defaults)
 //! beta_1 = 0.9

@@ -29,6 +29,19 @@ pub struct SampledPoses {
     pub scale: f32,
     /// The figure shifted by up to this share of the frame's width and height either way.
     pub shift: f32,
+    /// What the limbs are turned from: the rest pose, or the poses the network gives the step's
+    /// drawn frames (so the samples explore around the drawn poses as training learns them).
+    pub around: SampleAround,
+}
+
+/// What sampled poses are drawn around.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum SampleAround {
+    /// The template's rest pose.
+    Rest,
+    /// The network's current poses of the step's drawn frames, in turn.
+    Fits,
 }
 
 impl Default for SampledPoses {
@@ -39,6 +52,7 @@ impl Default for SampledPoses {
             max_degrees: 30.0,
             scale: 0.1,
             shift: 0.05,
+            around: SampleAround::Rest,
         }
     }
 }
@@ -107,12 +121,17 @@ impl PoseSampler {
         }
     }
 
-    /// A pose of `model`'s puppet (frame pixels) drawn by `rng`: the rest pose's limbs turned,
-    /// root first, the figure scaled about the frame's centre and shifted; accessories placed by
-    /// the rig, if the model has one.
-    pub fn pose(&self, model: &Model, rng: &mut Rng) -> Vec<[f32; 2]> {
+    /// Whether the samples are drawn around the network's poses of the drawn frames.
+    pub fn around_fits(&self) -> bool {
+        self.settings.around == SampleAround::Fits
+    }
+
+    /// A pose of `model`'s puppet (frame pixels) drawn by `rng`: `base`'s limbs (the rest pose
+    /// when `None`) turned, root first, the figure scaled about the frame's centre and shifted;
+    /// accessories placed by the rig, if the model has one.
+    pub fn pose(&self, model: &Model, base: Option<&[[f32; 2]]>, rng: &mut Rng) -> Vec<[f32; 2]> {
         let s = &self.settings;
-        let mut pose = model.puppet.rest_vertices();
+        let mut pose = base.map_or_else(|| model.puppet.rest_vertices(), <[_]>::to_vec);
         for limb in &self.limbs {
             limb.turn(&mut pose, rng.range(-s.max_degrees, s.max_degrees).to_radians());
         }
@@ -132,20 +151,22 @@ impl PoseSampler {
         pose
     }
 
-    /// The sampled poses of step `step` for a batch of `batch` drawn frames: a function of the
-    /// seed and the step alone, so a resumed run sees what an uninterrupted one would.
+    /// The sampled poses of step `step` for a batch of `batch` drawn frames, each around the
+    /// next of `bases` (frame pixels; the rest pose when there are none): a function of the
+    /// seed, the step and the bases, so a resumed run sees what an uninterrupted one would.
     ///
     /// # Errors
     /// As [`render_crisp`].
-    pub fn step(&self, model: &Model, step: u64, batch: usize) -> Result<Sampled> {
+    pub fn step(&self, model: &Model, step: u64, batch: usize, bases: &[Vec<[f32; 2]>]) -> Result<Sampled> {
         let count = self.settings.per_step(batch);
         let mut rng = Rng::new(self.seed).fork(step);
         let mut out = Sampled {
             planes: Vec::with_capacity(count),
             vertices: Vec::with_capacity(count),
         };
-        for _ in 0..count {
-            let pose = self.pose(model, &mut rng);
+        for k in 0..count {
+            let base = (!bases.is_empty()).then(|| bases[k % bases.len()].as_slice());
+            let pose = self.pose(model, base, &mut rng);
             let picture = render_crisp(&model.puppet, &pose, model.puppet.width, model.puppet.height)?;
             out.planes.push(model.letterbox.premultiplied_planes(&picture));
             out.vertices.push(pose.iter().map(|&p| model.letterbox.to_work(p)).collect());
@@ -174,7 +195,7 @@ mod tests {
         };
         let mut rng = Rng::new(9);
         for _ in 0..20 {
-            let pose = sampler.pose(&model, &mut rng);
+            let pose = sampler.pose(&model, None, &mut rng);
             assert!(pose.iter().flatten().all(|x| x.is_finite()));
             for j in &puppet.joints {
                 // A turn about the child's joint vertex, then one similarity: the gap scales.
@@ -184,14 +205,47 @@ mod tests {
                 );
             }
         }
-        let a = sampler.step(&model, 5, 4).unwrap();
-        let b = sampler.step(&model, 5, 4).unwrap();
-        let c = sampler.step(&model, 6, 4).unwrap();
+        let a = sampler.step(&model, 5, 4, &[]).unwrap();
+        let b = sampler.step(&model, 5, 4, &[]).unwrap();
+        let c = sampler.step(&model, 6, 4, &[]).unwrap();
         assert_eq!(a.vertices.len(), 4);
         assert!(a.vertices == b.vertices && a.planes == b.planes, "one step, one sample");
         assert_ne!(a.vertices, c.vertices, "another step, other poses");
         let work: Vec<[f32; 2]> = rest.iter().map(|&p| model.letterbox.to_work(p)).collect();
         assert!(a.vertices.iter().all(|v| *v != work), "sampled poses are not the rest pose");
+    }
+
+    #[test]
+    fn samples_around_the_fits_start_from_the_bases_given() {
+        let (model, _) = crate::edit::test_support::small_model(0.3);
+        let still = SampledPoses {
+            share: 1.0,
+            max_degrees: 0.0,
+            scale: 0.0,
+            shift: 0.0,
+            around: SampleAround::Fits,
+            ..SampledPoses::default()
+        };
+        let sampler = PoseSampler::new(&model, &still, 3);
+        assert!(sampler.around_fits());
+        let rest = model.puppet.rest_vertices();
+        let bases: Vec<Vec<[f32; 2]>> = [4.0, -3.0]
+            .iter()
+            .map(|dx| rest.iter().map(|p| [p[0] + dx, p[1]]).collect())
+            .collect();
+        let s = sampler.step(&model, 0, 3, &bases).unwrap();
+        for (k, pose) in s.vertices.iter().enumerate() {
+            let base = &bases[k % 2];
+            let off = pose
+                .iter()
+                .zip(base)
+                .map(|(q, p)| {
+                    let w = model.letterbox.to_work(*p);
+                    (q[0] - w[0]).hypot(q[1] - w[1])
+                })
+                .fold(0.0, f32::max);
+            assert!(off < 1e-4, "sample {k} is {off} working px from its base");
+        }
     }
 
     #[test]

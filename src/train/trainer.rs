@@ -459,7 +459,7 @@ impl Trainer {
         let mut rng = Rng::new(self.config.seed).fork(u64::MAX);
         let puppet = &self.model.puppet;
         let renders = (0..SHEET_POSES)
-            .map(|_| render_crisp(puppet, &sampler.pose(&self.model, &mut rng), puppet.width, puppet.height))
+            .map(|_| render_crisp(puppet, &sampler.pose(&self.model, None, &mut rng), puppet.width, puppet.height))
             .collect::<Result<Vec<_>>>()?;
         Ok(Some(contact_sheet(&renders.iter().collect::<Vec<_>>(), SHEET_POSES / 2)))
     }
@@ -505,33 +505,40 @@ impl Trainer {
     pub fn losses(&self, step: u64) -> Result<(LogRow, LossTerms)> {
         let mut batch: Vec<&Vec<f32>> = self.batches.batch(step).into_iter().map(|i| &self.inputs[i]).collect();
         let drawn = batch.len();
-        let sampled = match &self.sampler {
-            Some(sampler) => Some(sampler.step(&self.model, step, drawn)?),
-            None => None,
-        };
-        if let Some(s) = &sampled {
-            batch.extend(&s.planes);
-        }
-        let images = self.images(&batch, &self.device);
         let sigma = self.config.sigma_at(step);
         let net = &self.model.net;
-        let vertices = self.decoder.vertices(net, net.encode(images.clone()));
-        let (mut terms, vertex) = match &sampled {
-            Some(s) if !s.vertices.is_empty() => {
-                // Eq. 4 on the drawn frames; the sampled poses' vertices against their own.
-                let [_, count, _] = vertices.dims();
+        let (mut terms, vertex) = match &self.sampler {
+            Some(sampler) if sampler.around_fits() => {
+                // The samples turn the network's poses of these frames: the drawn frames first.
+                let images = self.images(&batch, &self.device);
+                let vertices = self.decoder.vertices(net, net.encode(images.clone()));
+                let bases = self.frame_poses(&vertices);
+                let terms = self.objective.evaluate(vertices, images, sigma, &self.device)?;
+                let s = sampler.step(&self.model, step, drawn, &bases)?;
+                let planes: Vec<&Vec<f32>> = s.planes.iter().collect();
+                let predicted = self.decoder.vertices(net, net.encode(self.images(&planes, &self.device)));
+                (terms, Some(self.vertex_loss(predicted, &s.vertices)))
+            }
+            Some(sampler) => {
+                // One forward for the drawn frames and the samples around the rest pose.
+                let s = sampler.step(&self.model, step, drawn, &[])?;
+                batch.extend(&s.planes);
+                let images = self.images(&batch, &self.device);
+                let vertices = self.decoder.vertices(net, net.encode(images.clone()));
                 let terms = self.objective.evaluate(
                     vertices.clone().narrow(0, 0, drawn),
                     images.narrow(0, 0, drawn),
                     sigma,
                     &self.device,
                 )?;
-                let flat: Vec<f32> = s.vertices.iter().flatten().flatten().copied().collect();
-                let target = Tensor::<3>::from_data(TensorData::new(flat, [s.vertices.len(), count, 2]), &self.device);
-                let vertex = (vertices.narrow(0, drawn, s.vertices.len()) - target).powi_scalar(2).mean();
-                (terms, Some(vertex))
+                let predicted = vertices.narrow(0, drawn, s.vertices.len());
+                (terms, Some(self.vertex_loss(predicted, &s.vertices)))
             }
-            _ => (self.objective.evaluate(vertices, images, sigma, &self.device)?, None),
+            None => {
+                let images = self.images(&batch, &self.device);
+                let vertices = self.decoder.vertices(net, net.encode(images.clone()));
+                (self.objective.evaluate(vertices, images, sigma, &self.device)?, None)
+            }
         };
         if let Some(vertex) = &vertex {
             terms.total = terms.total + vertex.clone().mul_scalar(self.config.train.sampled.vertex_weight);
@@ -549,6 +556,25 @@ impl Trainer {
             vertex: vertex.as_ref().map_or(f64::NAN, scalar),
         };
         Ok((row, terms))
+    }
+
+    /// The mean squared distance (working pixels²) between `predicted` vertices `[K, V, 2]` and
+    /// the sampled poses' own.
+    fn vertex_loss(&self, predicted: Tensor<3>, poses: &[Vec<[f32; 2]>]) -> Tensor<1> {
+        let [_, count, _] = predicted.dims();
+        let flat: Vec<f32> = poses.iter().flatten().flatten().copied().collect();
+        let target = Tensor::<3>::from_data(TensorData::new(flat, [poses.len(), count, 2]), &self.device);
+        (predicted - target).powi_scalar(2).mean()
+    }
+
+    /// Poses `[B, V, 2]` (working pixels) as frame-pixel vertex lists, one per frame.
+    fn frame_poses(&self, vertices: &Tensor<3>) -> Vec<Vec<[f32; 2]>> {
+        let [_, count, _] = vertices.dims();
+        let values: Vec<f32> = vertices.to_data().convert::<f32>().try_to_vec::<f32>().unwrap_or_default();
+        values
+            .chunks_exact(2 * count)
+            .map(|pose| pose.chunks_exact(2).map(|q| self.model.letterbox.to_frame([q[0], q[1]])).collect())
+            .collect()
     }
 
     /// Eq. 4 on the held-out frames at step `step`'s σ, by the network as it is (no gradient);
