@@ -17,11 +17,10 @@ use rayon::prelude::*;
 
 use super::flow::Correspondences;
 use super::pose::Pose;
-use super::reconstruct::reconstruct;
+use super::reconstruct::rebuild;
 use super::segment::{reference_pose, segment, settle, SegmentOptions, Segmentation};
 use super::skeleton::skeleton;
 use super::superpixels::{Superpixels, NONE};
-use super::Parts;
 use crate::error::{Error, Result};
 use crate::geom::similarity::{Moments, Similarity};
 use crate::rng::Rng;
@@ -51,13 +50,12 @@ impl Default for CoverOptions {
     }
 }
 
-/// A candidate part: its pixels in the pose it was cut from, and the superpixels it covers
-/// (numbered across all poses, pose by pose).
+/// A candidate part: the superpixels it covers (numbered across all poses, pose by pose), and
+/// the share of each reference superpixel it carries there.
 #[derive(Clone, Debug)]
 struct Candidate {
-    pose: usize,
-    mask: Vec<bool>,
     covers: Vec<usize>,
+    reference_shares: Vec<f32>,
 }
 
 /// What the selection did, for reports.
@@ -123,18 +121,16 @@ pub fn cover(
         .collect::<Vec<_>>()
         .into_par_iter()
         .map(|(s, mask)| {
-            let covers = (0..poses.len())
-                .flat_map(|u| {
-                    let shares = carried_shares(poses, superpixels, flows, s, &mask, u, cover.tolerance);
-                    let offset = offsets[u];
-                    shares
-                        .into_iter()
-                        .enumerate()
-                        .filter(|&(_, share)| share >= cover.coverage)
-                        .map(move |(k, _)| offset + k)
-                })
-                .collect();
-            Candidate { pose: s, mask, covers }
+            let mut covers = Vec::new();
+            let mut reference_shares = Vec::new();
+            for (u, &offset) in offsets.iter().take(poses.len()).enumerate() {
+                let shares = carried_shares(poses, superpixels, flows, s, &mask, u, cover.tolerance);
+                covers.extend((0..shares.len()).filter(|&k| shares[k] >= cover.coverage).map(|k| offset + k));
+                if u == reference {
+                    reference_shares = shares;
+                }
+            }
+            Candidate { covers, reference_shares }
         })
         .collect();
     let elements = offsets[poses.len()];
@@ -150,8 +146,8 @@ pub fn cover(
     let scored = selections
         .par_iter()
         .map(|selection| {
-            let seg = selected_parts(poses, superpixels, flows, options, reference, &candidates, selection, cover);
-            let error = rebuild_error(poses, superpixels, &seg);
+            let seg = selected_parts(poses, superpixels, flows, options, reference, &candidates, selection);
+            let error = rebuild_error(poses, &seg);
             (error, seg, selection.len())
         })
         .collect::<Vec<_>>();
@@ -407,7 +403,6 @@ fn prune(mut selection: Vec<usize>, z: &[f64], candidates: &[Candidate], element
 
 /// The parts of a selection, settled: each reference superpixel given to the selected
 /// candidate carrying most of it there, then [`settle`].
-#[allow(clippy::too_many_arguments)]
 fn selected_parts(
     poses: &[Pose],
     superpixels: &[Superpixels],
@@ -416,23 +411,12 @@ fn selected_parts(
     reference: usize,
     candidates: &[Candidate],
     selection: &[usize],
-    cover: &CoverOptions,
 ) -> Segmentation {
     let sp = &superpixels[reference];
     // Per reference superpixel: (share carried, candidate rank in the selection).
     let mut best: Vec<Option<(f32, usize)>> = vec![None; sp.count];
     for (rank, &c) in selection.iter().enumerate() {
-        let candidate = &candidates[c];
-        let shares = carried_shares(
-            poses,
-            superpixels,
-            flows,
-            candidate.pose,
-            &candidate.mask,
-            reference,
-            cover.tolerance,
-        );
-        for (k, share) in shares.into_iter().enumerate() {
+        for (k, &share) in candidates[c].reference_shares.iter().enumerate() {
             if share > 0.0 && best[k].is_none_or(|(s, _)| share > s) {
                 best[k] = Some((share, rank));
             }
@@ -459,18 +443,12 @@ fn selected_parts(
 
 /// Mean squared error, over the poses' pixels and premultiplied channels, of every pose
 /// rebuilt from the parts.
-fn rebuild_error(poses: &[Pose], superpixels: &[Superpixels], seg: &Segmentation) -> f64 {
-    let parts = Parts {
-        poses: poses.to_vec(),
-        superpixels: superpixels.to_vec(),
-        segmentation: seg.clone(),
-        skeleton: skeleton(seg, poses[seg.reference].width()),
-        cover: None,
-    };
+fn rebuild_error(poses: &[Pose], seg: &Segmentation) -> f64 {
+    let order = skeleton(seg, poses[seg.reference].width()).order;
     let mut total = 0.0;
     let mut count = 0usize;
     for (t, pose) in poses.iter().enumerate() {
-        let rebuilt = reconstruct(&parts, t);
+        let rebuilt = rebuild(poses, seg, &order, t);
         for (a, b) in rebuilt.pixels.iter().zip(&pose.image.pixels) {
             for ch in 0..4 {
                 let (x, y) = if ch < 3 { (a[ch] * a[3], b[ch] * b[3]) } else { (a[3], b[3]) };
@@ -490,9 +468,8 @@ mod tests {
     fn candidates(sets: &[Vec<usize>]) -> Vec<Candidate> {
         sets.iter()
             .map(|covers| Candidate {
-                pose: 0,
-                mask: Vec::new(),
                 covers: covers.clone(),
+                reference_shares: Vec::new(),
             })
             .collect()
     }

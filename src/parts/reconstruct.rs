@@ -4,14 +4,20 @@
 //! deforms parts by ARAP, which this does not — so it shows what the parts and their order
 //! explain, and its L2 against the pose is an upper bound of the paper's reconstruction error.
 
+use super::pose::Pose;
+use super::segment::Segmentation;
 use super::superpixels::NONE;
 use super::Parts;
 use crate::picture::Picture;
 
 /// Pose `t` redrawn from the reference's parts; straight alpha, the pose's size.
 pub fn reconstruct(parts: &Parts, t: usize) -> Picture {
-    let seg = &parts.segmentation;
-    let reference = &parts.poses[seg.reference];
+    rebuild(&parts.poses, &parts.segmentation, &parts.skeleton.order, t)
+}
+
+/// Pose `t` redrawn from the reference's parts of `seg`, stacked back to front in `order`.
+pub fn rebuild(poses: &[Pose], seg: &Segmentation, order: &[usize], t: usize) -> Picture {
+    let reference = &poses[seg.reference];
     let (w, h) = (reference.width(), reference.height());
     let labels = &seg.labels[seg.reference];
     let inverse: Vec<_> = seg
@@ -23,7 +29,7 @@ pub fn reconstruct(parts: &Parts, t: usize) -> Picture {
     for (i, pixel) in out.pixels.iter_mut().enumerate() {
         let y = [(i % w) as f32, (i / w) as f32];
         // Front to back: the first part whose reference region holds the pulled-back point.
-        for &p in parts.skeleton.order.iter().rev() {
+        for &p in order.iter().rev() {
             let Some(inv) = &inverse[p] else { continue };
             let z = inv.apply(y);
             let (zx, zy) = (z[0].round(), z[1].round());
@@ -44,8 +50,6 @@ pub fn reconstruct(parts: &Parts, t: usize) -> Picture {
 mod tests {
     use super::*;
     use crate::geom::similarity::Similarity;
-    use crate::parts::pose::Pose;
-    use crate::parts::segment::Segmentation;
     use crate::parts::skeleton::Skeleton;
 
     #[test]

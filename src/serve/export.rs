@@ -113,12 +113,18 @@ impl Drop for ScratchDir {
     }
 }
 
-/// The model drawing `model`'s poses without the accessories `hidden` (`None`: none hidden).
-fn without(model: &Model, hidden: &[String]) -> Result<Option<Model>> {
+/// Poses, frame pixels, global numbering.
+type Poses = Vec<Vec<[f32; 2]>>;
+
+/// The model drawing `model`'s poses without the accessories `hidden` (`None`: none hidden),
+/// and `poses` in its numbering.
+fn without(model: &Model, hidden: &[String], poses: Poses) -> Result<(Option<Model>, Poses)> {
     if hidden.is_empty() {
-        return Ok(None);
+        return Ok((None, poses));
     }
-    Ok(Some(model.wearing(undress(&model.puppet, hidden, &Silent)?)?))
+    let drawn = model.wearing(undress(&model.puppet, hidden, &Silent)?)?;
+    let poses = poses.iter().map(|p| drawn.pose_from(model, p)).collect();
+    Ok((Some(drawn), poses))
 }
 
 /// `poses` of `model`'s puppet as `format`, named `stem`.
@@ -128,11 +134,7 @@ fn without(model: &Model, hidden: &[String]) -> Result<Option<Model>> {
 /// skeleton or a soft render asked of the appearance stage (it draws pictures, not meshes, from
 /// crisp renders); the writers' errors.
 pub fn export(model: &Model, poses: Vec<Vec<[f32; 2]>>, format: Format, style: &ExportStyle, stem: &str) -> Result<Download> {
-    let undressed = without(model, &style.hidden)?;
-    let poses = match &undressed {
-        Some(drawn) => poses.iter().map(|p| drawn.pose_from(model, p)).collect(),
-        None => poses,
-    };
+    let (undressed, poses) = without(model, &style.hidden, poses)?;
     let puppet = &undressed.as_ref().unwrap_or(model).puppet;
     if style.appearance.is_some() && (format == Format::Spine || style.sigma > 0.0) {
         return Err(Error::setting(
@@ -201,12 +203,8 @@ pub fn redrawn_strip(
     stage: &AppearanceStage,
     device: &Device,
 ) -> Result<Picture> {
-    let undressed = without(model, hidden)?;
+    let (undressed, poses) = without(model, hidden, poses.to_vec())?;
     let drawn = undressed.as_ref().unwrap_or(model);
-    let poses: Vec<Vec<[f32; 2]>> = match &undressed {
-        Some(drawn) => poses.iter().map(|p| drawn.pose_from(model, p)).collect(),
-        None => poses.to_vec(),
-    };
     let (w, h) = (drawn.puppet.width as usize, drawn.puppet.height as usize);
     let mut strip = Picture::filled((w * poses.len()) as u32, h as u32, [0.0; 4]);
     for (k, (_, generated)) in stage.render_and_redraw(&drawn.puppet, &poses, device)?.into_iter().enumerate() {
