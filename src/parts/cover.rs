@@ -4,7 +4,7 @@
 //! candidates covering every superpixel of every pose, by LP relaxation (clarabel's interior
 //! point method) and randomised rounding (Raghavan & Thompson 1987); each rounded selection
 //! turned into parts of the reference pose, settled as [`segment`] settles its own, and scored
-//! by how well those parts rebuild every pose ([`reconstruct`]); the best kept.
+//! by how well those parts rebuild every pose ([`rebuild`]); the best kept.
 //!
 //! Where the paper is silent, ours: a candidate covers a superpixel of another pose when at
 //! least [`CoverOptions::coverage`] of its pixels correspond to the candidate's pixels and sit
