@@ -78,6 +78,20 @@ fn eval_of_a_dressed_synthetic_sequence_splits_body_and_accessory_errors() {
     for key in ["body", "body_visible", "accessories", "accessories_visible"] {
         assert!(split[key].as_f64().is_some_and(f64::is_finite), "{key}: {split}");
     }
+    // Each layer's error, named: the mean over all vertices lies between the layers' means.
+    assert!(run.stdout.contains("vertex error by layer, mean (px): "), "{}", run.stdout);
+    for frame in json["frames"].as_array().unwrap() {
+        let layers: Vec<f64> = frame["layer_errors"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .map(|e| e.as_f64().unwrap())
+            .collect();
+        assert_eq!(layers.len(), json["layers"].as_array().unwrap().len());
+        let all = frame["vertex_error"].as_f64().unwrap();
+        let (lo, hi) = layers.iter().fold((f64::INFINITY, 0.0f64), |(lo, hi), &e| (lo.min(e), hi.max(e)));
+        assert!(lo <= all + 1e-9 && all <= hi + 1e-9, "{all} outside the layers' [{lo}, {hi}]");
+    }
     let accessories = &json["accessories"];
     assert_eq!(accessories["poses"], serde_json::json!([3, 6, 12]), "{accessories}");
     for kind in ["fits", "inbetweens", "drags"] {

@@ -51,6 +51,9 @@ pub struct FrameScores {
     /// On a puppet with accessory layers (ground truth only): vertex error of the body layers'
     /// vertices and of the accessories' vertices, each over all and over visible vertices.
     pub split: Option<SplitError>,
+    /// Mean vertex error of each layer's vertices, in the puppet's layer order (ground truth
+    /// only): which parts carry the error (hidden ones have no evidence in the frame).
+    pub layer_errors: Option<Vec<f64>>,
     /// With an appearance stage: L2 of the generator's redraw of the render (Table 1's
     /// "generated" beside `l2`, its "rendered").
     pub generated_l2: Option<f64>,
@@ -83,6 +86,8 @@ pub struct Report {
     /// worst over the poses) on the fits, on in-betweens of consecutive frames (the default path) and on
     /// seeded drags ([`super::edit_poses`]).
     pub accessories: Option<AccessoryScores>,
+    /// The puppet's layer names, in the order of [`FrameScores::layer_errors`].
+    pub layers: Vec<String>,
 }
 
 /// A dressed puppet's accessories on each kind of pose.
@@ -163,14 +168,15 @@ pub fn evaluate(
             l2: l2(&render, picture),
             masked_rmse: masked_rmse(&render, picture),
             iou: silhouette_iou(&render, picture),
-            vertex_error: truth.map(|t| t.vertex_error),
-            pck: truth.map(|t| t.pck),
-            visible_vertex_error: truth.map(|t| t.visible_vertex_error),
-            visible_pck: truth.map(|t| t.visible_pck),
-            visible_share: truth.map(|t| t.visible_share),
-            true_pose_l2: truth.map(|t| t.true_pose_l2),
-            true_pose_iou: truth.map(|t| t.true_pose_iou),
-            split: truth.and_then(|t| t.split),
+            vertex_error: truth.as_ref().map(|t| t.vertex_error),
+            pck: truth.as_ref().map(|t| t.pck),
+            visible_vertex_error: truth.as_ref().map(|t| t.visible_vertex_error),
+            visible_pck: truth.as_ref().map(|t| t.visible_pck),
+            visible_share: truth.as_ref().map(|t| t.visible_share),
+            true_pose_l2: truth.as_ref().map(|t| t.true_pose_l2),
+            true_pose_iou: truth.as_ref().map(|t| t.true_pose_iou),
+            split: truth.as_ref().and_then(|t| t.split),
+            layer_errors: truth.map(|t| t.layer_errors),
             generated_l2: generated.as_ref().map(|g| l2(g, picture)),
             generated_iou: generated.as_ref().map(|g| silhouette_iou(g, picture)),
         });
@@ -195,11 +201,11 @@ pub fn evaluate(
         frames: scores,
         mean,
         accessories,
+        layers: model.puppet.layers.iter().map(|l| l.name.clone()).collect(),
     })
 }
 
 /// The scores that need ground truth.
-#[derive(Clone, Copy)]
 struct TruthScores {
     vertex_error: f64,
     pck: [f64; 3],
@@ -209,6 +215,7 @@ struct TruthScores {
     true_pose_l2: f64,
     true_pose_iou: f64,
     split: Option<SplitError>,
+    layer_errors: Vec<f64>,
 }
 
 fn truth_scores(truth: &Truth, frame: usize, model: &Model, fit: &[[f32; 2]], picture: &Picture) -> Result<TruthScores> {
@@ -238,7 +245,13 @@ fn truth_scores(truth: &Truth, frame: usize, model: &Model, fit: &[[f32; 2]], pi
             accessories_visible: error(true, true),
         }
     });
+    let offsets = model.puppet.vertex_offsets();
+    let layer_errors = offsets
+        .windows(2)
+        .map(|r| vertex_error(&fit[r[0]..r[1]], &true_v[r[0]..r[1]]))
+        .collect();
     Ok(TruthScores {
+        layer_errors,
         vertex_error: vertex_error(fit, &true_v),
         pck: PCK_ALPHAS.map(|a| pck(fit, &true_v, a, w, h)),
         visible_vertex_error: vertex_error(&fit_shown, &true_shown),
@@ -269,6 +282,12 @@ fn mean_scores(scores: &[FrameScores]) -> FrameScores {
         true_pose_l2: truth_avg(&|s| s.true_pose_l2),
         true_pose_iou: truth_avg(&|s| s.true_pose_iou),
         split: mean_split(scores),
+        layer_errors: (m > 0.0).then(|| {
+            let per_frame: Vec<&Vec<f64>> = with_truth.iter().filter_map(|s| s.layer_errors.as_ref()).collect();
+            (0..per_frame.first().map_or(0, |e| e.len()))
+                .map(|l| per_frame.iter().map(|e| e[l]).sum::<f64>() / per_frame.len().max(1) as f64)
+                .collect()
+        }),
         generated_l2: mean_of(scores, |s| s.generated_l2),
         generated_iou: mean_of(scores, |s| s.generated_iou),
     }
@@ -361,6 +380,10 @@ impl Report {
                     ));
                 }
             }
+        }
+        if let Some(errors) = &self.mean.layer_errors {
+            let each: Vec<String> = self.layers.iter().zip(errors).map(|(name, e)| format!("{name} {e:.2}")).collect();
+            out.push_str(&format!("vertex error by layer, mean (px): {}\n", each.join(", ")));
         }
         if let Some(split) = &self.mean.split {
             let px = |v: Option<f64>| v.map_or("-".to_string(), |v| format!("{v:.2}"));
