@@ -45,6 +45,9 @@ fn config(dir: &Path, name: &str, seq: &Path, extra: &str) -> PathBuf {
 /// Poses the template draws itself, one per drawn frame of a batch (`[train.sampled]`).
 const SAMPLED: &str = "[train.sampled]\nshare = 1.0\n";
 
+/// The drawn frames moved and recoloured at each step (`[train.augment]`).
+const AUGMENT: &str = "[train.augment]\nshift = 0.05\nscale = 0.05\nmax_degrees = 5.0\ncolour = 0.1\n";
+
 fn losses(model: &Path) -> Vec<f64> {
     let text = std::fs::read_to_string(model.join("log.csv")).unwrap();
     text.lines()
@@ -161,8 +164,9 @@ fn training_lowers_the_reconstruction_loss_and_fit_and_eval_run() {
 fn a_killed_run_resumes_to_the_weights_of_an_uninterrupted_one() {
     let tmp = tempfile::tempdir().unwrap();
     let seq = synth(tmp.path(), 4, "64x64");
-    // Sampled poses around the network's own poses: they depend on the weights of each step too.
-    let settings = &format!("steps = 40\ncheckpoint_every = 4\n{SAMPLED}around = \"fits\"\n");
+    // Sampled poses around the network's own poses (they depend on the weights of each step
+    // too) and the drawn frames augmented: both must be functions of the step.
+    let settings = &format!("steps = 40\ncheckpoint_every = 4\n{SAMPLED}around = \"fits\"\n{AUGMENT}");
     let whole = config(tmp.path(), "whole", &seq, settings);
     puppet(tmp.path(), &["train", whole.to_str().unwrap()]).assert_ok();
 
@@ -265,6 +269,11 @@ fn bad_configs_get_errors_naming_the_problem() {
         format!("{base}[train.sampled]\nshare = -1\n"),
         &["train.sampled.share", "-1"],
     );
+    case(
+        "augment",
+        format!("{base}[train.augment]\nmax_degrees = 400\n"),
+        &["train.augment.max_degrees", "400"],
+    );
 }
 
 /// The poses the template draws itself (`[train.sampled]`): their vertex loss is logged, and it
@@ -302,5 +311,27 @@ fn sampled_poses_are_logged_and_their_vertex_loss_teaches_them() {
         "the sampled poses' vertex loss over the last 20 steps: {:.2} px² with its weight, {:.2} without",
         last(&taught),
         last(&shown)
+    );
+}
+
+/// The drawn frames augmented (`[train.augment]`): the first step's loss is measured on moved
+/// frames, so it differs from the same run's without augmentation (the untrained weights are the
+/// same: they depend on the seed).
+#[test]
+fn augmented_frames_are_what_the_first_step_sees() {
+    let tmp = tempfile::tempdir().unwrap();
+    let seq = synth(tmp.path(), 4, "64x64");
+    let first_loss = |name: &str, extra: &str| {
+        let cfg = config(tmp.path(), name, &seq, &format!("steps = 1\n{extra}"));
+        puppet(tmp.path(), &["train", cfg.to_str().unwrap()]).assert_ok();
+        losses(&tmp.path().join(name))[0]
+    };
+    let plain = first_loss("plain", "");
+    let again = first_loss("again", "");
+    let moved = first_loss("moved", AUGMENT);
+    assert_eq!(plain, again, "a run's first loss is a function of its config");
+    assert!(
+        moved.is_finite() && moved != plain,
+        "moved frames give another loss: {moved} vs {plain}"
     );
 }

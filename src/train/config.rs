@@ -22,12 +22,18 @@
 //! eval_every = 100                  # the held-out frames' loss, logged and plotted
 //!
 //! [train.sampled]                   # poses the template draws itself (issue 19; not the
-//! share = 0.0                       #   paper's): per drawn frame of a batch, 0 = off
+//! share = 0.5                       #   paper's): per drawn frame of a batch, 0 = off
 //! vertex_weight = 10.0              # their vertex loss, per working px² of mean error
-//! max_degrees = 30.0                # each limb turned about its joint within ± this
-//! scale = 0.1                       # the figure scaled within 1 ± this
-//! shift = 0.05                      # and shifted within ± this share of the frame
-//! around = "rest"                   # or "fits": turned from the network's poses of the batch
+//! max_degrees = 20.0                # each limb turned about its joint within ± this
+//! scale = 0.05                      # the figure scaled within 1 ± this
+//! shift = 0.03                      # and shifted within ± this share of the frame
+//! around = "fits"                   # turned from the network's poses of the batch, or "rest"
+//!
+//! [train.augment]                   # the drawn frames moved and recoloured each step (issue
+//! shift = 0.0                       #   19; not the paper's): within ± this share of the square
+//! scale = 0.0                       # scaled within 1 ± this about the square's centre
+//! max_degrees = 0.0                 # turned within ± this
+//! colour = 0.0                      # the input's channels multiplied within 1 ± this
 //!
 //! [train.adam]                      # the optimiser; all optional (PyTorch's defaults)
 //! beta_1 = 0.9
@@ -58,6 +64,7 @@ use crate::picture::ImageLimits;
 use crate::puppet::sequence::FrameCheck;
 use crate::user_file;
 
+use super::augment::Augment;
 use super::optim::AdamSettings;
 use super::sampled::SampledPoses;
 use crate::error::{Context, Error, Result};
@@ -172,9 +179,13 @@ pub struct TrainSettings {
     pub eval_every: u64,
     /// Adam's settings besides the learning rate.
     pub adam: AdamSettings,
-    /// Poses the template draws itself, shown beside the drawn frames (off by default).
-    #[serde(skip_serializing_if = "SampledPoses::is_off")]
+    /// Poses the template draws itself, shown beside the drawn frames (on by default; a model's
+    /// `train.toml` always records them, as a model trained before they were the default has no
+    /// table and read today would mean them on).
     pub sampled: SampledPoses,
+    /// The drawn frames moved and recoloured at each step (off by default).
+    #[serde(skip_serializing_if = "Augment::is_off")]
+    pub augment: Augment,
 }
 
 impl Default for TrainSettings {
@@ -189,6 +200,7 @@ impl Default for TrainSettings {
             eval_every: 100,
             adam: AdamSettings::new(),
             sampled: SampledPoses::default(),
+            augment: Augment::default(),
         }
     }
 }
@@ -321,7 +333,8 @@ impl TrainConfig {
             return Err(problem);
         }
         t.adam.validate()?;
-        t.sampled.validate()
+        t.sampled.validate()?;
+        t.augment.validate()
     }
 
     /// The frame checks of this run for frames of a `width` × `height` puppet.

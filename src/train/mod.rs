@@ -2,6 +2,7 @@
 //! the fused Adam, checkpoints, logs, and the loop that lowers [`crate::objective`] over the
 //! network's weights.
 
+pub mod augment;
 pub mod checkpoint;
 pub mod config;
 pub mod log;

@@ -503,8 +503,21 @@ impl Trainer {
     /// # Errors
     /// Shape errors from the rasterizer or ARAP operations.
     pub fn losses(&self, step: u64) -> Result<(LogRow, LossTerms)> {
-        let mut batch: Vec<&Vec<f32>> = self.batches.batch(step).into_iter().map(|i| &self.inputs[i]).collect();
-        let drawn = batch.len();
+        let chosen: Vec<&Vec<f32>> = self.batches.batch(step).into_iter().map(|i| &self.inputs[i]).collect();
+        let drawn = chosen.len();
+        let augment = &self.config.train.augment;
+        let size = self.model.letterbox.size as usize;
+        let augmented = (!augment.is_off()).then(|| augment.apply(&chosen, size, self.config.seed, step));
+        let mut batch: Vec<&Vec<f32>> = match &augmented {
+            Some(a) => a.inputs.iter().collect(),
+            None => chosen,
+        };
+        // What the image loss compares the renders with: the drawn frames as the network sees
+        // them, but for colour jitter (the input's only).
+        let targets = |inputs: &Tensor<4>| match &augmented {
+            Some(a) => self.images(&a.targets.iter().collect::<Vec<_>>(), &self.device),
+            None => inputs.clone().narrow(0, 0, drawn),
+        };
         let sigma = self.config.sigma_at(step);
         let net = &self.model.net;
         let (mut terms, vertex) = match &self.sampler {
@@ -513,7 +526,7 @@ impl Trainer {
                 let images = self.images(&batch, &self.device);
                 let vertices = self.decoder.vertices(net, net.encode(images.clone()));
                 let bases = self.frame_poses(&vertices);
-                let terms = self.objective.evaluate(vertices, images, sigma, &self.device)?;
+                let terms = self.objective.evaluate(vertices, targets(&images), sigma, &self.device)?;
                 let s = sampler.step(&self.model, step, drawn, &bases)?;
                 let planes: Vec<&Vec<f32>> = s.planes.iter().collect();
                 let predicted = self.decoder.vertices(net, net.encode(self.images(&planes, &self.device)));
@@ -525,19 +538,16 @@ impl Trainer {
                 batch.extend(&s.planes);
                 let images = self.images(&batch, &self.device);
                 let vertices = self.decoder.vertices(net, net.encode(images.clone()));
-                let terms = self.objective.evaluate(
-                    vertices.clone().narrow(0, 0, drawn),
-                    images.narrow(0, 0, drawn),
-                    sigma,
-                    &self.device,
-                )?;
+                let terms = self
+                    .objective
+                    .evaluate(vertices.clone().narrow(0, 0, drawn), targets(&images), sigma, &self.device)?;
                 let predicted = vertices.narrow(0, drawn, s.vertices.len());
                 (terms, Some(self.vertex_loss(predicted, &s.vertices)))
             }
             None => {
                 let images = self.images(&batch, &self.device);
                 let vertices = self.decoder.vertices(net, net.encode(images.clone()));
-                (self.objective.evaluate(vertices, images, sigma, &self.device)?, None)
+                (self.objective.evaluate(vertices, targets(&images), sigma, &self.device)?, None)
             }
         };
         if let Some(vertex) = &vertex {
