@@ -22,7 +22,7 @@
 //! eval_every = 100                  # the held-out frames' loss, logged and plotted
 //!
 //! [train.sampled]                   # poses the template draws itself (issue 19; not the
-//! share = 0.5                       #   paper's): per drawn frame of a batch, 0 = off
+//! share = 0.0                       #   paper's): per drawn frame of a batch, 0 = off
 //! vertex_weight = 10.0              # their vertex loss, per working px² of mean error
 //! max_degrees = 20.0                # each limb turned about its joint within ± this
 //! scale = 0.05                      # the figure scaled within 1 ± this
@@ -179,9 +179,8 @@ pub struct TrainSettings {
     pub eval_every: u64,
     /// Adam's settings besides the learning rate.
     pub adam: AdamSettings,
-    /// Poses the template draws itself, shown beside the drawn frames (on by default; a model's
-    /// `train.toml` always records them, as a model trained before they were the default has no
-    /// table and read today would mean them on).
+    /// Poses the template draws itself, shown beside the drawn frames (off by default).
+    #[serde(skip_serializing_if = "SampledPoses::is_off")]
     pub sampled: SampledPoses,
     /// The drawn frames moved and recoloured at each step (off by default).
     #[serde(skip_serializing_if = "Augment::is_off")]
