@@ -28,10 +28,8 @@ pub struct LimbSearch {
 
 impl Default for LimbSearch {
     /// ±120° in 20° steps, then 10° either side of the best: 14 turns per limb instead of the 24
-    /// of one pass at 10° (README: the same fits; 30° coarse steps lost the robot's raised arm in
-    /// its held-out fall frame). Measured on the Kenney robot's held-out fall frame (one round, one pass at
-    /// 10°): ±90° left its raised arm down (L2 4288), ±180° settled in a worse minimum (3971) than
-    /// ±120° (3116).
+    /// of one pass at 10°, for the same fits (README: 30° coarse steps lost the robot's raised arm
+    /// in its held-out fall frame; ±90° left it down, ±180° settled in a worse minimum).
     fn default() -> Self {
         LimbSearch {
             max_degrees: 120.0,

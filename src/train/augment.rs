@@ -113,17 +113,20 @@ fn moved(planes: &[f32], size: usize, [angle, scale, dx, dy]: [f32; 4]) -> Vec<f
             let sy = (-s * px + c * py) / scale + centre - 0.5;
             let (x0, y0) = (sx.floor(), sy.floor());
             let (fx, fy) = (sx - x0, sy - y0);
-            let tap = |xi: f32, yi: f32, channel: usize| -> f32 {
-                if xi < 0.0 || yi < 0.0 || xi >= size as f32 || yi >= size as f32 {
-                    0.0
-                } else {
-                    planes[channel * n + yi as usize * size + xi as usize]
-                }
+            // The four neighbours' offsets in a plane and bilinear weights; outside is transparent.
+            let tap = |xi: f32, yi: f32, weight: f32| {
+                let inside = xi >= 0.0 && yi >= 0.0 && xi < size as f32 && yi < size as f32;
+                inside.then(|| (yi as usize * size + xi as usize, weight))
             };
+            let taps = [
+                tap(x0, y0, (1.0 - fx) * (1.0 - fy)),
+                tap(x0 + 1.0, y0, fx * (1.0 - fy)),
+                tap(x0, y0 + 1.0, (1.0 - fx) * fy),
+                tap(x0 + 1.0, y0 + 1.0, fx * fy),
+            ];
             for channel in 0..4 {
-                let top = tap(x0, y0, channel) * (1.0 - fx) + tap(x0 + 1.0, y0, channel) * fx;
-                let bottom = tap(x0, y0 + 1.0, channel) * (1.0 - fx) + tap(x0 + 1.0, y0 + 1.0, channel) * fx;
-                out[channel * n + y * size + x] = top * (1.0 - fy) + bottom * fy;
+                let plane = &planes[channel * n..(channel + 1) * n];
+                out[channel * n + y * size + x] = taps.iter().flatten().map(|&(k, w)| plane[k] * w).sum();
             }
         }
     }

@@ -520,36 +520,29 @@ impl Trainer {
         };
         let sigma = self.config.sigma_at(step);
         let net = &self.model.net;
-        let (mut terms, vertex) = match &self.sampler {
-            Some(sampler) if sampler.around_fits() => {
-                // The samples turn the network's poses of these frames: the drawn frames first.
-                let images = self.images(&batch, &self.device);
-                let vertices = self.decoder.vertices(net, net.encode(images.clone()));
-                let bases = self.frame_poses(&vertices);
-                let terms = self.objective.evaluate(vertices, targets(&images), sigma, &self.device)?;
-                let s = sampler.step(&self.model, step, drawn, &bases)?;
+        // Samples around the rest pose go through the network with the drawn frames, in one
+        // forward; samples around the network's poses of the frames need those poses first.
+        let beside = match &self.sampler {
+            Some(sampler) if !sampler.around_fits() => Some(sampler.step(&self.model, step, drawn, &[])?),
+            _ => None,
+        };
+        if let Some(s) = &beside {
+            batch.extend(&s.planes);
+        }
+        let images = self.images(&batch, &self.device);
+        let vertices = self.decoder.vertices(net, net.encode(images.clone()));
+        let on_frames = vertices.clone().narrow(0, 0, drawn);
+        let vertex = match (&self.sampler, beside) {
+            (_, Some(s)) => Some(self.vertex_loss(vertices.narrow(0, drawn, s.vertices.len()), &s.vertices)),
+            (Some(sampler), None) => {
+                let s = sampler.step(&self.model, step, drawn, &self.frame_poses(&on_frames))?;
                 let planes: Vec<&Vec<f32>> = s.planes.iter().collect();
                 let predicted = self.decoder.vertices(net, net.encode(self.images(&planes, &self.device)));
-                (terms, Some(self.vertex_loss(predicted, &s.vertices)))
+                Some(self.vertex_loss(predicted, &s.vertices))
             }
-            Some(sampler) => {
-                // One forward for the drawn frames and the samples around the rest pose.
-                let s = sampler.step(&self.model, step, drawn, &[])?;
-                batch.extend(&s.planes);
-                let images = self.images(&batch, &self.device);
-                let vertices = self.decoder.vertices(net, net.encode(images.clone()));
-                let terms = self
-                    .objective
-                    .evaluate(vertices.clone().narrow(0, 0, drawn), targets(&images), sigma, &self.device)?;
-                let predicted = vertices.narrow(0, drawn, s.vertices.len());
-                (terms, Some(self.vertex_loss(predicted, &s.vertices)))
-            }
-            None => {
-                let images = self.images(&batch, &self.device);
-                let vertices = self.decoder.vertices(net, net.encode(images.clone()));
-                (self.objective.evaluate(vertices, targets(&images), sigma, &self.device)?, None)
-            }
+            (None, None) => None,
         };
+        let mut terms = self.objective.evaluate(on_frames, targets(&images), sigma, &self.device)?;
         if let Some(vertex) = &vertex {
             terms.total = terms.total + vertex.clone().mul_scalar(self.config.train.sampled.vertex_weight);
         }
