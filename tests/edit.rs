@@ -138,14 +138,14 @@ fn inbetween_writes_steps_sheets_and_a_gif() {
         run.stdout
     );
     for k in 0..5 {
-        for sub in ["latent", "vertex", "arap", "nearest"] {
+        for sub in ["inbetween", "vertex", "arap", "nearest"] {
             assert!(out.join(sub).join(format!("step_00{k}.png")).is_file(), "{sub} step {k}");
         }
-        let pose = format!("latent/step_00{k}.json");
+        let pose = format!("inbetween/step_00{k}.json");
         let json: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(out.join(&pose)).unwrap()).unwrap();
         assert!(json["vertices"].as_array().is_some_and(|v| !v.is_empty()), "{pose}");
     }
-    assert!(!out.join("latent/step_005.png").exists());
+    assert!(!out.join("inbetween/step_005.png").exists());
     let sheet = image::open(out.join("sheet.png")).unwrap();
     assert!(sheet.width() > 5 * 64 && sheet.height() > 4 * 64, "four rows of five");
     let sprites = image::open(out.join("sprites.png")).unwrap();
@@ -191,7 +191,7 @@ fn export_spine_writes_a_skeleton_of_inbetween_and_pose_files() {
             "spine",
             "--model",
             s(&model),
-            s(&ib.join("latent")),
+            s(&ib.join("inbetween")),
             s(&tmp.path().join("posed.json")),
             "-o",
             s(&out),
@@ -200,12 +200,12 @@ fn export_spine_writes_a_skeleton_of_inbetween_and_pose_files() {
         ],
     );
     run.assert_ok();
-    assert!(run.stdout.contains("latent (4 keys), posed (1 keys)"), "{}", run.stdout);
+    assert!(run.stdout.contains("inbetween (4 keys), posed (1 keys)"), "{}", run.stdout);
     let json: serde_json::Value = serde_json::from_slice(&std::fs::read(out.join("tiny.json")).unwrap()).unwrap();
     assert_eq!(json["skeleton"]["spine"], "4.2.0");
     let layers = json["slots"].as_array().unwrap().len();
     assert_eq!(json["bones"].as_array().unwrap().len(), layers);
-    let walk = &json["animations"]["latent"];
+    let walk = &json["animations"]["inbetween"];
     let first_bone = json["bones"][0]["name"].as_str().unwrap();
     assert_eq!(walk["bones"][first_bone]["rotate"].as_array().unwrap().len(), 4);
     assert!(std::fs::read_to_string(out.join("tiny.atlas"))
@@ -226,7 +226,7 @@ fn export_spine_writes_a_skeleton_of_inbetween_and_pose_files() {
             "spine",
             "--model",
             s(&model),
-            s(&ib.join("latent")),
+            s(&ib.join("inbetween")),
             "-o",
             s(&out),
             "--name",
@@ -328,11 +328,11 @@ fn outfits_dress_inbetweens_fits_and_drags_of_a_bare_model() {
     run.assert_ok();
     assert!(run.stdout.contains("outfit: 1 accessories"), "{}", run.stdout);
     assert!(
-        pose_len(&ib.join("latent/step_001.json")) > bare,
+        pose_len(&ib.join("inbetween/step_001.json")) > bare,
         "the poses are of the dressed puppet"
     );
     // Above the head, where only the hat is.
-    assert!(hat_at(&ib.join("latent/step_000.png"), 32, 5) && !hat_at(&a, 32, 5));
+    assert!(hat_at(&ib.join("inbetween/step_000.png"), 32, 5) && !hat_at(&a, 32, 5));
 
     let fit = tmp.path().join("fit");
     puppet(
@@ -399,7 +399,7 @@ fn outfits_dress_inbetweens_fits_and_drags_of_a_bare_model() {
         "{}",
         json["slots"]
     );
-    export(&ib.join("latent")).assert_error(&["vertices, but the puppet has"]);
+    export(&ib.join("inbetween")).assert_error(&["vertices, but the puppet has"]);
 
     // What cannot be worn is refused, naming it; nothing is written.
     let out = tmp.path().join("refused");
@@ -485,9 +485,9 @@ fn a_rigged_model_drags_the_body_by_its_hat_and_takes_the_hat_off() {
         ],
     );
     run.assert_ok();
-    assert!(!hat_at(&ib.join("latent/step_001.png"), 32, 5), "the hat is off");
+    assert!(!hat_at(&ib.join("inbetween/step_001.png"), 32, 5), "the hat is off");
     let built = format::load(&tmp.path().join("built")).unwrap();
-    assert_eq!(pose_len(&ib.join("latent/step_001.json")), built.free_vertices().len());
+    assert_eq!(pose_len(&ib.join("inbetween/step_001.json")), built.free_vertices().len());
 }
 
 #[test]

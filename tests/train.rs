@@ -85,18 +85,18 @@ fn training_lowers_the_reconstruction_loss_and_fit_and_eval_run() {
     let model = tmp.path().join("run");
     let fit_dir = tmp.path().join("fit");
     let frames = seq.join("frames");
-    puppet(
-        tmp.path(),
-        &[
+    let fit = |out: &std::path::Path, extra: &[&str]| {
+        let args = [
             "fit",
             "--model",
             model.to_str().unwrap(),
             frames.to_str().unwrap(),
             "-o",
-            fit_dir.to_str().unwrap(),
-        ],
-    )
-    .assert_ok();
+            out.to_str().unwrap(),
+        ];
+        puppet(tmp.path(), &[&args[..], extra].concat())
+    };
+    fit(&fit_dir, &[]).assert_ok();
     for f in [
         "sheet.png",
         "frame_000_overlay.png",
@@ -105,6 +105,18 @@ fn training_lowers_the_reconstruction_loss_and_fit_and_eval_run() {
     ] {
         assert!(fit_dir.join(f).is_file(), "{f}");
     }
+    // The plausibility term on, held to the training frames' turns: it fits; a margin that is
+    // not a number of degrees is refused by name before anything is written.
+    let plausible = |margin: &str, out: &str| {
+        fit(
+            &tmp.path().join(out),
+            &["--plausibility-weight", "10", "--plausible-margin", margin],
+        )
+    };
+    plausible("0", "fit-plausible").assert_ok();
+    assert!(tmp.path().join("fit-plausible/frame_003_vertices.json").is_file());
+    plausible("nan", "fit-refused").assert_error(&["--plausible-margin"]);
+    assert!(!tmp.path().join("fit-refused").exists());
     // Scored on all four frames: the encoder's fit, refined latents, then refined vertices.
     let scores = |refine: &str, vertices: &str| -> serde_json::Value {
         let out = tmp.path().join(format!("eval-{refine}-{vertices}.json"));

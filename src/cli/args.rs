@@ -13,7 +13,11 @@ use puppet::rig::outfit::{dress, undress};
 use puppet::rig::RigOptions;
 
 use super::ui::Ui;
-use puppet::fit::{limb_search::LimbSearch, FitOptions, DEFAULT_LATENT_STEPS, DEFAULT_VERTEX_STEPS};
+use burn::tensor::Device;
+use puppet::fit::plausible::JointRanges;
+use puppet::fit::{
+    limb_search::LimbSearch, FitOptions, DEFAULT_LATENT_STEPS, DEFAULT_PLAUSIBILITY_WEIGHT, DEFAULT_PLAUSIBLE_MARGIN, DEFAULT_VERTEX_STEPS,
+};
 
 /// The trained model a command uses.
 #[derive(Debug, clap::Args)]
@@ -61,20 +65,48 @@ pub struct FitArgs {
     /// The paper's one-pass fit: no latent or vertex steps (overrides the three above).
     #[arg(long)]
     pub one_pass: bool,
+    /// Keep each limb's turn about its joint within this many degrees of the turns the network
+    /// gives the training frames (read again from split.json): the limb search tries no turn
+    /// past it and the steps pay for going past it, so a pose the character cannot take degrades
+    /// to a near one instead of contorting.
+    #[arg(long, default_value_t = DEFAULT_PLAUSIBLE_MARGIN, value_name = "DEGREES")]
+    pub plausible_margin: f32,
+    /// The weight of that plausibility term in the steps' objective; 0 = no term (`puppet fit`
+    /// still names limbs turned past the range).
+    #[arg(long, default_value_t = DEFAULT_PLAUSIBILITY_WEIGHT, value_name = "W")]
+    pub plausibility_weight: f32,
 }
 
 impl FitArgs {
-    /// The fit options, with the objective the model in `model_dir` was trained with.
-    pub fn options(&self, model_dir: &Path) -> puppet::Result<FitOptions> {
+    /// The fit options for `model`, read from `model_dir`: the objective it was trained with and,
+    /// unless the fit takes no step, the turn ranges of its training frames (a warning through
+    /// `ui` if those are gone).
+    pub fn options(&self, model_dir: &Path, model: &Model, device: &Device, ui: &Ui) -> puppet::Result<FitOptions> {
         let (latent, vertex) = if self.one_pass {
             (0, 0)
         } else {
             (self.latent.latent_steps, self.vertex_steps)
         };
         let options = FitOptions::for_model(model_dir, latent, vertex)?;
+        for (name, v) in [
+            ("--plausible-margin", self.plausible_margin),
+            ("--plausibility-weight", self.plausibility_weight),
+        ] {
+            if !(v.is_finite() && v >= 0.0) {
+                return Err(puppet::Error::setting(name, v, "a finite number ≥ 0"));
+            }
+        }
+        let steps = latent > 0 || (vertex > 0 && self.vertex_rounds > 0);
+        let ranges = if steps {
+            JointRanges::of_training_frames(model_dir, model, self.plausible_margin, device, ui)?
+        } else {
+            None
+        };
         Ok(FitOptions {
             vertex_rounds: self.vertex_rounds,
             limb_search: (!self.no_limb_search).then(LimbSearch::default),
+            ranges,
+            plausibility_weight: self.plausibility_weight,
             ..options
         })
     }

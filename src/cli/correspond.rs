@@ -93,7 +93,7 @@ pub fn run(args: CorrespondArgs, s: &Session) -> anyhow::Result<()> {
         None => grid_points(&a, args.spacing),
     };
     s.ui.stage("fit", 2);
-    let fits = fit(&model, &[&a, &b], &args.fit.options(dir)?, &device, &s.ui)?;
+    let fits = fit(&model, &[&a, &b], &args.fit.options(dir, &model, &device, &s.ui)?, &device, &s.ui)?;
     let matches = correspond(&model.puppet, &fits[0], &fits[1], &points)?;
     let rows: Vec<Match> = points
         .iter()
@@ -141,7 +141,7 @@ fn run_sequence(args: &CorrespondArgs, seq: &Path, s: &Session) -> anyhow::Resul
     );
     s.ui.stage("fit", test.len() as u64);
     let pictures: Vec<&Picture> = test.iter().map(|&t| &frames.frames[t]).collect();
-    let fitted = fit(&model, &pictures, &args.fit.options(dir)?, &device, &s.ui)?;
+    let fitted = fit(&model, &pictures, &args.fit.options(dir, &model, &device, &s.ui)?, &device, &s.ui)?;
     let mut fits = vec![Vec::new(); frames.frames.len()];
     for (&t, pose) in test.iter().zip(fitted) {
         fits[t] = pose;

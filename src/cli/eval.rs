@@ -48,7 +48,7 @@ pub fn run(args: EvalArgs, s: &Session) -> anyhow::Result<()> {
     let device = puppet::backend::device();
     let dir = &args.model.model;
     let model = Model::load(dir, &device)?;
-    let options = args.fit.options(dir)?;
+    let options = args.fit.options(dir, &model, &device, &s.ui)?;
     let stage = args.appearance.then(|| AppearanceStage::load(dir, &model, &device)).transpose()?;
     let (frames, bad) = Frames::load_each(&args.sequence, &frame_check(&model))?;
     let truth = Truth::for_sequence(&args.sequence)?;

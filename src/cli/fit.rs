@@ -57,7 +57,7 @@ pub fn run(args: FitArgs, s: &Session) -> anyhow::Result<()> {
     let device = puppet::backend::device();
     let dir = &args.model.model;
     let model = Model::load(dir, &device)?;
-    let options = args.fit.options(dir)?;
+    let options = args.fit.options(dir, &model, &device, &s.ui)?;
     let worn = args.outfit.model(&model, &s.ui)?;
     let drawn = worn.as_ref().unwrap_or(&model);
     let stage = args.appearance.then(|| AppearanceStage::load(dir, &model, &device)).transpose()?;
@@ -107,6 +107,16 @@ pub fn run(args: FitArgs, s: &Session) -> anyhow::Result<()> {
     s.ui.stage("fitting", pictures.len() as u64);
     let refs: Vec<&Picture> = pictures.iter().collect();
     let fits = fit(&model, &refs, &options, &device, &s.ui)?;
+    if let Some(ranges) = &options.ranges {
+        for (stem, pose) in stems.iter().zip(&fits) {
+            if let Some((layer, degrees)) = ranges.worst(pose) {
+                s.ui.warn(&format!(
+                    "{stem}: {} turned {degrees:.0}° past the turns of the training frames (+{}°): a pose the model has not seen",
+                    model.puppet.layers[layer].name, args.fit.plausible_margin
+                ));
+            }
+        }
+    }
     s.ui.stage("writing", pictures.len() as u64);
     let scale = (512 / w.max(h)).clamp(1, 4);
     let shown: Vec<usize> = (0..SHEET_ROWS.min(pictures.len()))

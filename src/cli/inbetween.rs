@@ -7,10 +7,11 @@ use std::path::{Path, PathBuf};
 use anyhow::Context;
 
 use puppet::appearance::AppearanceStage;
-use puppet::edit::inbetween::{comparison_sheet, inbetween, write_inbetweens, InbetweenFiles, MAX_STEPS};
+use puppet::edit::inbetween::{comparison_sheet, inbetween, write_inbetweens, InbetweenFiles, InbetweenPath, MAX_STEPS};
+use puppet::edit::manifold_path::Waypoints;
 use puppet::edit::timing::{eased_t, spacing_t, Easing};
 use puppet::eval::inbetween_eval::{inbetween_scores, InbetweenScore};
-use puppet::fit::frame::{frame_check, load_frame};
+use puppet::fit::frame::{frame_check, load_frame, training_frames};
 use puppet::fit::FitOptions;
 use puppet::metrics::l2;
 use puppet::model::Model;
@@ -22,17 +23,19 @@ use puppet::render::render_crisp;
 use super::args::{AnimationArgs, FitArgs, ModelArgs, OutfitArgs};
 use super::Session;
 
-/// Make in-between frames of two keyframes by interpolating their latent codes.
+/// Make in-between frames of two keyframes along the pose manifold the model learned.
 ///
 /// The keyframes are fitted as `puppet fit` fits them, and the in-betweens start and end on
-/// those fits: the latent path carries each fit's offset from its latent's decode. Writes into
-/// OUTPUT: latent/step_NNN.png and .json (the learned path, keyframes included, and each pose),
-/// vertex/step_NNN.png and arap/step_NNN.png (linear and as-rigid-as-possible interpolation of
-/// the two fitted meshes, for comparison), nearest/step_NNN.png (the training frame nearest each
-/// latent step, with --training), sheet.png (rows: latent, vertex, arap, nearest; at most 12
-/// steps shown) and sprites.png with its atlas sprites.json (the latent steps for game engines;
-/// further pages sprites_2.png, … past 4096 px); with --gif / --apng, the latent steps played
-/// there and back.
+/// those fits. Between them the path runs through the poses of the model's training frames
+/// that lie between the keyframes (none: straight), as-rigid-as-possible between its corners,
+/// or with --path latent along the latents (carrying each fit's offset from its latent's
+/// decode). Writes into OUTPUT: inbetween/step_NNN.png and .json (the path, keyframes included,
+/// and each pose), vertex/step_NNN.png and arap/step_NNN.png (linear and as-rigid-as-possible
+/// interpolation of the two fitted meshes, straight, for comparison), nearest/step_NNN.png (the
+/// training frame nearest each step, with --training), sheet.png (rows: path, vertex, arap,
+/// nearest; at most 12 steps shown) and sprites.png with its atlas sprites.json (the steps for
+/// game engines; further pages sprites_2.png, … past 4096 px); with --gif / --apng, the steps
+/// played there and back.
 #[derive(Debug, clap::Args)]
 pub struct InbetweenArgs {
     #[command(flatten)]
@@ -45,9 +48,10 @@ pub struct InbetweenArgs {
     pub b: Option<PathBuf>,
     /// Score instead: on this sequence (frames in natural order), generate every odd-numbered
     /// frame between two even keyframes GAP + 1 apart, at its place in time, and print the mean
-    /// L2 to the true frames for the plain latent path, the default path through the keyframes'
-    /// fits, vertex and as-rigid-as-possible interpolation, the nearest even frame, holding the
-    /// first keyframe, and the model's own fit (for a model trained on the even frames only).
+    /// L2 to the true frames for both paths (--path), the latent path through the keyframes'
+    /// fits straight, the plain latent path, vertex and as-rigid-as-possible interpolation, the
+    /// nearest even frame, holding the first keyframe, and the model's own fit (for a model
+    /// trained on the even frames only).
     #[arg(long, value_name = "SEQUENCE", conflicts_with_all = ["a", "b", "gif", "apng", "training"])]
     pub score: Option<PathBuf>,
     /// With --score: the gaps (odd frame counts between the keyframes), comma-separated; 1 if
@@ -61,6 +65,11 @@ pub struct InbetweenArgs {
     /// ease-in-out (slow out of A and into B: slow-in/slow-out).
     #[arg(long, default_value = "linear", value_name = "EASING")]
     pub easing: Easing,
+    /// The path between the keyframes' fits, along the training frames' poses between them:
+    /// rigid (as-rigid-as-possible between its corners) or latent (the decoder's, along the
+    /// latents).
+    #[arg(long, default_value = "rigid", value_name = "PATH")]
+    pub path: PathArg,
     /// Place the in-betweens by hand instead: each one's position between A (0) and B (1), in
     /// increasing order, comma-separated (e.g. 0.1,0.3,0.6: a spacing chart).
     #[arg(long, value_name = "T,T,…", value_delimiter = ',', conflicts_with_all = ["steps", "easing"])]
@@ -89,6 +98,24 @@ pub struct InbetweenArgs {
     pub appearance: bool,
 }
 
+/// `--path`.
+#[derive(Clone, Copy, Debug, clap::ValueEnum)]
+pub enum PathArg {
+    /// As-rigid-as-possible between the corners of the path.
+    Rigid,
+    /// Along the latents.
+    Latent,
+}
+
+impl From<PathArg> for InbetweenPath {
+    fn from(p: PathArg) -> Self {
+        match p {
+            PathArg::Rigid => InbetweenPath::Rigid,
+            PathArg::Latent => InbetweenPath::Latent,
+        }
+    }
+}
+
 /// Runs `puppet inbetween`.
 pub fn run(args: InbetweenArgs, s: &Session) -> anyhow::Result<()> {
     let t = if args.spacing.is_empty() {
@@ -99,12 +126,12 @@ pub fn run(args: InbetweenArgs, s: &Session) -> anyhow::Result<()> {
     let device = puppet::backend::device();
     let dir = &args.model.model;
     let model = Model::load(dir, &device)?;
-    let options = args.fit.options(dir)?;
+    let options = args.fit.options(dir, &model, &device, &s.ui)?;
     if let Some(seq) = &args.score {
         let mut gaps = if args.gaps.is_empty() { vec![1] } else { args.gaps };
         gaps.sort_unstable();
         gaps.dedup();
-        return score(&model, seq, &gaps, &options, s);
+        return score(&model, dir, seq, &gaps, &options, s);
     }
     let (Some(a_path), Some(b_path), Some(out)) = (&args.a, &args.b, &args.output) else {
         anyhow::bail!("give two frames A and B and an output folder (or --score SEQUENCE)");
@@ -126,20 +153,22 @@ pub fn run(args: InbetweenArgs, s: &Session) -> anyhow::Result<()> {
         ..AnimationFiles::default()
     };
     s.ui.stage("inbetween", 0);
-    let mut ib = inbetween(&model, &a, &b, &t, &options, &device)?;
+    let trained = training_frames(dir, &model, "the in-betweens take the straight path", &s.ui)?.unwrap_or_default();
+    let waypoints = Waypoints::of_frames(&model, &trained.iter().collect::<Vec<_>>(), &device)?;
+    let mut ib = inbetween(&model, &a, &b, &t, &options, &waypoints, args.path.into(), &device)?;
     let (w, h) = (model.puppet.width, model.puppet.height);
     let key_l2 = |pose: Option<&Vec<[f32; 2]>>, frame| -> puppet::Result<f64> {
         pose.map_or(Ok(f64::NAN), |p| Ok(l2(&render_crisp(&model.puppet, p, w, h)?, frame)))
     };
-    let (key_a, key_b) = (key_l2(ib.latent.first(), &a)?, key_l2(ib.latent.last(), &b)?);
+    let (key_a, key_b) = (key_l2(ib.path.first(), &a)?, key_l2(ib.path.last(), &b)?);
     if let Some(worn) = &worn {
         ib = ib.dressed(&model, worn);
     }
     let drawn = worn.as_ref().unwrap_or(&model);
     write_inbetweens(drawn, &ib, &training, &files, &s.outputs, &s.ui)?;
     if let Some(stage) = &stage {
-        let mut writer = AnimationWriter::new(&generated_files, ib.latent.len(), w, h, &s.outputs)?;
-        for (_, generated) in stage.render_and_redraw(&drawn.puppet, &ib.latent, &device)? {
+        let mut writer = AnimationWriter::new(&generated_files, ib.path.len(), w, h, &s.outputs)?;
+        for (_, generated) in stage.render_and_redraw(&drawn.puppet, &ib.path, &device)? {
             writer.push(&generated)?;
         }
         writer.finish()?;
@@ -150,7 +179,7 @@ pub fn run(args: InbetweenArgs, s: &Session) -> anyhow::Result<()> {
         s.ui.say(format!("wrote {}", path.display()))?;
     }
     s.ui.say(format!(
-        "{} in-betweens ({} frames with the two ends, {}) from {} to {} → {} (latent/, vertex/, arap/{}{}, sheet.png, sprites.png + sprites.json)",
+        "{} in-betweens ({} frames with the two ends, {}) from {} to {} → {} (inbetween/, vertex/, arap/{}{}, sheet.png, sprites.png + sprites.json)",
         t.len() - 2,
         t.len(),
         if args.spacing.is_empty() { args.easing.to_string() } else { "spaced by hand".to_string() },
@@ -175,28 +204,30 @@ fn files(args: &InbetweenArgs, out: &Path) -> InbetweenFiles {
         ..AnimationFiles::default()
     };
     InbetweenFiles {
-        latent: AnimationFiles {
-            frames: Some((out.join("latent"), "step".into())),
+        path: AnimationFiles {
+            frames: Some((out.join("inbetween"), "step".into())),
             sprites: Some((out.join("sprites.png"), args.columns)),
             ..args.animation.files(true)
         },
         vertex: frames("vertex"),
         rigid: frames("arap"),
         nearest: frames("nearest"),
-        poses: Some(out.join("latent")),
+        poses: Some(out.join("inbetween")),
     }
 }
 
 /// `--score`: the in-between table of `eval::inbetween_eval` on the odd frames of `seq`, a line
 /// per gap.
-fn score(model: &Model, seq: &Path, gaps: &[usize], options: &FitOptions, s: &Session) -> anyhow::Result<()> {
+fn score(model: &Model, dir: &Path, seq: &Path, gaps: &[usize], options: &FitOptions, s: &Session) -> anyhow::Result<()> {
     let device = puppet::backend::device();
     let frames = Frames::load(seq, &frame_check(model))?;
+    let trained = training_frames(dir, model, "the path along them is the straight line", &s.ui)?.unwrap_or_default();
+    let waypoints = Waypoints::of_frames(model, &trained.iter().collect::<Vec<_>>(), &device)?;
     let n = frames.frames.len();
     let even: Vec<usize> = (0..n).step_by(2).collect();
     let odd: Vec<usize> = (1..n).step_by(2).collect();
     s.ui.stage("score", 0);
-    let scores = inbetween_scores(model, &frames.frames, &even, &odd, gaps, options, &device)?;
+    let scores = inbetween_scores(model, &frames.frames, &even, &odd, gaps, &waypoints, options, &device)?;
     s.ui.finish();
     for &gap in gaps {
         let at_gap: Vec<&InbetweenScore> = scores.iter().filter(|s| s.gap == gap).collect();
@@ -206,9 +237,11 @@ fn score(model: &Model, seq: &Path, gaps: &[usize], options: &FitOptions, s: &Se
         }
         let mean = |f: fn(&InbetweenScore) -> f64| at_gap.iter().map(|s| f(s)).sum::<f64>() / at_gap.len() as f64;
         s.ui.print(format!(
-            "gap {gap}: {} in-betweens of {}: mean L2 — default (through the keyframes' fits) {:.1}, plain latent {:.1}, vertex {:.1}, as-rigid-as-possible {:.1}, nearest even frame {:.1}, first keyframe held {:.1}, fit of the true frame {:.1}",
+            "gap {gap}: {} in-betweens of {}: mean L2 — path rigid (default) {:.1}, path latent {:.1}, latent through the keyframes' fits straight {:.1}, plain latent {:.1}, vertex {:.1}, as-rigid-as-possible {:.1}, nearest even frame {:.1}, first keyframe held {:.1}, fit of the true frame {:.1}",
             at_gap.len(),
             seq.display(),
+            mean(|s| s.along_rigid),
+            mean(|s| s.along_latent),
             mean(|s| s.keyed),
             mean(|s| s.latent),
             mean(|s| s.vertex),
@@ -241,10 +274,12 @@ mod tests {
         parses(&ab(&["--easing", "ease-in-out"]));
         parses(&ab(&["--spacing", "0.1,0.5,0.9"]));
         parses(&ab(&["--appearance"]));
+        parses(&ab(&["--path", "latent"]));
         parses(&["inbetween", "--model", "m", "--score", "seq"]);
         parses(&["inbetween", "--model", "m", "--score", "seq", "--gaps", "1,3,5", "--one-pass"]);
         for bad in [
             ab(&["--easing", "bounce"]),
+            ab(&["--path", "curved"]),
             ab(&["--spacing", "0.5", "--steps", "3"]),
             ab(&["--gaps", "3"]),
             ab(&["--background", "white"]),

@@ -97,9 +97,9 @@ pub fn run(args: ServeArgs, s: &Session) -> anyhow::Result<()> {
             demo
         }
     };
-    let fit = args.fit.options(&dir)?;
     let device = puppet::backend::device();
     let model = Model::load(&dir, &device)?;
+    let fit = args.fit.options(&dir)?;
     let mut options = ServeOptions::new(fit);
     if args.appearance {
         options = options.with_appearance(AppearanceStage::load(&dir, &model, &device)?);

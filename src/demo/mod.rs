@@ -16,7 +16,10 @@ use std::time::Instant;
 use crate::appearance::{train_appearance, AppearanceConfig, AppearanceOptions, AppearanceStage};
 use crate::atomic_file::{record, written_by_puppet, Outputs};
 use crate::edit::arap_drag::arap_drag;
-use crate::edit::inbetween::{comparison_sheet, inbetween, steps_t, write_inbetweens, InbetweenFiles, Inbetweens, MAX_STEPS};
+use crate::edit::inbetween::{
+    comparison_sheet, inbetween, steps_t, write_inbetweens, InbetweenFiles, InbetweenPath, Inbetweens, MAX_STEPS,
+};
+use crate::edit::manifold_path::Waypoints;
 use crate::edit::pin_overlay::pin_overlay;
 use crate::edit::pose::{Pin, PoseEditor, PoseOptions};
 use crate::error::{Error, FolderKind, Result};
@@ -223,6 +226,13 @@ pub fn run(options: &DemoOptions, progress: &dyn Progress) -> Result<DemoSummary
 
     // 4. In-betweens: walk0 → walk4 (half a cycle apart) and idle → jump; the first also in the
     // character's other outfit, if it has one.
+    let trained: Vec<&Picture> = names
+        .iter()
+        .zip(&frames.frames)
+        .filter(|(name, _)| !held_out.contains(name))
+        .map(|(_, frame)| frame)
+        .collect();
+    let waypoints = Waypoints::of_frames(&model, &trained, &device)?;
     let mut inbetweens = Vec::new();
     let mut exported = Vec::new();
     let mut outfit = None;
@@ -232,9 +242,18 @@ pub fn run(options: &DemoOptions, progress: &dyn Progress) -> Result<DemoSummary
         (idle, pick("jump", 2), "inbetween_jump"),
     ] {
         let t = steps_t(INBETWEEN_STEPS, MAX_STEPS)?;
-        let ib = inbetween(&model, &frames.frames[a], &frames.frames[b], &t, &fit_options, &device)?;
+        let ib = inbetween(
+            &model,
+            &frames.frames[a],
+            &frames.frames[b],
+            &t,
+            &fit_options,
+            &waypoints,
+            InbetweenPath::default(),
+            &device,
+        )?;
         let files = InbetweenFiles {
-            latent: AnimationFiles {
+            path: AnimationFiles {
                 sprites: Some((out.join(format!("{stem}_sprites.png")), t.len())),
                 ..animation(out, stem, true)
             },
@@ -244,10 +263,10 @@ pub fn run(options: &DemoOptions, progress: &dyn Progress) -> Result<DemoSummary
         save(&format!("{stem}_sheet.png"), &comparison_sheet(&model, &ib, &frames.frames)?)?;
         exported.push(PoseAnimation {
             name: stem.to_string(),
-            poses: ib.latent.clone(),
+            poses: ib.path.clone(),
         });
         if first_path.is_none() {
-            first_path = Some((stem, ib.latent.clone()));
+            first_path = Some((stem, ib.path.clone()));
         }
         inbetweens.push(Inbetween {
             stem: stem.to_string(),
@@ -427,7 +446,7 @@ fn redress(
     let rig_ms = started.elapsed().as_secs_f64() * 1e3;
     let dressed = ib.dressed(model, &worn);
     let files = InbetweenFiles {
-        latent: animation(out, &format!("{stem}_dressed"), true),
+        path: animation(out, &format!("{stem}_dressed"), true),
         ..InbetweenFiles::default()
     };
     write_inbetweens(&worn, &dressed, &[], &files, outputs, progress)?;

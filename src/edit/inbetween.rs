@@ -21,6 +21,7 @@ use burn::tensor::{Device, Tensor, TensorData};
 
 use std::path::PathBuf;
 
+use super::manifold_path::{ManifoldPath, Waypoints};
 use crate::atomic_file::Outputs;
 use crate::error::{Error, Result};
 use crate::fit::{fit_with_latents, FitOptions};
@@ -35,14 +36,27 @@ use crate::puppet::Puppet;
 use crate::render::animation::{AnimationFiles, AnimationWriter};
 use crate::render::render_crisp;
 
+/// Which path in-betweens follow from one keyframe's fit to the other's. Both run along the
+/// manifold through the training frames that lie between the keyframes ([`ManifoldPath`]; the
+/// straight line where none does).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum InbetweenPath {
+    /// As-rigid-as-possible shape interpolation between consecutive corners of the path: the
+    /// default, best at every gap on the synthetic walks (README "In-betweens").
+    #[default]
+    Rigid,
+    /// The latent path of §4.1 along the corners, carried onto the keyframes' fits.
+    Latent,
+}
+
 /// The in-betweens of two keyframes by each method, one pose per `t`.
 #[derive(Clone, Debug)]
 pub struct Inbetweens {
     /// Interpolation parameters, from 0 (the first keyframe) to 1 (the second).
     pub t: Vec<f32>,
-    /// The learned path through the keyframes' fits (module doc), frame pixels, global vertex
-    /// numbering.
-    pub latent: Vec<Vec<[f32; 2]>>,
+    /// The in-betweens along the path asked for ([`InbetweenPath`]), frame pixels, global vertex
+    /// numbering: the keyframes' fits at 0 and 1.
+    pub path: Vec<Vec<[f32; 2]>>,
     /// The vertex-space interpolation `(1 − t)·v_1 + t·v_2` of the keyframes' fits.
     pub vertex: Vec<Vec<[f32; 2]>>,
     /// The as-rigid-as-possible shape interpolation of the keyframes' fits.
@@ -56,7 +70,7 @@ impl Inbetweens {
         let dress = |poses: &[Vec<[f32; 2]>]| poses.iter().map(|p| worn.pose_from(model, p)).collect();
         Inbetweens {
             t: self.t.clone(),
-            latent: dress(&self.latent),
+            path: dress(&self.path),
             vertex: dress(&self.vertex),
             rigid: dress(&self.rigid),
         }
@@ -73,6 +87,9 @@ pub struct Interpolator {
     decoded: [Vec<[f32; 2]>; 2],
     /// Each end's fit: its decode, or where vertex steps took it.
     keys: [Vec<[f32; 2]>; 2],
+    /// The latent path the learned in-betweens follow through waypoints, if any were given
+    /// (otherwise the straight line).
+    path: Option<ManifoldPath>,
 }
 
 impl Interpolator {
@@ -98,7 +115,22 @@ impl Interpolator {
             z_b,
             keys: decoded.clone(),
             decoded,
+            path: None,
         }
+    }
+
+    /// The same keyframes with the learned path following the manifold through `waypoints`
+    /// ([`ManifoldPath`]) instead of the straight latent line; the plain latent path stays
+    /// straight.
+    pub fn through(mut self, waypoints: &Waypoints) -> Self {
+        self.path = Some(ManifoldPath::new(
+            self.z_a.clone(),
+            &self.decoded[0],
+            self.z_b.clone(),
+            &self.decoded[1],
+            waypoints,
+        ));
+        self
     }
 
     /// The same latent path with other keyframe poses (fits of the same frames past the
@@ -129,10 +161,14 @@ impl Interpolator {
         model.to_frame_vertices(model.decode(z, device))
     }
 
-    /// The default path at each `t`: the latent path plus the keyframes' residuals over their
-    /// decodes, interpolated (module doc) — the keyframes' fits at 0 and 1.
+    /// The default path at each `t`: the latent path (through the waypoints, if given) plus the
+    /// keyframes' residuals over their decodes, interpolated (module doc) — the keyframes' fits
+    /// at 0 and 1.
     pub fn keyed_poses(&self, model: &Model, t: &[f32], device: &Device) -> Vec<Vec<[f32; 2]>> {
-        let mut poses = self.latent_poses(model, t, device);
+        let mut poses = match &self.path {
+            Some(path) if !t.is_empty() => model.to_frame_vertices(model.decode(path.latents(t, device), device)),
+            _ => self.latent_poses(model, t, device),
+        };
         for (pose, &t) in poses.iter_mut().zip(t) {
             // Exactly the keyframes at the ends, not up to float rounding of decode + residual.
             if t == 0.0 || t == 1.0 {
@@ -148,6 +184,41 @@ impl Interpolator {
             }
         }
         poses
+    }
+
+    /// The as-rigid-as-possible interpolation along the manifold path ([`Self::through`]; the
+    /// straight one without it) at each `t`: between consecutive corners of the path, the
+    /// keyframes' fits at its ends and the waypoints' decodes between.
+    ///
+    /// # Errors
+    /// As [`Self::rigid_poses`].
+    pub fn manifold_rigid_poses(&self, model: &Model, t: &[f32]) -> Result<Vec<Vec<[f32; 2]>>> {
+        let Some(path) = &self.path else {
+            return self.rigid_poses(model, t);
+        };
+        let mut corners = path.corner_poses().to_vec();
+        let last = corners.len() - 1;
+        corners[0].clone_from(&self.keys[0]);
+        corners[last].clone_from(&self.keys[1]);
+        let mut segments: Vec<Option<RigidInterpolation>> = (0..last).map(|_| None).collect();
+        t.iter()
+            .map(|&t| {
+                // Exactly the keyframes at the ends, not up to the solve's rounding.
+                if t == 0.0 || t == 1.0 {
+                    return Ok(self.keys[usize::from(t == 1.0)].clone());
+                }
+                let (k, share) = path.segment(t);
+                let interpolation = match &mut segments[k] {
+                    Some(i) => i,
+                    slot => slot.insert(rigid_interpolation(&model.puppet, &corners[k], &corners[k + 1])?),
+                };
+                let mut pose = interpolation.at(f64::from(share));
+                if let Some(rig) = model.expansion.rig_map() {
+                    rig.apply(&mut pose);
+                }
+                Ok(pose)
+            })
+            .collect()
     }
 
     /// The vertex-space interpolation of the keyframes at `t`.
@@ -219,16 +290,30 @@ pub fn steps_t(steps: usize, max_steps: usize) -> Result<Vec<f32>> {
 /// The default most in-betweens one call makes ([`steps_t`]): 1000 frames are 40 s at 25 fps.
 pub const MAX_STEPS: usize = 1000;
 
-/// In-betweens of frames `a` and `b` at each of `t` (e.g. [`steps_t`]): the default path through
-/// their fits, and the vertex-space and as-rigid-as-possible interpolations of the fits.
+/// In-betweens of frames `a` and `b` at each of `t` (e.g. [`steps_t`]): `path` along the manifold
+/// through `waypoints` (the frames the model was trained on) from one fit to the other, and the
+/// vertex-space and as-rigid-as-possible interpolations of the fits.
 ///
 /// # Errors
-/// As [`Interpolator::new`].
-pub fn inbetween(model: &Model, a: &Picture, b: &Picture, t: &[f32], fit: &FitOptions, device: &Device) -> Result<Inbetweens> {
-    let interp = Interpolator::new(model, a, b, fit, device)?;
+/// As [`Interpolator::new`] and [`Interpolator::manifold_rigid_poses`].
+#[allow(clippy::too_many_arguments)] // each is one of the in-between's independent inputs
+pub fn inbetween(
+    model: &Model,
+    a: &Picture,
+    b: &Picture,
+    t: &[f32],
+    fit: &FitOptions,
+    waypoints: &Waypoints,
+    path: InbetweenPath,
+    device: &Device,
+) -> Result<Inbetweens> {
+    let interp = Interpolator::new(model, a, b, fit, device)?.through(waypoints);
     Ok(Inbetweens {
         t: t.to_vec(),
-        latent: interp.keyed_poses(model, t, device),
+        path: match path {
+            InbetweenPath::Rigid => interp.manifold_rigid_poses(model, t)?,
+            InbetweenPath::Latent => interp.keyed_poses(model, t, device),
+        },
         vertex: t.iter().map(|&t| interp.vertex_pose(t)).collect(),
         rigid: interp.rigid_poses(model, t)?,
     })
@@ -254,22 +339,22 @@ pub fn comparison_sheet(model: &Model, inbetweens: &Inbetweens, training: &[Pict
     let render = |poses: &[Vec<[f32; 2]>]| -> Result<Vec<Picture>> {
         picked.iter().map(|&k| render_crisp(&model.puppet, &poses[k], w, h)).collect()
     };
-    let latent = render(&inbetweens.latent)?;
+    let path = render(&inbetweens.path)?;
     let vertex = render(&inbetweens.vertex)?;
     let rigid = render(&inbetweens.rigid)?;
-    let nearest: Vec<Picture> = latent
+    let nearest: Vec<Picture> = path
         .iter()
         .filter_map(|p| nearest_frame(p, training).map(|(k, _)| training[k].clone()))
         .collect();
-    let cells: Vec<&Picture> = latent.iter().chain(&vertex).chain(&rigid).chain(&nearest).collect();
+    let cells: Vec<&Picture> = path.iter().chain(&vertex).chain(&rigid).chain(&nearest).collect();
     Ok(contact_sheet(&cells, columns))
 }
 
 /// Where in-betweens are written; each animation is optional.
 #[derive(Clone, Debug, Default)]
 pub struct InbetweenFiles {
-    /// The learned path (ours), played there and back in its GIF.
-    pub latent: AnimationFiles,
+    /// The path asked for (ours), played there and back in its GIF.
+    pub path: AnimationFiles,
     /// The vertex-space interpolation.
     pub vertex: AnimationFiles,
     /// The as-rigid-as-possible interpolation.
@@ -305,7 +390,7 @@ pub fn write_inbetweens(
     for path in &pose_paths {
         outputs.claim(path)?;
     }
-    let mut latent = AnimationWriter::new(&files.latent, n, w, h, outputs)?;
+    let mut path = AnimationWriter::new(&files.path, n, w, h, outputs)?;
     // The comparisons are rendered only where they are written.
     let comparison = |files: &AnimationFiles| {
         (!files.is_empty())
@@ -321,11 +406,11 @@ pub fn write_inbetweens(
         .transpose()?;
     progress.stage("render", n as u64);
     for k in 0..n {
-        let picture = render_crisp(&model.puppet, &inbetweens.latent[k], w, h)?;
+        let picture = render_crisp(&model.puppet, &inbetweens.path[k], w, h)?;
         if let (Some(writer), Some((i, _))) = (&mut nearest, nearest_frame(&picture, training)) {
             writer.push(&training[i])?;
         }
-        latent.push(&picture)?;
+        path.push(&picture)?;
         for (writer, poses) in &mut comparisons {
             if let Some(writer) = writer {
                 writer.push(&render_crisp(&model.puppet, &poses[k], w, h)?)?;
@@ -333,17 +418,17 @@ pub fn write_inbetweens(
         }
         if let Some(path) = pose_paths.get(k) {
             let pose = PoseFile {
-                vertices: inbetweens.latent[k].clone(),
+                vertices: inbetweens.path[k].clone(),
             };
             outputs.write(path, &pose.to_json())?;
         }
         progress.advance(1);
     }
-    for k in latent.return_frames() {
-        latent.push_return(&render_crisp(&model.puppet, &inbetweens.latent[k], w, h)?)?;
+    for k in path.return_frames() {
+        path.push_return(&render_crisp(&model.puppet, &inbetweens.path[k], w, h)?)?;
     }
     let mut written = pose_paths;
-    written.extend(latent.finish()?);
+    written.extend(path.finish()?);
     for writer in comparisons.into_iter().filter_map(|(writer, _)| writer).chain(nearest) {
         written.extend(writer.finish()?);
     }
@@ -389,7 +474,9 @@ mod tests {
         let a = crate::render::render_crisp(&model.puppet, &model.puppet.rest_vertices(), 48, 40).unwrap();
         let mut b = a.clone();
         b.pixels.rotate_left(37); // a different image, so a different latent
-        let out = inbetween(&model, &a, &b, &steps_t(3, MAX_STEPS).unwrap(), &FitOptions::one_pass(), &device).unwrap();
+        let none = Waypoints::of_frames(&model, &[], &device).unwrap();
+        let t = steps_t(3, MAX_STEPS).unwrap();
+        let out = inbetween(&model, &a, &b, &t, &FitOptions::one_pass(), &none, InbetweenPath::Latent, &device).unwrap();
         assert_eq!(out.t, vec![0.0, 0.25, 0.5, 0.75, 1.0]);
         let fits = model.fit(&[&a, &b], &device).unwrap();
         let close = |x: &[[f32; 2]], y: &[[f32; 2]]| {
@@ -397,7 +484,7 @@ mod tests {
                 .zip(y)
                 .all(|(p, q)| (p[0] - q[0]).abs() < 1e-3 && (p[1] - q[1]).abs() < 1e-3)
         };
-        assert!(close(&out.latent[0], &fits[0]) && close(&out.latent[4], &fits[1]));
+        assert!(close(&out.path[0], &fits[0]) && close(&out.path[4], &fits[1]));
         assert!(close(&out.vertex[0], &fits[0]) && close(&out.vertex[4], &fits[1]));
         assert!(close(&out.rigid[0], &fits[0]) && close(&out.rigid[4], &fits[1]));
         assert!(!close(&fits[0], &fits[1]), "the two frames should fit differently");
@@ -409,10 +496,13 @@ mod tests {
                 .collect();
             assert!(close(&out.vertex[k], &want));
         }
+        // With no waypoint, the rigid path is the as-rigid-as-possible interpolation of the fits.
+        let rigid = inbetween(&model, &a, &b, &t, &FitOptions::one_pass(), &none, InbetweenPath::Rigid, &device).unwrap();
+        assert!(rigid.path.iter().zip(&out.rigid).all(|(p, q)| close(p, q)));
         // The middle pose is the decoded mean latent.
         let z = model.encode(&[&a, &b], &device).unwrap();
         let mid = model.to_frame_vertices(model.decode(z.mean_dim(0), &device)).pop().unwrap();
-        assert!(close(&out.latent[2], &mid));
+        assert!(close(&out.path[2], &mid));
     }
 
     #[test]
@@ -431,13 +521,14 @@ mod tests {
             ..FitOptions::default()
         };
         let t = [0.0, 0.5, 1.0];
-        let out = inbetween(&model, &a, &b, &t, &options, &device).unwrap();
+        let none = Waypoints::of_frames(&model, &[], &device).unwrap();
+        let out = inbetween(&model, &a, &b, &t, &options, &none, InbetweenPath::Latent, &device).unwrap();
         let fits = crate::fit::fit(&model, &[&a, &b], &options, &device, &crate::progress::Silent).unwrap();
         let gap = |x: &[[f32; 2]], y: &[[f32; 2]]| x.iter().zip(y).map(|(p, q)| (p[0] - q[0]).hypot(p[1] - q[1])).fold(0.0, f32::max);
-        assert!(gap(&out.latent[0], &fits[0]) < 1e-3 && gap(&out.latent[2], &fits[1]) < 1e-3);
+        assert!(gap(&out.path[0], &fits[0]) < 1e-3 && gap(&out.path[2], &fits[1]) < 1e-3);
         let l2_to = |pose: &[[f32; 2]], frame: &Picture| crate::metrics::l2(&render_crisp(&model.puppet, pose, w, h).unwrap(), frame);
-        assert!(l2_to(&out.latent[0], &a) <= l2_to(&fits[0], &a) + 1e-6);
-        assert!(l2_to(&out.latent[2], &b) <= l2_to(&fits[1], &b) + 1e-6);
+        assert!(l2_to(&out.path[0], &a) <= l2_to(&fits[0], &a) + 1e-6);
+        assert!(l2_to(&out.path[2], &b) <= l2_to(&fits[1], &b) + 1e-6);
         // The vertex steps took the fit off the manifold: the plain latent path misses it.
         let interp = Interpolator::new(&model, &a, &b, &options, &device).unwrap();
         let plain = interp.latent_poses(&model, &[1.0], &device).pop().unwrap();
@@ -445,7 +536,7 @@ mod tests {
         // Half way, the offsets of both ends are carried half each.
         let mid = interp.latent_poses(&model, &[0.5], &device).pop().unwrap();
         let ends = interp.latent_poses(&model, &[0.0, 1.0], &device);
-        for (k, p) in out.latent[1].iter().enumerate() {
+        for (k, p) in out.path[1].iter().enumerate() {
             for d in 0..2 {
                 let want = mid[k][d] + 0.5 * (fits[0][k][d] - ends[0][k][d]) + 0.5 * (fits[1][k][d] - ends[1][k][d]);
                 assert!((p[d] - want).abs() < 1e-3);
@@ -460,9 +551,19 @@ mod tests {
         assert!(matches!(steps_t(0, MAX_STEPS), Err(Error::Setting { .. })));
         assert!(matches!(steps_t(11, 10), Err(Error::Limit { amount: 11, limit: 10, .. })));
         let small = Picture::filled(20, 20, [1.0; 4]);
-        let err = inbetween(&model, &a, &small, &[0.0, 1.0], &FitOptions::one_pass(), &device)
-            .unwrap_err()
-            .to_string();
+        let none = Waypoints::of_frames(&model, &[], &device).unwrap();
+        let err = inbetween(
+            &model,
+            &a,
+            &small,
+            &[0.0, 1.0],
+            &FitOptions::one_pass(),
+            &none,
+            InbetweenPath::Rigid,
+            &device,
+        )
+        .unwrap_err()
+        .to_string();
         assert!(err.contains("20×20") && err.contains("48×40"), "{err}");
     }
 

@@ -1,5 +1,6 @@
 //! What users do with a trained puppet (neural-puppet.md §4.1–4.3): in-betweens by latent
-//! interpolation ([`mod@inbetween`]), poses dragged into place by optimising the latent under pins
+//! interpolation ([`mod@inbetween`], along the training frames where they lie between the keyframes:
+//! [`manifold_path`]), poses dragged into place by optimising the latent under pins
 //! ([`pose`], eq. 7–9, with the direct vertex-space ARAP drag of Figure 6 right beside it in
 //! [`mod@arap_drag`]; the training frames' principal latent directions as sliders in
 //! [`directions`]), in-betweens timed as animators time them ([`timing`]), and frame-to-frame correspondences through the fitted template
@@ -11,6 +12,7 @@ pub mod bind;
 pub mod correspond;
 pub mod directions;
 pub mod inbetween;
+pub mod manifold_path;
 pub mod pin_overlay;
 pub mod pose;
 pub mod timing;
@@ -19,7 +21,7 @@ pub use arap_drag::arap_drag;
 pub use bind::{bind, Binding};
 pub use correspond::{correspond, Correspondence};
 pub use directions::LatentDirections;
-pub use inbetween::{inbetween, nearest_frame, Inbetweens, Interpolator};
+pub use inbetween::{inbetween, nearest_frame, InbetweenPath, Inbetweens, Interpolator};
 pub use pose::{Pin, PoseEditor, PoseOptions};
 pub use timing::{eased_t, spacing_t, Easing};
 

@@ -5,8 +5,11 @@
 //! to the true frame for
 //!
 //! - **latent**: the plain latent path of §4.1, between the keyframes' latents;
-//! - **keyed**: the default path — the latent path carried onto the keyframes' fits
-//!   ([`Interpolator::keyed_poses`]);
+//! - **keyed**: the latent path carried onto the keyframes' fits ([`Interpolator::keyed_poses`]);
+//! - **along_latent**: the same along the manifold, through the training frames' latents where
+//!   they lie between the keyframes ([`Interpolator::through`], [`InbetweenPath::Latent`](crate::edit::inbetween::InbetweenPath::Latent));
+//! - **along_rigid**: the default — as-rigid-as-possible interpolation between the corners of
+//!   that path ([`Interpolator::manifold_rigid_poses`], [`InbetweenPath::Rigid`](crate::edit::inbetween::InbetweenPath::Rigid));
 //! - **vertex**: linear interpolation of the two fitted meshes;
 //! - **rigid**: their as-rigid-as-possible shape interpolation (Alexa et al. 2000);
 //! - **nearest**: the training frame nearest (Euclidean image distance) to the keyed render —
@@ -21,6 +24,7 @@ use std::collections::BTreeSet;
 use burn::tensor::Device;
 
 use crate::edit::inbetween::{nearest_frame, Interpolator};
+use crate::edit::manifold_path::Waypoints;
 use crate::error::{Error, Result};
 use crate::fit::{fit, fit_with_latents, FitOptions};
 use crate::metrics::l2;
@@ -40,8 +44,12 @@ pub struct InbetweenScore {
     pub t: f32,
     /// The plain latent path.
     pub latent: f64,
-    /// The latent path through the keyframes' fits (the default).
+    /// The latent path through the keyframes' fits, straight.
     pub keyed: f64,
+    /// That path along the manifold through the training frames.
+    pub along_latent: f64,
+    /// As-rigid-as-possible interpolation between the corners of that path (the default).
+    pub along_rigid: f64,
     /// Vertex-space interpolation.
     pub vertex: f64,
     /// As-rigid-as-possible interpolation.
@@ -55,17 +63,20 @@ pub struct InbetweenScore {
 }
 
 /// Scores, for each of `gaps`, every frame of `held_out` (indices into `frames`) that lies
-/// between two frames of `training` that far apart.
+/// between two frames of `training` that far apart; the manifold path runs through `waypoints`
+/// (the frames the model was trained on).
 ///
 /// # Errors
 /// [`Error::Setting`] if no held-out frame lies between two training frames at any gap;
 /// [`Error::Mismatch`] if a frame is not the puppet's size.
+#[allow(clippy::too_many_arguments)] // each is one of the experiment's independent inputs
 pub fn inbetween_scores(
     model: &Model,
     frames: &[Picture],
     training: &[usize],
     held_out: &[usize],
     gaps: &[usize],
+    waypoints: &Waypoints,
     options: &FitOptions,
     device: &Device,
 ) -> Result<Vec<InbetweenScore>> {
@@ -117,6 +128,9 @@ pub fn inbetween_scores(
         let t: Vec<f32> = inside.iter().map(|&j| (j - a) as f32 / (gap + 1) as f32).collect();
         let latent = interp.latent_poses(model, &t, device);
         let keyed = interp.keyed_poses(model, &t, device);
+        let along = interp.clone().through(waypoints);
+        let along_latent = along.keyed_poses(model, &t, device);
+        let along_rigid = along.manifold_rigid_poses(model, &t)?;
         let rigid = interp.rigid_poses(model, &t)?;
         for (n, &j) in inside.iter().enumerate() {
             let truth = &frames[j];
@@ -129,6 +143,8 @@ pub fn inbetween_scores(
                 t: t[n],
                 latent: l2(&render(&latent[n])?, truth),
                 keyed: l2(&keyed_picture, truth),
+                along_latent: l2(&render(&along_latent[n])?, truth),
+                along_rigid: l2(&render(&along_rigid[n])?, truth),
                 vertex: l2(&render(&interp.vertex_pose(t[n]))?, truth),
                 rigid: l2(&render(&rigid[n])?, truth),
                 nearest,
@@ -171,7 +187,8 @@ mod tests {
             vertex_steps: 0,
             ..FitOptions::default()
         };
-        let scores = inbetween_scores(&model, &frames, &[0, 2, 4], &[1, 3], &[1, 3], &options, &device).unwrap();
+        let waypoints = Waypoints::of_frames(&model, &[&frames[0], &frames[2]], &device).unwrap();
+        let scores = inbetween_scores(&model, &frames, &[0, 2, 4], &[1, 3], &[1, 3], &waypoints, &options, &device).unwrap();
         let placed: Vec<(usize, usize, f32)> = scores.iter().map(|s| (s.gap, s.frame, s.t)).collect();
         assert_eq!(placed, vec![(1, 1, 0.5), (1, 3, 0.5), (3, 1, 0.25), (3, 3, 0.75)]);
         for s in &scores {
@@ -179,12 +196,19 @@ mod tests {
             // (up to f32 rounding of the vertices' trip through the letterbox)
             let same = |x: f64| (x - s.hold).abs() < 1e-3;
             assert!(
-                same(s.latent) && same(s.keyed) && same(s.vertex) && same(s.rigid) && same(s.fit) && same(s.nearest),
+                same(s.latent)
+                    && same(s.keyed)
+                    && same(s.along_latent)
+                    && same(s.along_rigid)
+                    && same(s.vertex)
+                    && same(s.rigid)
+                    && same(s.fit)
+                    && same(s.nearest),
                 "{s:?}"
             );
             assert!(s.hold > 1000.0, "the shifted frame differs from the rest frame: {s:?}");
         }
-        assert!(inbetween_scores(&model, &frames, &[0, 1], &[3], &[1], &options, &device).is_err());
-        assert!(inbetween_scores(&model, &frames, &[0, 2, 4], &[1, 3], &[5], &options, &device).is_err());
+        assert!(inbetween_scores(&model, &frames, &[0, 1], &[3], &[1], &waypoints, &options, &device).is_err());
+        assert!(inbetween_scores(&model, &frames, &[0, 2, 4], &[1, 3], &[5], &waypoints, &options, &device).is_err());
     }
 }

@@ -8,7 +8,9 @@ use std::path::Path;
 use crate::error::{Error, Result};
 use crate::model::Model;
 use crate::picture::Picture;
+use crate::progress::Progress;
 use crate::puppet::sequence::{self, FrameCheck};
+use crate::train::trainer::SplitRecord;
 
 /// Loads the image at `path` and checks it suits `model`: the puppet's size, and some pixel
 /// that is not opaque.
@@ -20,6 +22,31 @@ pub fn load_frame(path: &Path, model: &Model) -> Result<Picture> {
     let picture = sequence::load_frame(path, &frame_check(model))?;
     check_cut_out(&picture, path)?;
     Ok(picture)
+}
+
+/// The frames `model` was trained on, read again from the folder its `split.json` names (for
+/// what a fit or an edit takes from them); `None`, with a warning through `progress` saying
+/// what `purpose` goes without, if the model has no split record or a frame can no longer be
+/// read.
+///
+/// # Errors
+/// As [`SplitRecord::load`].
+pub fn training_frames(model_dir: &Path, model: &Model, purpose: &str, progress: &dyn Progress) -> Result<Option<Vec<Picture>>> {
+    let Some(split) = SplitRecord::load(model_dir)? else {
+        progress.warn(&format!("{}: no split.json, so no training frames; {purpose}", model_dir.display()));
+        return Ok(None);
+    };
+    let mut frames = Vec::with_capacity(split.train.len());
+    for name in &split.train {
+        match load_frame(&split.frames.join(name), model) {
+            Ok(frame) => frames.push(frame),
+            Err(e) => {
+                progress.warn(&format!("{e}; {purpose}"));
+                return Ok(None);
+            }
+        }
+    }
+    Ok(Some(frames))
 }
 
 /// The checks a model's frames must pass before decoding: the puppet's size, default limits.

@@ -14,6 +14,8 @@ use crate::render::soft_raster::{Background, Params, SoftRasterizer};
 use crate::render::straight_picture;
 use crate::rig::deform::RigMap;
 
+use super::plausible::JointRanges;
+
 /// Turns tried for each limb, in degrees either way, and how finely.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct LimbSearch {
@@ -42,7 +44,8 @@ impl Default for LimbSearch {
 impl LimbSearch {
     /// Improves `pose` (frame pixels, global numbering) towards `frame` by turning limbs, root
     /// first; keeps a turn only if it lowers the L2 (DESIGN.md) of the crisp render. Returns that
-    /// L2 before and after. With a rig's `map`, accessories follow every turned pose.
+    /// L2 before and after. With a rig's `map`, accessories follow every turned pose; with
+    /// `ranges`, a turn that leaves a limb further outside its range than it was is not tried.
     ///
     /// # Errors
     /// [`crate::Error::Mismatch`] if `pose` does not fit the puppet, [`crate::Error::Geometry`] if
@@ -52,6 +55,7 @@ impl LimbSearch {
         raster: &SoftRasterizer,
         puppet: &Puppet,
         map: Option<&RigMap>,
+        ranges: Option<&JointRanges>,
         frame: &Picture,
         pose: &mut [[f32; 2]],
     ) -> Result<(f64, f64)> {
@@ -81,9 +85,19 @@ impl LimbSearch {
         };
         let start = scores(pose)?[0];
         let mut best = start;
-        for limb in limbs(puppet) {
+        for (k, limb) in limbs(puppet).into_iter().enumerate() {
+            let now = ranges.map(|r| r.turns(pose)[k]);
+            let allowed = |degrees: f32| match (ranges, now) {
+                (Some(r), Some(now)) => r.excess(k, now + degrees.to_radians()) <= r.excess(k, now),
+                _ => true,
+            };
             // The best of a fan of turns (degrees) with its score, if any beats `best`.
             let best_of = |angles: &[f32], best: f64| -> Result<Option<(f64, f32)>> {
+                let angles: Vec<f32> = angles.iter().copied().filter(|&a| allowed(a)).collect();
+                if angles.is_empty() {
+                    return Ok(None);
+                }
+                let angles = angles.as_slice();
                 let tries: Vec<[f32; 2]> = angles.iter().flat_map(|&a| turned(pose, &limb, a.to_radians(), map)).collect();
                 let found = scores(&tries)?
                     .into_iter()
@@ -136,7 +150,9 @@ mod tests {
         let limb = &limbs[0];
         let mut pose = turned(&rest, limb, 50f32.to_radians(), None);
         let raster = SoftRasterizer::new(&puppet).unwrap();
-        let (before, after) = LimbSearch::default().improve(&raster, &puppet, None, &frame, &mut pose).unwrap();
+        let (before, after) = LimbSearch::default()
+            .improve(&raster, &puppet, None, None, &frame, &mut pose)
+            .unwrap();
         assert!(
             (before
                 - l2(
@@ -154,5 +170,27 @@ mod tests {
             .map(|(a, b)| (a[0] - b[0]).hypot(a[1] - b[1]))
             .fold(0.0, f32::max);
         assert!(worst < 1e-3, "the limb should be back at rest: {worst} px off");
+    }
+
+    #[test]
+    fn the_search_tries_no_turn_past_the_plausible_range() {
+        let puppet = hinged_puppet();
+        let rest = puppet.rest_vertices();
+        let limb = &limbs(&puppet)[0];
+        let frame = render_crisp(&puppet, &turned(&rest, limb, 60f32.to_radians(), None), 48, 40).unwrap();
+        let raster = SoftRasterizer::new(&puppet).unwrap();
+        let search = |ranges: Option<&JointRanges>| {
+            let mut pose = rest.clone();
+            search_with(&raster, &puppet, ranges, &frame, &mut pose);
+            JointRanges::from_poses(&puppet, &[], 0.0).turns(&pose)[0].to_degrees()
+        };
+        assert!((search(None) - 60.0).abs() < 1e-3, "free, the search finds the drawn turn");
+        // Held to rest ± 25°: the fan's turns of 20° and 30° either side of it, not beyond.
+        let held = search(Some(&JointRanges::from_poses(&puppet, std::slice::from_ref(&rest), 25.0)));
+        assert!((held - 20.0).abs() < 1e-3, "held to ±25°, the search stops at {held}°");
+    }
+
+    fn search_with(raster: &SoftRasterizer, puppet: &Puppet, ranges: Option<&JointRanges>, frame: &Picture, pose: &mut [[f32; 2]]) {
+        LimbSearch::default().improve(raster, puppet, None, ranges, frame, pose).unwrap();
     }
 }

@@ -13,6 +13,7 @@
 
 pub mod frame;
 pub mod limb_search;
+pub mod plausible;
 
 use std::path::Path;
 
@@ -26,6 +27,7 @@ use crate::picture::Picture;
 use crate::progress::Progress;
 use crate::user_file;
 use limb_search::LimbSearch;
+use plausible::JointRanges;
 
 /// Frames fitted together (one rasterizer, objective and network input per batch).
 pub const BATCH: usize = 16;
@@ -38,6 +40,13 @@ pub const DEFAULT_LATENT_STEPS: usize = 50;
 /// synthetic walker one round of 100 steps takes the held-out L2 from 3360 to 2793, three rounds
 /// with the limb search to 2758; on the Kenney robot's held-out frames 7040 → 4024 → 3065.
 pub const DEFAULT_VERTEX_STEPS: usize = 100;
+
+/// The plausibility term's weight unless asked otherwise: off, as it did not win on the Kenney
+/// robot's held-out frames (README "Plausible fits").
+pub const DEFAULT_PLAUSIBILITY_WEIGHT: f32 = 0.0;
+
+/// How far past the training poses' turns a fit may turn a limb unless asked otherwise (degrees).
+pub const DEFAULT_PLAUSIBLE_MARGIN: f32 = 30.0;
 
 /// How to fit frames.
 #[derive(Clone, Debug, PartialEq)]
@@ -63,6 +72,13 @@ pub struct FitOptions {
     pub sigma: f32,
     /// The objective's weights (the paper's by default; frames over a background want `masked`).
     pub weights: LossWeights,
+    /// The plausibility term: limbs kept inside these turn ranges (the limb search tries no turn
+    /// out of them; the latent and vertex steps pay `plausibility_weight` × the penalty).
+    /// `None`: no term.
+    pub ranges: Option<JointRanges>,
+    /// The weight of [`JointRanges::penalty`] in the objective; 0 leaves the fit free of the
+    /// ranges (they are then only there to report against).
+    pub plausibility_weight: f32,
 }
 
 impl Default for FitOptions {
@@ -77,6 +93,8 @@ impl Default for FitOptions {
             limb_search: Some(LimbSearch::default()),
             sigma: 0.5,
             weights: LossWeights::default(),
+            ranges: None,
+            plausibility_weight: DEFAULT_PLAUSIBILITY_WEIGHT,
         }
     }
 }
@@ -122,6 +140,11 @@ impl FitOptions {
             vertex_steps: 0,
             ..FitOptions::default()
         }
+    }
+
+    /// The ranges the fit keeps limbs in, if the plausibility term is on.
+    pub fn plausible_ranges(&self) -> Option<&JointRanges> {
+        self.ranges.as_ref().filter(|_| self.plausibility_weight > 0.0)
     }
 
     /// Whether the options go past the decoder's manifold (vertex steps in some round).
@@ -189,7 +212,14 @@ fn fit_batch(model: &Model, frames: &[&Picture], options: &FitOptions, device: &
     for _ in 0..options.vertex_rounds {
         if let Some(search) = &options.limb_search {
             for (pose, frame) in poses.iter_mut().zip(frames) {
-                search.improve(analysis.objective.raster(), &model.puppet, model.expansion.rig_map(), frame, pose)?;
+                search.improve(
+                    analysis.objective.raster(),
+                    &model.puppet,
+                    model.expansion.rig_map(),
+                    options.plausible_ranges(),
+                    frame,
+                    pose,
+                )?;
             }
         }
         let free = analysis.vertices(model.to_work_free(&poses, device))?;
@@ -288,7 +318,13 @@ impl<'a> Analysis<'a> {
                 .autodiff()
                 .require_grad();
             let vertices = to_vertices(xt.clone());
-            let total = self.objective.evaluate(vertices, self.images.clone(), sigma(k), self.device)?.total;
+            let mut total = self
+                .objective
+                .evaluate(vertices.clone(), self.images.clone(), sigma(k), self.device)?
+                .total;
+            if let Some(ranges) = self.options.plausible_ranges() {
+                total = total + ranges.penalty(vertices, self.device).mul_scalar(self.options.plausibility_weight);
+            }
             let grads = total.mul_scalar(batch).backward();
             let g = xt
                 .grad(&grads)

@@ -8,6 +8,10 @@ use super::Puppet;
 /// One limb: the layers that turn together about a joint.
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub struct Limb {
+    /// The layer at the limb's root, turning about its joint with `parent`.
+    pub layer: usize,
+    /// The layer it hangs from (one step nearer the puppet's root layer).
+    pub parent: usize,
     /// Global index of the child layer's joint vertex: the pivot.
     pub pivot: usize,
     /// Global vertex indices of the child layer and every layer hanging from it.
@@ -75,6 +79,8 @@ pub fn limbs(puppet: &Puppet) -> Vec<Limb> {
         .iter()
         .skip(1)
         .map(|&layer| Limb {
+            layer,
+            parent: parent[layer],
             pivot: pivots[layer],
             vertices: below(layer)
                 .into_iter()
