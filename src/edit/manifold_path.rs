@@ -34,10 +34,20 @@ impl Waypoints {
                 poses: Vec::new(),
             });
         }
-        let z = model.encode(frames, device)?;
-        let poses = model.to_frame_vertices(model.decode(z.clone(), device));
-        let latents = (0..frames.len()).map(|k| z.clone().narrow(0, k, 1)).collect();
-        Ok(Waypoints { latents, poses })
+        Ok(Self::of_latents(model, model.encode(frames, device)?, device))
+    }
+
+    /// The latents `[N, Z]` (the training frames' encodings), decoded by `model` — the model
+    /// that encoded them or the same body in another outfit.
+    pub fn of_latents(model: &Model, z: Tensor<2>, device: &Device) -> Self {
+        let [n, _] = z.dims();
+        let poses = if n == 0 {
+            Vec::new()
+        } else {
+            model.to_frame_vertices(model.decode(z.clone(), device))
+        };
+        let latents = (0..n).map(|k| z.clone().narrow(0, k, 1)).collect();
+        Waypoints { latents, poses }
     }
 
     /// How many waypoints there are.

@@ -12,6 +12,7 @@ use super::session::{lock, Session, Sessions};
 use crate::appearance::AppearanceStage;
 use crate::edit::directions::LatentDirections;
 use crate::edit::inbetween::Interpolator;
+use crate::edit::manifold_path::Waypoints;
 use crate::edit::pose::{Dragged, Pin, PoseEditor, PoseOptions};
 use crate::error::{Error, Result};
 use crate::fit::frame::{check_cut_out, frame_check};
@@ -143,10 +144,14 @@ pub struct Outfit {
     /// The model drawing it: the same network, this outfit's puppet.
     pub model: Arc<Model>,
     textures: Vec<Vec<u8>>,
+    /// The latents of the frames offered that the model did not hold out (its training frames,
+    /// unless others were given), decoded in this outfit: where in-betweens may pass.
+    waypoints: Waypoints,
 }
 
 impl Outfit {
-    fn new(name: String, model: Model) -> Result<Self> {
+    fn new(name: String, model: Model, trained: &Tensor<2>, device: &Device) -> Result<Self> {
+        let waypoints = Waypoints::of_latents(&model, trained.clone(), device);
         let textures = model
             .puppet
             .layers
@@ -157,6 +162,7 @@ impl Outfit {
             name,
             model: Arc::new(model),
             textures,
+            waypoints,
         })
     }
 
@@ -230,19 +236,26 @@ impl App {
         };
         let training: Vec<&Picture> = frames.iter().filter(|f| !f.held_out).map(|f| &f.picture).collect();
         let mut latents = Vec::with_capacity(training.len());
+        let mut encoded = Vec::new();
         for batch in training.chunks(ENCODE_BATCH) {
             let z = model.encode(batch, device)?;
             let [n, dim] = z.dims();
             let flat = values(&z);
             latents.extend((0..n).map(|i| flat[i * dim..(i + 1) * dim].to_vec()));
+            encoded.push(z);
         }
         let directions = LatentDirections::of(&latents, MAX_SLIDERS)?;
+        let trained = if encoded.is_empty() {
+            Tensor::zeros([0, model.config.latent], device)
+        } else {
+            Tensor::cat(encoded, 0)
+        };
         let mut worn = Vec::with_capacity(outfits.len() + 1);
         for (name, puppet) in outfits {
             let model = model.wearing(puppet).map_err(|e| e.with_key(format!("outfit {name:?}")))?;
-            worn.push(Outfit::new(name, model)?);
+            worn.push(Outfit::new(name, model, &trained, device)?);
         }
-        worn.insert(0, Outfit::new("as trained".into(), model)?);
+        worn.insert(0, Outfit::new("as trained".into(), model, &trained, device)?);
         Ok(App {
             outfits: worn,
             device: device.clone(),
@@ -502,14 +515,18 @@ impl App {
         Ok((session.outfit, session.editor.pose()))
     }
 
-    /// The latent interpolation from frame `a` to frame `b` at each of `t`, drawn in outfit
-    /// `outfit` (frame pixels). Blocks for the fits of frames not fitted yet.
+    /// The in-betweens from frame `a`'s fit to frame `b`'s at each of `t`, drawn in outfit
+    /// `outfit` (frame pixels): `puppet inbetween`'s default path, along the manifold through the
+    /// training frames between them, as-rigid-as-possible between its corners. Blocks for the
+    /// fits of frames not fitted yet.
     ///
     /// # Errors
-    /// [`ApiError`] 404 for a frame or an outfit that does not exist; as [`fit_latents`].
+    /// [`ApiError`] 404 for a frame or an outfit that does not exist; as [`fit_latents`] and
+    /// [`Interpolator::manifold_rigid_poses`].
     pub fn inbetween(&self, a: usize, b: usize, t: &[f32], outfit: usize) -> std::result::Result<Vec<Vec<[f32; 2]>>, ApiError> {
-        let worn = &self.outfit(outfit)?.model;
+        let outfit = self.outfit(outfit)?;
         let (za, zb) = (self.fitted_latent(a)?, self.fitted_latent(b)?);
-        Ok(Interpolator::between(worn, za, zb, &self.device).latent_poses(worn, t, &self.device))
+        let interpolator = Interpolator::between(&outfit.model, za, zb, &self.device).through(&outfit.waypoints);
+        Ok(interpolator.manifold_rigid_poses(&outfit.model, t)?)
     }
 }
