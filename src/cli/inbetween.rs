@@ -1,6 +1,7 @@
-//! `puppet inbetween --model M <a.png> <b.png> --steps N -o DIR [--gif out.gif]`: in-betweens by
-//! latent interpolation (neural-puppet.md §4.1), with the vertex-space interpolation and the
-//! nearest training frame beside each step (Figure 5).
+//! `puppet inbetween --model M <a.png> <b.png> --steps N -o DIR [--gif out.gif]`: in-betweens
+//! along the learned manifold (neural-puppet.md §4.1's latent interpolation, routed through the
+//! training frames' poses: `edit::manifold_path`), with the vertex-space and as-rigid-as-possible
+//! interpolations and the nearest training frame beside each step (Figure 5).
 
 use std::path::{Path, PathBuf};
 

@@ -192,9 +192,9 @@ pub fn render(d: &PageData) -> String {
         let stem = escape(&ib.stem);
         let _ = writeln!(
             s,
-            "<h3>{} → {}</h3><div class=\"row\"><figure><img src=\"{stem}.apng\" width=\"192\"><figcaption>latent interpolation, there and back (APNG; also <a href=\"{stem}.gif\">GIF</a>, \
+            "<h3>{} → {}</h3><div class=\"row\"><figure><img src=\"{stem}.apng\" width=\"192\"><figcaption>in-betweens along the training frames' poses, there and back (APNG; also <a href=\"{stem}.gif\">GIF</a>, \
              <a href=\"{stem}_sprites.png\">sprite sheet</a> + <a href=\"{stem}_sprites.json\">atlas</a>)</figcaption></figure>\
-             <figure><img src=\"{stem}_sheet.png\" width=\"800\"><figcaption>rows: latent interpolation (ours), vertex-space interpolation, nearest frame of the sequence</figcaption></figure></div>",
+             <figure><img src=\"{stem}_sheet.png\" width=\"800\"><figcaption>rows: ours (through the training frames' poses between the keys), vertex-space and as-rigid-as-possible interpolation, nearest frame of the sequence</figcaption></figure></div>",
             escape(&ib.from),
             escape(&ib.to)
         );
@@ -205,7 +205,7 @@ pub fn render(d: &PageData) -> String {
             s,
             "<h3>The same in-between in another outfit</h3><p>Outfit “{}” ({}), drawn for the same rest body, rigged against the trained model's body in {:.0} ms and \
              put on the poses above — no retraining (accessory-rigs.md Fig. 1 F–H).</p><div class=\"row\"><figure><img src=\"{stem}_dressed.apng\" width=\"192\">\
-             <figcaption>latent interpolation, re-dressed (<a href=\"{stem}_dressed.gif\">GIF</a>)</figcaption></figure><figure><img src=\"{stem}_dressed_sheet.png\" width=\"800\"><figcaption>rows: latent, vertex-space, nearest frame</figcaption></figure></div>",
+             <figcaption>the in-between re-dressed (<a href=\"{stem}_dressed.gif\">GIF</a>)</figcaption></figure><figure><img src=\"{stem}_dressed_sheet.png\" width=\"800\"><figcaption>rows: ours, vertex-space, as-rigid-as-possible, nearest frame</figcaption></figure></div>",
             escape(&o.name),
             o.accessories.iter().map(|a| escape(a)).collect::<Vec<_>>().join(", "),
             o.rig_ms

@@ -3,11 +3,16 @@
 //!
 //! **On the keyframes.** A fit that goes past the decoder's manifold (vertex steps: the default
 //! fit) lands where no latent decodes, so the plain latent path would start and end on poses the
-//! animator did not draw. The default path adds the residual of each keyframe's fit over its
-//! latent's decode, interpolated linearly:
+//! animator did not draw. The latent path therefore adds the residual of each keyframe's fit
+//! over its latent's decode, interpolated linearly:
 //! `v(t) = D((1 − t)·z_1 + t·z_2) + (1 − t)·(v_1 − D(z_1)) + t·(v_2 − D(z_2))`, which is the fit
 //! at both ends and the learned path between them (the plain latent path when the fit stays on
 //! the manifold).
+//!
+//! **Along the manifold.** The straight line between two latents cuts across the manifold; the
+//! paths users get run through the training frames' latents that lie between the keyframes
+//! ([`ManifoldPath`], [`Interpolator::through`]), along the latents as above or — the default,
+//! [`InbetweenPath::Rigid`] — as rigidly as possible between the path's corners.
 //!
 //! Beside it, the baselines the argument rests on: linear interpolation of the two fitted meshes
 //! in vertex space, which leaves the learned manifold, and as-rigid-as-possible shape
