@@ -79,8 +79,8 @@ pub struct FitArgs {
 
 impl FitArgs {
     /// The fit options for `model`, read from `model_dir`: the objective it was trained with and,
-    /// unless the fit takes no step, the turn ranges of its training frames (a warning through
-    /// `ui` if those are gone).
+    /// with the plausibility term on and steps to take, the turn ranges of its training frames (a
+    /// warning through `ui` if those are gone).
     pub fn options(&self, model_dir: &Path, model: &Model, device: &Device, ui: &Ui) -> puppet::Result<FitOptions> {
         let (latent, vertex) = if self.one_pass {
             (0, 0)
@@ -97,8 +97,8 @@ impl FitArgs {
             }
         }
         let steps = latent > 0 || (vertex > 0 && self.vertex_rounds > 0);
-        let ranges = if steps {
-            JointRanges::of_training_frames(model_dir, model, self.plausible_margin, device, ui)?
+        let ranges = if steps && self.plausibility_weight > 0.0 {
+            self.training_ranges(model_dir, model, device, "fitting without the plausibility term", ui)?
         } else {
             None
         };
@@ -109,6 +109,19 @@ impl FitArgs {
             plausibility_weight: self.plausibility_weight,
             ..options
         })
+    }
+
+    /// The turn ranges of `model`'s training frames widened by `--plausible-margin` (`None`, with
+    /// a warning naming what `purpose` goes without, if those frames are gone).
+    pub fn training_ranges(
+        &self,
+        model_dir: &Path,
+        model: &Model,
+        device: &Device,
+        purpose: &str,
+        ui: &Ui,
+    ) -> puppet::Result<Option<JointRanges>> {
+        JointRanges::of_training_frames(model_dir, model, self.plausible_margin, device, purpose, ui)
     }
 }
 

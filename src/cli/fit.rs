@@ -107,7 +107,18 @@ pub fn run(args: FitArgs, s: &Session) -> anyhow::Result<()> {
     s.ui.stage("fitting", pictures.len() as u64);
     let refs: Vec<&Picture> = pictures.iter().collect();
     let fits = fit(&model, &refs, &options, &device, &s.ui)?;
-    if let Some(ranges) = &options.ranges {
+    // The term's ranges if it is on; otherwise read only to name poses the model has not seen.
+    let read;
+    let ranges = match &options.ranges {
+        Some(ranges) => Some(ranges),
+        None => {
+            read = args
+                .fit
+                .training_ranges(dir, &model, &device, "no fit is checked against the training poses", &s.ui)?;
+            read.as_ref()
+        }
+    };
+    if let Some(ranges) = ranges {
         for (stem, pose) in stems.iter().zip(&fits) {
             if let Some((layer, degrees)) = ranges.worst(pose) {
                 s.ui.warn(&format!(

@@ -77,7 +77,7 @@ pub struct FitOptions {
     /// `None`: no term.
     pub ranges: Option<JointRanges>,
     /// The weight of [`JointRanges::penalty`] in the objective; 0 leaves the fit free of the
-    /// ranges (they are then only there to report against).
+    /// ranges.
     pub plausibility_weight: f32,
 }
 

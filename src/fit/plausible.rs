@@ -85,8 +85,9 @@ impl JointRanges {
     }
 
     /// The ranges of the network's one-pass poses of the frames `model` was trained on (its
-    /// `split.json`), widened by `margin_degrees`; `None`, with a warning through `progress`, if
-    /// the model has no split record or a training frame can no longer be read.
+    /// `split.json`), widened by `margin_degrees`; `None`, with a warning through `progress`
+    /// saying what `purpose` goes without, if the model has no split record or a training frame
+    /// can no longer be read.
     ///
     /// # Errors
     /// As [`training_frames`] and [`Model::encode`].
@@ -95,9 +96,10 @@ impl JointRanges {
         model: &Model,
         margin_degrees: f32,
         device: &Device,
+        purpose: &str,
         progress: &dyn Progress,
     ) -> Result<Option<Self>> {
-        let Some(frames) = training_frames(model_dir, model, "fitting without the plausibility term", progress)? else {
+        let Some(frames) = training_frames(model_dir, model, purpose, progress)? else {
             return Ok(None);
         };
         let refs: Vec<_> = frames.iter().collect();
