@@ -316,6 +316,12 @@ impl Critic {
         self.convs[k].weight = burn::module::Param::from_tensor(weight);
         self
     }
+
+    /// This critic with convolution `k`'s bias replaced (it has one).
+    pub(crate) fn with_convs_bias(mut self, k: usize, bias: Tensor<1>) -> Self {
+        self.convs[k].bias = Some(burn::module::Param::from_tensor(bias));
+        self
+    }
 }
 
 /// The critic's input: the frames, and the render beside them.
