@@ -136,21 +136,26 @@ pub fn hinged_puppet() -> Puppet {
     let mut puppet = layered_puppet();
     let torso = puppet.layer_index("torso").unwrap();
     let arm = puppet.layer_index("arm_front").unwrap();
-    // arm_front's vertex at (24, 20) and the torso's vertex nearest it.
-    let find = |l: usize, p: [f32; 2]| {
-        let v = &puppet.layers[l].mesh.vertices;
-        (0..v.len()).min_by(|&a, &b| {
-            let d = |i: usize| (v[i][0] - p[0]).powi(2) + (v[i][1] - p[1]).powi(2);
-            d(a).total_cmp(&d(b))
-        })
-    };
-    let a = find(arm, [24.0, 20.0]).unwrap() as u32;
-    let t = find(torso, [24.0, 20.0]).unwrap() as u32;
-    puppet.joints.push(Joint {
-        a: VertexRef { layer: torso, vertex: t },
-        b: VertexRef { layer: arm, vertex: a },
-    });
+    weld(&mut puppet, torso, arm, [24.0, 20.0]);
     puppet
+}
+
+/// Joins layer `child` to layer `parent` at their vertices nearest `point`.
+pub fn weld(puppet: &mut Puppet, parent: usize, child: usize, point: [f32; 2]) {
+    let find = |l: usize| {
+        let v = &puppet.layers[l].mesh.vertices;
+        (0..v.len())
+            .min_by(|&a, &b| {
+                let d = |i: usize| (v[i][0] - point[0]).powi(2) + (v[i][1] - point[1]).powi(2);
+                d(a).total_cmp(&d(b))
+            })
+            .unwrap() as u32
+    };
+    let (a, b) = (find(parent), find(child));
+    puppet.joints.push(Joint {
+        a: VertexRef { layer: parent, vertex: a },
+        b: VertexRef { layer: child, vertex: b },
+    });
 }
 
 /// [`layered_puppet`] with its front arm made an accessory (a sleeve, say) and rigged with the

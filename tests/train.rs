@@ -117,6 +117,11 @@ fn training_lowers_the_reconstruction_loss_and_fit_and_eval_run() {
     assert!(tmp.path().join("fit-plausible/frame_003_vertices.json").is_file());
     plausible("nan", "fit-refused").assert_error(&["--plausible-margin"]);
     assert!(!tmp.path().join("fit-refused").exists());
+    // Hidden limbs left where the fit puts them fits too; a slack that is no number is refused by
+    // name.
+    fit(&tmp.path().join("fit-free"), &["--no-hidden-limbs"]).assert_ok();
+    fit(&tmp.path().join("fit-slack"), &["--hidden-limb-slack", "nan"]).assert_error(&["--hidden-limb-slack"]);
+    assert!(!tmp.path().join("fit-slack").exists());
     // Scored on all four frames: the encoder's fit, refined latents, then refined vertices.
     let scores = |refine: &str, vertices: &str| -> serde_json::Value {
         let out = tmp.path().join(format!("eval-{refine}-{vertices}.json"));

@@ -14,6 +14,8 @@ use puppet::rig::RigOptions;
 
 use super::ui::Ui;
 use burn::tensor::Device;
+use puppet::fit::frame::training_poses;
+use puppet::fit::hidden_limbs::DEFAULT_SLACK;
 use puppet::fit::plausible::JointRanges;
 use puppet::fit::{
     limb_search::LimbSearch, FitOptions, DEFAULT_LATENT_STEPS, DEFAULT_PLAUSIBILITY_WEIGHT, DEFAULT_PLAUSIBLE_MARGIN, DEFAULT_VERTEX_STEPS,
@@ -75,12 +77,22 @@ pub struct FitArgs {
     /// still names limbs turned past the range).
     #[arg(long, default_value_t = DEFAULT_PLAUSIBILITY_WEIGHT, value_name = "W")]
     pub plausibility_weight: f32,
+    /// Leave limbs the frame hides (a back arm behind the torso) where the fit put them, instead
+    /// of turning them to their twin's turn mirrored (the front arm's, as the training frames
+    /// that show both relate them), as far as the render allows.
+    #[arg(long)]
+    pub no_hidden_limbs: bool,
+    /// How much the rendered fit may move away from the frame (L2, percent) as a hidden limb is
+    /// turned into place.
+    #[arg(long, default_value_t = 100.0 * DEFAULT_SLACK, value_name = "PERCENT")]
+    pub hidden_limb_slack: f64,
 }
 
 impl FitArgs {
-    /// The fit options for `model`, read from `model_dir`: the objective it was trained with and,
-    /// with the plausibility term on and steps to take, the turn ranges of its training frames (a
-    /// warning through `ui` if those are gone).
+    /// The fit options for `model`, read from `model_dir`: the objective it was trained with;
+    /// with the plausibility term on and steps to take, the turn ranges of its training frames;
+    /// with vertex steps, the twins that place hidden limbs, learned from those frames (a warning
+    /// through `ui` if they are gone).
     pub fn options(&self, model_dir: &Path, model: &Model, device: &Device, ui: &Ui) -> puppet::Result<FitOptions> {
         let (latent, vertex) = if self.one_pass {
             (0, 0)
@@ -91,6 +103,7 @@ impl FitArgs {
         for (name, v) in [
             ("--plausible-margin", self.plausible_margin),
             ("--plausibility-weight", self.plausibility_weight),
+            ("--hidden-limb-slack", self.hidden_limb_slack as f32),
         ] {
             if !(v.is_finite() && v >= 0.0) {
                 return Err(puppet::Error::setting(name, v, "a finite number ≥ 0"));
@@ -102,13 +115,17 @@ impl FitArgs {
         } else {
             None
         };
-        Ok(FitOptions {
+        let options = FitOptions {
             vertex_rounds: self.vertex_rounds,
             limb_search: (!self.no_limb_search).then(LimbSearch::default),
             ranges,
             plausibility_weight: self.plausibility_weight,
             ..options
-        })
+        };
+        if self.no_hidden_limbs {
+            return Ok(options);
+        }
+        options.with_hidden_limbs(model_dir, model, self.hidden_limb_slack / 100.0, device, ui)
     }
 
     /// The turn ranges of `model`'s training frames widened by `--plausible-margin` (`None`, with
@@ -121,7 +138,8 @@ impl FitArgs {
         purpose: &str,
         ui: &Ui,
     ) -> puppet::Result<Option<JointRanges>> {
-        JointRanges::of_training_frames(model_dir, model, self.plausible_margin, device, purpose, ui)
+        let poses = training_poses(model_dir, model, device, purpose, ui)?;
+        Ok(poses.map(|p| JointRanges::from_poses(&model.puppet, &p, self.plausible_margin)))
     }
 }
 

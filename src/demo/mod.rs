@@ -24,7 +24,7 @@ use crate::edit::pin_overlay::pin_overlay;
 use crate::edit::pose::{Pin, PoseEditor, PoseOptions};
 use crate::error::{Error, FolderKind, Result};
 use crate::export::spine::{self, OutfitSkin, PoseAnimation};
-use crate::fit::{fit, fit_latents, FitOptions, DEFAULT_LATENT_STEPS, DEFAULT_VERTEX_STEPS};
+use crate::fit::{fit, fit_latents, hidden_limbs, FitOptions, DEFAULT_LATENT_STEPS, DEFAULT_VERTEX_STEPS};
 use crate::metrics::l2;
 use crate::model::Model;
 use crate::picture::{contact_sheet, Picture};
@@ -189,7 +189,13 @@ pub fn run(options: &DemoOptions, progress: &dyn Progress) -> Result<DemoSummary
     let names = frames.names();
     let held_out = train::trainer::SplitRecord::load(&model_dir)?.map(|s| s.test).unwrap_or_default();
     let refs: Vec<&Picture> = frames.frames.iter().collect();
-    let fit_options = FitOptions::for_model(&model_dir, DEFAULT_LATENT_STEPS, DEFAULT_VERTEX_STEPS)?;
+    let fit_options = FitOptions::for_model(&model_dir, DEFAULT_LATENT_STEPS, DEFAULT_VERTEX_STEPS)?.with_hidden_limbs(
+        &model_dir,
+        &model,
+        hidden_limbs::DEFAULT_SLACK,
+        &device,
+        progress,
+    )?;
     progress.stage("fit", refs.len() as u64);
     let fits = fit(&model, &refs, &fit_options, &device, progress)?;
     let (w, h) = (model.puppet.width, model.puppet.height);

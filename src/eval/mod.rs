@@ -8,4 +8,3 @@ pub mod parts;
 pub mod pck_pairs;
 pub mod report;
 pub mod rig;
-pub mod visibility;

@@ -7,7 +7,6 @@ use serde::Serialize;
 
 use super::edit_poses::{drag_poses, inbetween_poses};
 use super::rig::{pose_scores, Scores};
-use super::visibility::visible_vertices;
 use crate::appearance::AppearanceStage;
 use crate::error::{Context, Error, Result};
 use crate::fit::{fit_with_latents, FitOptions};
@@ -16,6 +15,7 @@ use crate::model::Model;
 use crate::picture::Picture;
 use crate::progress::Progress;
 use crate::puppet::sequence::Frames;
+use crate::puppet::visibility::visible_vertices;
 use crate::puppet::LayerKind;
 use crate::render::render_crisp;
 use crate::synth::{true_positions, Truth};

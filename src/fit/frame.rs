@@ -5,6 +5,8 @@
 
 use std::path::Path;
 
+use burn::tensor::Device;
+
 use crate::error::{Error, Result};
 use crate::model::Model;
 use crate::picture::Picture;
@@ -47,6 +49,26 @@ pub fn training_frames(model_dir: &Path, model: &Model, purpose: &str, progress:
         }
     }
     Ok(Some(frames))
+}
+
+/// The network's one-pass poses (frame pixels, global numbering) of the frames `model` was
+/// trained on: what a fit learns its plausible turns and its hidden limbs' places from. `None`,
+/// with a warning, as for [`training_frames`].
+///
+/// # Errors
+/// As [`training_frames`] and [`Model::encode`].
+pub fn training_poses(
+    model_dir: &Path,
+    model: &Model,
+    device: &Device,
+    purpose: &str,
+    progress: &dyn Progress,
+) -> Result<Option<Vec<Vec<[f32; 2]>>>> {
+    let Some(frames) = training_frames(model_dir, model, purpose, progress)? else {
+        return Ok(None);
+    };
+    let refs: Vec<_> = frames.iter().collect();
+    Ok(Some(model.to_frame_vertices(model.decode(model.encode(&refs, device)?, device))))
 }
 
 /// The checks a model's frames must pass before decoding: the puppet's size, default limits.

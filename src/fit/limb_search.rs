@@ -67,22 +67,8 @@ impl LimbSearch {
                 .collect()
         };
         let coarse = fan(0.0, self.coarse_degrees.max(self.step_degrees), self.max_degrees);
-        let (w, h, vertices) = (frame.width as usize, frame.height as usize, pose.len());
-        let params = Params {
-            sigma: 0.0,
-            background: Background::Transparent,
-            ..Params::default()
-        };
-        // L2 of each pose in `poses` (concatenated), rendered in one batch.
-        let scores = |poses: &[[f32; 2]]| -> Result<Vec<f64>> {
-            let flat: Vec<f32> = poses.iter().flatten().copied().collect();
-            let frames = raster.forward(&flat, poses.len() / vertices, w, h, &params)?;
-            Ok(frames
-                .image
-                .chunks_exact(4 * w * h)
-                .map(|image| l2(&straight_picture(image, frame.width, frame.height), frame))
-                .collect())
-        };
+        let vertices = pose.len();
+        let scores = |poses: &[[f32; 2]]| crisp_scores(raster, frame, poses, vertices);
         let start = scores(pose)?[0];
         let mut best = start;
         for (k, limb) in limbs(puppet).into_iter().enumerate() {
@@ -124,8 +110,29 @@ impl LimbSearch {
     }
 }
 
+/// The L2 (DESIGN.md) to `frame` of the crisp render of each pose in `poses` (concatenated, each
+/// `vertices` long), rendered in one batch.
+///
+/// # Errors
+/// As [`SoftRasterizer::forward`].
+pub(super) fn crisp_scores(raster: &SoftRasterizer, frame: &Picture, poses: &[[f32; 2]], vertices: usize) -> Result<Vec<f64>> {
+    let (w, h) = (frame.width as usize, frame.height as usize);
+    let params = Params {
+        sigma: 0.0,
+        background: Background::Transparent,
+        ..Params::default()
+    };
+    let flat: Vec<f32> = poses.iter().flatten().copied().collect();
+    let frames = raster.forward(&flat, poses.len() / vertices.max(1), w, h, &params)?;
+    Ok(frames
+        .image
+        .chunks_exact(4 * w * h)
+        .map(|image| l2(&straight_picture(image, frame.width, frame.height), frame))
+        .collect())
+}
+
 /// `pose` with `limb` turned by `angle` radians about its pivot, its accessories placed by `map`.
-fn turned(pose: &[[f32; 2]], limb: &Limb, angle: f32, map: Option<&RigMap>) -> Vec<[f32; 2]> {
+pub(super) fn turned(pose: &[[f32; 2]], limb: &Limb, angle: f32, map: Option<&RigMap>) -> Vec<[f32; 2]> {
     let mut out = pose.to_vec();
     limb.turn(&mut out, angle);
     if let Some(map) = map {

@@ -7,11 +7,14 @@
 //!    on the decoder's manifold;
 //! 2. rounds of a limb search ([`limb_search`]: limbs turned about their joints, for limbs drawn
 //!    far from where the network put them) and vertex steps (Adam on the vertices themselves,
-//!    held only by the ARAP and joint terms).
+//!    held only by the ARAP and joint terms);
+//! 3. limbs the frame hides turned to their twins' mirrored turns ([`hidden_limbs`]), as far as
+//!    the render allows.
 //!
 //! Frames are fitted in batches of [`BATCH`]. Reading a frame for a model: [`frame`].
 
 pub mod frame;
+pub mod hidden_limbs;
 pub mod limb_search;
 pub mod plausible;
 
@@ -26,6 +29,7 @@ use crate::objective::{LossWeights, Objective};
 use crate::picture::Picture;
 use crate::progress::Progress;
 use crate::user_file;
+use hidden_limbs::HiddenLimbs;
 use limb_search::LimbSearch;
 use plausible::JointRanges;
 
@@ -79,6 +83,9 @@ pub struct FitOptions {
     /// The weight of [`JointRanges::penalty`] in the objective; 0 leaves the fit free of the
     /// ranges.
     pub plausibility_weight: f32,
+    /// After the vertex rounds, limbs the frame hides are turned towards their twins' mirrored
+    /// turns ([`HiddenLimbs`]). `None`: left where the fit put them.
+    pub hidden_limbs: Option<HiddenLimbs>,
 }
 
 impl Default for FitOptions {
@@ -95,6 +102,7 @@ impl Default for FitOptions {
             weights: LossWeights::default(),
             ranges: None,
             plausibility_weight: DEFAULT_PLAUSIBILITY_WEIGHT,
+            hidden_limbs: None,
         }
     }
 }
@@ -140,6 +148,24 @@ impl FitOptions {
             vertex_steps: 0,
             ..FitOptions::default()
         }
+    }
+
+    /// These options placing the limbs a frame hides by their twins ([`HiddenLimbs`], learned
+    /// from the network's poses of the frames the model in `model_dir` was trained on), the
+    /// crisp L2 allowed to rise by `slack` (relative), if they move vertices; unchanged, with a
+    /// warning through `progress`, if those frames are gone.
+    ///
+    /// # Errors
+    /// As [`frame::training_poses`].
+    pub fn with_hidden_limbs(self, model_dir: &Path, model: &Model, slack: f64, device: &Device, progress: &dyn Progress) -> Result<Self> {
+        if !self.moves_vertices() {
+            return Ok(self);
+        }
+        let poses = frame::training_poses(model_dir, model, device, "hidden limbs stay where the fit leaves them", progress)?;
+        Ok(FitOptions {
+            hidden_limbs: poses.map(|p| HiddenLimbs::learn(&model.puppet, &p, slack)),
+            ..self
+        })
     }
 
     /// The ranges the fit keeps limbs in, if the plausibility term is on.
@@ -224,6 +250,11 @@ fn fit_batch(model: &Model, frames: &[&Picture], options: &FitOptions, device: &
         }
         let free = analysis.vertices(model.to_work_free(&poses, device))?;
         poses = model.to_frame_vertices(analysis.decoder.expand(free));
+    }
+    if let Some(hidden) = &options.hidden_limbs {
+        for (pose, frame) in poses.iter_mut().zip(frames) {
+            hidden.place(analysis.objective.raster(), &model.puppet, model.expansion.rig_map(), frame, pose)?;
+        }
     }
     Ok((z, poses))
 }

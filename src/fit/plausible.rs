@@ -6,125 +6,54 @@
 //! takes. The limb search skips turns that leave the range, and the latent and vertex steps add
 //! a penalty on the excess.
 //!
-//! A layer's turn is the rotation of the least-squares similarity taking its rest vertices to
-//! posed ones: `atan2(Σ r̃ × p, Σ r̃ · p)` with `r̃` the rest vertices less their centroid. Both
-//! sums are linear in the posed vertices, so the penalty is a product with one constant matrix.
+//! Turns are measured as [`LimbTurns`] does; being linear in the posed vertices before the
+//! `atan2`, the penalty is a product with one constant matrix.
 
 use std::f32::consts::PI;
-use std::path::Path;
 
 use burn::tensor::{Device, Tensor, TensorData};
 
-use crate::error::Result;
-use crate::model::Model;
-use crate::progress::Progress;
-use crate::puppet::limbs::{limbs, Limb};
+use crate::puppet::limbs::{circular_mean, wrap, Limb, LimbTurns};
 use crate::puppet::Puppet;
-
-use super::frame::training_frames;
 
 /// Each limb's allowed turn relative to its parent layer: the range of a set of poses, widened.
 #[derive(Clone, Debug, PartialEq)]
 pub struct JointRanges {
-    /// The limbs, in the order of [`limbs`].
-    limbs: Vec<Limb>,
-    /// Per layer: its rest vertices less their centroid, and where its vertices start.
-    centred_rest: Vec<[f32; 2]>,
-    offsets: Vec<usize>,
+    turns: LimbTurns,
     /// Per limb: the middle of its allowed turn and half the allowed width (radians; half ≥ π
     /// allows every turn).
     centre: Vec<f32>,
     half: Vec<f32>,
 }
 
-/// The angle in (−π, π] equal to `a` modulo 2π.
-fn wrap(a: f32) -> f32 {
-    let w = (a + PI).rem_euclid(2.0 * PI) - PI;
-    if w <= -PI {
-        w + 2.0 * PI
-    } else {
-        w
-    }
-}
-
 impl JointRanges {
     /// The ranges of `poses` (frame pixels, global numbering) of `puppet`, each widened by
     /// `margin_degrees` either way. With no pose, every limb is held to its rest turn ± margin.
     pub fn from_poses(puppet: &Puppet, poses: &[Vec<[f32; 2]>], margin_degrees: f32) -> Self {
-        let offsets = puppet.vertex_offsets();
-        let rest = puppet.rest_vertices();
-        let mut centred_rest = rest.clone();
-        for w in offsets.windows(2) {
-            let n = (w[1] - w[0]).max(1) as f32;
-            let mean = rest[w[0]..w[1]].iter().fold([0.0, 0.0], |m, p| [m[0] + p[0] / n, m[1] + p[1] / n]);
-            for p in &mut centred_rest[w[0]..w[1]] {
-                *p = [p[0] - mean[0], p[1] - mean[1]];
-            }
-        }
-        let mut ranges = JointRanges {
-            limbs: limbs(puppet),
-            centred_rest,
-            offsets,
-            centre: Vec::new(),
-            half: Vec::new(),
-        };
-        let turns: Vec<Vec<f32>> = poses.iter().map(|p| ranges.turns(p)).collect();
+        let measure = LimbTurns::new(puppet);
+        let turns: Vec<Vec<f32>> = poses.iter().map(|p| measure.of(p)).collect();
         let margin = margin_degrees.to_radians();
-        for k in 0..ranges.limbs.len() {
+        let (mut centre, mut half) = (Vec::new(), Vec::new());
+        for k in 0..measure.limbs().len() {
             // The circular mean, then the extremes of each turn's difference from it.
-            let (s, c) = turns.iter().fold((0.0, 0.0), |(s, c), t| (s + t[k].sin(), c + t[k].cos()));
-            let mean = if turns.is_empty() { 0.0 } else { s.atan2(c) };
+            let mean = circular_mean(turns.iter().map(|t| t[k]));
             let (lo, hi) = turns
                 .iter()
                 .map(|t| wrap(t[k] - mean))
                 .fold((0.0f32, 0.0f32), |(lo, hi), d| (lo.min(d), hi.max(d)));
-            ranges.centre.push(wrap(mean + (lo + hi) / 2.0));
-            ranges.half.push(((hi - lo) / 2.0 + margin).min(PI));
+            centre.push(wrap(mean + (lo + hi) / 2.0));
+            half.push(((hi - lo) / 2.0 + margin).min(PI));
         }
-        ranges
-    }
-
-    /// The ranges of the network's one-pass poses of the frames `model` was trained on (its
-    /// `split.json`), widened by `margin_degrees`; `None`, with a warning through `progress`
-    /// saying what `purpose` goes without, if the model has no split record or a training frame
-    /// can no longer be read.
-    ///
-    /// # Errors
-    /// As [`training_frames`] and [`Model::encode`].
-    pub fn of_training_frames(
-        model_dir: &Path,
-        model: &Model,
-        margin_degrees: f32,
-        device: &Device,
-        purpose: &str,
-        progress: &dyn Progress,
-    ) -> Result<Option<Self>> {
-        let Some(frames) = training_frames(model_dir, model, purpose, progress)? else {
-            return Ok(None);
-        };
-        let refs: Vec<_> = frames.iter().collect();
-        let poses = model.to_frame_vertices(model.decode(model.encode(&refs, device)?, device));
-        Ok(Some(Self::from_poses(&model.puppet, &poses, margin_degrees)))
-    }
-
-    /// Each layer's turn from its rest pose in `pose` (radians).
-    fn layer_turns(&self, pose: &[[f32; 2]]) -> Vec<f32> {
-        self.offsets
-            .windows(2)
-            .map(|w| {
-                let (dot, cross) = (w[0]..w[1]).fold((0.0f32, 0.0f32), |(d, c), i| {
-                    let (r, p) = (self.centred_rest[i], pose[i]);
-                    (d + r[0] * p[0] + r[1] * p[1], c + r[0] * p[1] - r[1] * p[0])
-                });
-                cross.atan2(dot)
-            })
-            .collect()
+        JointRanges {
+            turns: measure,
+            centre,
+            half,
+        }
     }
 
     /// Each limb's turn relative to its parent layer in `pose` (radians, in (−π, π]).
     pub fn turns(&self, pose: &[[f32; 2]]) -> Vec<f32> {
-        let layer = self.layer_turns(pose);
-        self.limbs.iter().map(|l| wrap(layer[l.layer] - layer[l.parent])).collect()
+        self.turns.of(pose)
     }
 
     /// How far limb `k`'s relative turn `turn` lies outside its range (radians; 0 inside).
@@ -138,7 +67,7 @@ impl JointRanges {
         self.turns(pose)
             .iter()
             .enumerate()
-            .map(|(k, &t)| (self.limbs[k].layer, self.excess(k, t).to_degrees()))
+            .map(|(k, &t)| (self.turns.limbs()[k].layer, self.excess(k, t).to_degrees()))
             .filter(|&(_, e)| e > 0.0)
             .max_by(|a, b| a.1.total_cmp(&b.1))
     }
@@ -149,17 +78,18 @@ impl JointRanges {
     /// over the limbs — zero inside every range, growing smoothly past its ends.
     pub fn penalty(&self, vertices: Tensor<3>, device: &Device) -> Tensor<1> {
         let [batch, count, _] = vertices.dims();
-        let layers = self.offsets.len() - 1;
-        if self.limbs.is_empty() {
+        let (offsets, centred_rest, limbs) = (self.turns.offsets(), self.turns.centred_rest(), self.turns.limbs());
+        let layers = offsets.len() - 1;
+        if limbs.is_empty() {
             return Tensor::zeros([1], device);
         }
         // dot = x·Rx + y·Ry and cross = y·Rx − x·Ry, per layer, with R the centred rest of that
         // layer's vertices (zero elsewhere).
         let (mut rx, mut ry) = (vec![0.0f32; count * layers], vec![0.0f32; count * layers]);
-        for (l, w) in self.offsets.windows(2).enumerate() {
+        for (l, w) in offsets.windows(2).enumerate() {
             for i in w[0]..w[1].min(count) {
-                rx[i * layers + l] = self.centred_rest[i][0];
-                ry[i * layers + l] = self.centred_rest[i][1];
+                rx[i * layers + l] = centred_rest[i][0];
+                ry[i * layers + l] = centred_rest[i][1];
             }
         }
         let matrix = |m: Vec<f32>| Tensor::<2>::from_data(TensorData::new(m, [count, layers]), device);
@@ -173,7 +103,7 @@ impl JointRanges {
             .sqrt();
         let (cos, sin) = (dot / norm.clone(), cross / norm);
         let pick = |t: &Tensor<2>, f: fn(&Limb) -> usize| {
-            let index: Vec<i64> = self.limbs.iter().map(|l| f(l) as i64).collect();
+            let index: Vec<i64> = limbs.iter().map(|l| f(l) as i64).collect();
             let n = index.len();
             t.clone()
                 .select(1, Tensor::<1, burn::tensor::Int>::from_data(TensorData::new(index, [n]), device))
@@ -182,7 +112,7 @@ impl JointRanges {
         let (cp, sp) = (pick(&cos, |l| l.parent), pick(&sin, |l| l.parent));
         // The turn relative to the parent, then its cosine of distance from the range's middle.
         let (cd, sd) = (cl.clone() * cp.clone() + sl.clone() * sp.clone(), sl * cp - cl * sp);
-        let n = self.limbs.len();
+        let n = limbs.len();
         let row = |v: Vec<f32>| Tensor::<2>::from_data(TensorData::new(v, [1, n]), device);
         let (cm, sm) = (
             row(self.centre.iter().map(|m| m.cos()).collect()),
@@ -198,6 +128,7 @@ impl JointRanges {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::puppet::limbs::limbs;
     use crate::test_util::hinged_puppet;
 
     fn turned(puppet: &Puppet, degrees: f32) -> Vec<[f32; 2]> {

@@ -3,6 +3,8 @@
 //! about its joint keeps the joint welded and costs nothing in ARAP; the limb search of a fit
 //! and the poses sampled for training both pose a puppet this way.
 
+use std::f32::consts::PI;
+
 use super::Puppet;
 
 /// One limb: the layers that turn together about a joint.
@@ -88,6 +90,90 @@ pub fn limbs(puppet: &Puppet) -> Vec<Limb> {
                 .collect(),
         })
         .collect()
+}
+
+/// Measures each limb's turn about its joint relative to the layer it hangs from. A layer's turn
+/// is the rotation of the least-squares similarity taking its rest vertices to posed ones:
+/// `atan2(Σ r̃ × p, Σ r̃ · p)` with `r̃` the rest vertices less their centroid. Both sums are
+/// linear in the posed vertices (a differentiable penalty on turns is a product with one matrix).
+#[derive(Clone, Debug, PartialEq)]
+pub struct LimbTurns {
+    limbs: Vec<Limb>,
+    centred_rest: Vec<[f32; 2]>,
+    offsets: Vec<usize>,
+}
+
+impl LimbTurns {
+    /// The turns of `puppet`'s [`limbs`].
+    pub fn new(puppet: &Puppet) -> Self {
+        let offsets = puppet.vertex_offsets();
+        let mut centred_rest = puppet.rest_vertices();
+        for w in offsets.windows(2) {
+            let part = &mut centred_rest[w[0]..w[1]];
+            let n = part.len().max(1) as f32;
+            let mean = part.iter().fold([0.0, 0.0], |m, p| [m[0] + p[0] / n, m[1] + p[1] / n]);
+            for p in part {
+                *p = [p[0] - mean[0], p[1] - mean[1]];
+            }
+        }
+        LimbTurns {
+            limbs: limbs(puppet),
+            centred_rest,
+            offsets,
+        }
+    }
+
+    /// The limbs, in the order of [`limbs`] (a parent's before its children's).
+    pub fn limbs(&self) -> &[Limb] {
+        &self.limbs
+    }
+
+    /// Each vertex's rest place less its layer's rest centroid (global numbering).
+    pub fn centred_rest(&self) -> &[[f32; 2]] {
+        &self.centred_rest
+    }
+
+    /// Where each layer's vertices start in the global numbering, and the total last.
+    pub fn offsets(&self) -> &[usize] {
+        &self.offsets
+    }
+
+    /// Each layer's turn from its rest pose in `pose` (radians).
+    fn layer_turns(&self, pose: &[[f32; 2]]) -> Vec<f32> {
+        self.offsets
+            .windows(2)
+            .map(|w| {
+                let (dot, cross) = (w[0]..w[1]).fold((0.0f32, 0.0f32), |(d, c), i| {
+                    let (r, p) = (self.centred_rest[i], pose[i]);
+                    (d + r[0] * p[0] + r[1] * p[1], c + r[0] * p[1] - r[1] * p[0])
+                });
+                cross.atan2(dot)
+            })
+            .collect()
+    }
+
+    /// Each limb's turn relative to its parent layer in `pose` (global numbering; radians, in
+    /// (−π, π]).
+    pub fn of(&self, pose: &[[f32; 2]]) -> Vec<f32> {
+        let layer = self.layer_turns(pose);
+        self.limbs.iter().map(|l| wrap(layer[l.layer] - layer[l.parent])).collect()
+    }
+}
+
+/// The angle in (−π, π] equal to `a` modulo 2π.
+pub fn wrap(a: f32) -> f32 {
+    let w = (a + PI).rem_euclid(2.0 * PI) - PI;
+    if w <= -PI {
+        w + 2.0 * PI
+    } else {
+        w
+    }
+}
+
+/// The circular mean of `angles` (radians; 0 for none).
+pub fn circular_mean(angles: impl Iterator<Item = f32>) -> f32 {
+    let (s, c) = angles.fold((0.0f32, 0.0f32), |(s, c), a| (s + a.sin(), c + a.cos()));
+    s.atan2(c)
 }
 
 #[cfg(test)]

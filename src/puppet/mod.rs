@@ -18,6 +18,7 @@ pub mod pose_file;
 pub mod psd;
 pub mod rig_data;
 pub mod sequence;
+pub mod visibility;
 
 use crate::picture::Picture;
 

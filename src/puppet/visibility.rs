@@ -1,7 +1,8 @@
 //! Which vertices of a posed puppet the picture shows: a vertex is hidden when it lies inside a
 //! triangle of a layer drawn in front of its own. Hidden vertices get no evidence from the
-//! image (a back arm behind the torso can turn freely at no cost), so `puppet eval` reports
-//! vertex error and PCK over the visible vertices beside the figures over all of them.
+//! image (a back arm behind the torso can turn freely at no cost): `puppet eval` reports vertex
+//! error and PCK over the visible vertices beside the figures over all of them, and a fit places
+//! the limbs its frame hides from the ones it shows.
 
 use crate::geom::triangle::contains;
 use crate::puppet::Puppet;
