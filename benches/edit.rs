@@ -5,7 +5,9 @@
 //! layer too, so the latent moves the pose as in a trained model); time does not depend on them.
 //! Ids: `edit/drag/steps=5/pins=1`, `edit/inbetween/frame`; beside it the as-rigid-as-possible
 //! in-between: `edit/inbetween/arap_setup` (the system factorised for two keyframes) and
-//! `edit/inbetween/arap_frame` (one solve + the crisp render).
+//! `edit/inbetween/arap_frame` (one solve + the crisp render). And the default fit's limb search
+//! over one frame (`edit/fit/limb_search`: every limb of the robot turned through its fan, a
+//! turned arm to find).
 
 // Benchmarks print their figures, read their own committed data, and criterion's macros write
 // undocumented functions.
@@ -18,11 +20,13 @@ use burn::tensor::{Distribution, Tensor};
 use criterion::{criterion_group, criterion_main, Criterion};
 use puppet::edit::inbetween::{rigid_interpolation, Interpolator};
 use puppet::edit::pose::{PoseEditor, PoseOptions};
+use puppet::fit::limb_search::LimbSearch;
 use puppet::fit::FitOptions;
 use puppet::model::deformation::DeformationNetConfig;
 use puppet::model::Model;
 use puppet::progress::Silent;
-use puppet::render::render_crisp;
+use puppet::puppet::limbs::limbs;
+use puppet::render::{render_crisp, SoftRasterizer};
 
 /// Gives all-zero weight tensors (the decoder's zero-initialised last layer) small random values.
 struct Noise;
@@ -99,6 +103,21 @@ fn bench(c: &mut Criterion) {
         b.iter(|| {
             t = (t + 0.137) % 1.0;
             black_box(render_crisp(&model.puppet, &rigid.at(f64::from(t)), w, h).expect("render"))
+        })
+    });
+
+    let raster = SoftRasterizer::new(&model.puppet).expect("rasterizer");
+    let mut turned = model.puppet.rest_vertices();
+    limbs(&model.puppet)[1].turn(&mut turned, 50f32.to_radians());
+    group.bench_function("fit/limb_search", |b| {
+        b.iter(|| {
+            let mut pose = turned.clone();
+            let search = LimbSearch::default();
+            black_box(
+                search
+                    .improve(&raster, &model.puppet, None, None, &frame, &mut pose)
+                    .expect("search"),
+            )
         })
     });
     group.finish();

@@ -20,8 +20,17 @@ fn on_white(p: [f32; 4]) -> [f64; 3] {
 /// # Panics
 /// If the sizes differ (a caller bug: frames are checked when loaded).
 pub fn l2(output: &Picture, target: &Picture) -> f64 {
+    l2_squared(output, target).sqrt()
+}
+
+/// The square of [`l2`]: a sum over pixels, so the L2 of a picture that differs from another only
+/// inside a window follows from the sums over that window.
+///
+/// # Panics
+/// If the sizes differ.
+pub fn l2_squared(output: &Picture, target: &Picture) -> f64 {
     assert_same_size(output, target);
-    let sum: f64 = output
+    output
         .pixels
         .iter()
         .zip(&target.pixels)
@@ -29,8 +38,7 @@ pub fn l2(output: &Picture, target: &Picture) -> f64 {
             let (a, b) = (on_white(a), on_white(b));
             (0..3).map(|c| (255.0 * (a[c] - b[c])).powi(2)).sum::<f64>()
         })
-        .sum();
-    sum.sqrt()
+        .sum()
 }
 
 /// Masked RMSE: root mean square of the RGB difference (composited on white, values in

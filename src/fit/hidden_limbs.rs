@@ -25,7 +25,7 @@ use crate::puppet::Puppet;
 use crate::render::soft_raster::SoftRasterizer;
 use crate::rig::deform::RigMap;
 
-use super::limb_search::{crisp_scores, turned};
+use super::limb_search::{turned, CrispScorer};
 
 /// A limb shows when at least this share of its vertices (its layer's and those hanging from it)
 /// is visible.
@@ -187,6 +187,8 @@ impl HiddenLimbs {
     ) -> Result<usize> {
         let limbs = self.turns.limbs();
         let mut shown = shown_shares(&self.turns, puppet, pose);
+        let scorer = CrispScorer::new(raster, puppet, frame);
+        let mut base = scorer.full(pose)?[0];
         let mut moved = 0;
         // Twice over, as a limb placed later can free its parent's turn.
         for (k, limb) in limbs.iter().enumerate().chain(limbs.iter().enumerate()) {
@@ -198,28 +200,24 @@ impl HiddenLimbs {
             if delta.abs().to_degrees() < STEP_DEGREES / 2.0 {
                 continue;
             }
-            // Turns from the fitted one (first, always within the slack) to the mirrored one,
-            // nearest that first: the frame cannot tell hidden turns apart, so the nearest that
-            // keeps the render wins, even across a turn that would show.
+            // Turns from the mirrored one back towards the fitted one, nearest the mirrored first:
+            // the frame cannot tell hidden turns apart, so the nearest that keeps the render
+            // wins, even across a turn that would show.
             let reach = (delta.abs().to_degrees() / STEP_DEGREES).floor() as i32;
-            let mut angles = vec![0.0, delta];
+            let mut angles = vec![delta];
             for j in 1..=reach {
                 let off = (j as f32 * STEP_DEGREES).to_radians();
                 if off < delta.abs() {
                     angles.extend([delta + off, delta - off]);
                 }
             }
-            let tries: Vec<[f32; 2]> = angles
-                .iter()
-                .enumerate()
-                .flat_map(|(i, &a)| if i == 0 { pose.to_vec() } else { turned(pose, limb, a, map) })
-                .collect();
-            let scores = crisp_scores(raster, frame, &tries, pose.len())?;
-            let limit = scores[0] * (1.0 + self.slack);
-            let Some(taken) = (1..angles.len()).find(|&i| scores[i] <= limit) else {
+            let tries: Vec<[f32; 2]> = angles.iter().flat_map(|&a| turned(pose, limb, a, map)).collect();
+            let scores = scorer.around(pose, base, &tries)?;
+            let Some(taken) = scores.iter().position(|&s| s <= base * (1.0 + self.slack)) else {
                 continue;
             };
             pose.copy_from_slice(&turned(pose, limb, angles[taken], map));
+            base = scores[taken];
             shown = shown_shares(&self.turns, puppet, pose);
             moved += 1;
         }

@@ -52,6 +52,26 @@ impl Picture {
         }
     }
 
+    /// The part of the picture inside `[x0, x0 + width) × [y0, y0 + height)`.
+    ///
+    /// # Panics
+    /// If the window reaches outside the picture (a caller bug).
+    pub fn crop(&self, x0: u32, y0: u32, width: u32, height: u32) -> Picture {
+        assert!(
+            x0 + width <= self.width && y0 + height <= self.height,
+            "window {width}×{height} at ({x0}, {y0}) outside a {}×{} picture",
+            self.width,
+            self.height
+        );
+        let pixels = (y0..y0 + height)
+            .flat_map(|y| {
+                let row = (y * self.width + x0) as usize;
+                self.pixels[row..row + width as usize].iter().copied()
+            })
+            .collect();
+        Picture { width, height, pixels }
+    }
+
     /// The alpha channel, row-major.
     pub fn alpha(&self) -> Vec<f32> {
         self.pixels.iter().map(|p| p[3]).collect()
