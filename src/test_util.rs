@@ -158,6 +158,15 @@ pub fn weld(puppet: &mut Puppet, parent: usize, child: usize, point: [f32; 2]) {
     });
 }
 
+/// An untrained model of [`layered_puppet`] whose network reads 16² input, and its device: for
+/// tests of what goes in and out of a model, not of what it learned.
+pub fn tiny_model() -> (crate::model::Model, burn::tensor::Device) {
+    let device = crate::backend::device();
+    let puppet = layered_puppet();
+    let config = crate::model::deformation::DeformationNetConfig::new(puppet.vertex_count()).with_input_size(16);
+    (crate::model::Model::new(config, puppet, &device).unwrap(), device)
+}
+
 /// [`layered_puppet`] with its front arm made an accessory (a sleeve, say) and rigged with the
 /// default options: the torso is its parent.
 pub fn dressed_puppet() -> Puppet {

@@ -93,15 +93,11 @@ pub fn check_cut_out(picture: &Picture, path: &Path) -> Result<()> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::model::deformation::DeformationNetConfig;
-    use crate::test_util::layered_puppet;
+    use crate::test_util::tiny_model;
 
     #[test]
     fn wrong_size_and_missing_alpha_name_the_file() {
-        let device = crate::backend::device();
-        let puppet = layered_puppet();
-        let config = DeformationNetConfig::new(puppet.vertex_count()).with_input_size(16);
-        let model = Model::new(config, puppet, &device).unwrap();
+        let (model, _) = tiny_model();
         let dir = tempfile::tempdir().unwrap();
         let good = dir.path().join("good.png");
         let frame = crate::render::render_crisp(&model.puppet, &model.puppet.rest_vertices(), 48, 40).unwrap();

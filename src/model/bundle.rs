@@ -18,6 +18,10 @@ use crate::picture::Picture;
 use crate::puppet::{format, LayerKind, Puppet};
 use crate::user_file;
 
+/// Frames the encoder takes per pass in [`Model::encode`]: bounds the input's and the
+/// activations' memory however many frames a command encodes (a fit reads every training frame).
+pub const ENCODE_BATCH: usize = 16;
+
 /// A deformation network together with the puppet it deforms.
 #[derive(Clone, Debug)]
 pub struct Model {
@@ -175,12 +179,20 @@ impl Model {
         Ok(())
     }
 
-    /// Encodes frames to latents `[B, Z]`.
+    /// Encodes frames to latents `[B, Z]`, [`ENCODE_BATCH`] frames per pass of the encoder (the
+    /// network normalises nothing across a batch, so the latents do not depend on it).
     ///
     /// # Errors
     /// As [`Model::input`].
     pub fn encode(&self, frames: &[&Picture], device: &Device) -> Result<Tensor<2>> {
-        Ok(self.net.encode(self.input(frames, device)?))
+        if frames.len() <= ENCODE_BATCH {
+            return Ok(self.net.encode(self.input(frames, device)?));
+        }
+        let parts = frames
+            .chunks(ENCODE_BATCH)
+            .map(|chunk| Ok(self.net.encode(self.input(chunk, device)?)))
+            .collect::<Result<Vec<_>>>()?;
+        Ok(Tensor::cat(parts, 0))
     }
 
     /// Decodes latents to every vertex's position in working pixels, `[B, V, 2]`.
@@ -270,4 +282,33 @@ pub fn load_weights<M: Module>(net: M, bytes: Vec<u8>, path: &Path) -> Result<M>
         ModuleRecord::from_bytes(Bytes::from_bytes_vec(bytes)).map_err(|e| Error::format(path, format!("not a weights file: {e:?}")))?;
     net.try_load_record(record)
         .map_err(|e| Error::format(path, format!("weights do not fit this network: {e:?}")))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::render::render_crisp;
+    use crate::test_util::tiny_model;
+
+    #[test]
+    fn many_frames_encode_in_passes_to_the_latents_of_one_pass_each() {
+        let (model, device) = tiny_model();
+        let frames: Vec<Picture> = (0..ENCODE_BATCH + 5)
+            .map(|k| {
+                let mut pose = model.puppet.rest_vertices();
+                pose.iter_mut().for_each(|p| p[0] += k as f32 * 0.7 - 6.0);
+                render_crisp(&model.puppet, &pose, 48, 40).unwrap()
+            })
+            .collect();
+        let refs: Vec<&Picture> = frames.iter().collect();
+        let all: Vec<f32> = model.encode(&refs, &device).unwrap().into_data().try_to_vec::<f32>().unwrap();
+        let one_by_one: Vec<f32> = refs
+            .iter()
+            .flat_map(|f| model.encode(&[*f], &device).unwrap().into_data().try_to_vec::<f32>().unwrap())
+            .collect();
+        assert_eq!(all.len(), one_by_one.len());
+        for (a, b) in all.iter().zip(&one_by_one) {
+            assert!((a - b).abs() <= 1e-5 * a.abs().max(1.0), "{a} vs {b}");
+        }
+    }
 }
