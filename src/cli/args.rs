@@ -15,7 +15,7 @@ use puppet::rig::RigOptions;
 use super::ui::Ui;
 use burn::tensor::Device;
 use puppet::fit::frame::training_poses;
-use puppet::fit::hidden_limbs::DEFAULT_SLACK;
+use puppet::fit::hidden_limbs::{HiddenLimbs, DEFAULT_SLACK};
 use puppet::fit::plausible::JointRanges;
 use puppet::fit::{
     limb_search::LimbSearch, FitOptions, DEFAULT_LATENT_STEPS, DEFAULT_PLAUSIBILITY_WEIGHT, DEFAULT_PLAUSIBLE_MARGIN, DEFAULT_VERTEX_STEPS,
@@ -90,9 +90,9 @@ pub struct FitArgs {
 
 impl FitArgs {
     /// The fit options for `model`, read from `model_dir`: the objective it was trained with;
-    /// with the plausibility term on and steps to take, the turn ranges of its training frames;
-    /// with vertex steps, the twins that place hidden limbs, learned from those frames (a warning
-    /// through `ui` if they are gone).
+    /// with the plausibility term on and steps to take, or with vertex steps and hidden limbs
+    /// placed, the network's poses of its training frames, for the turn ranges and the twins (a
+    /// warning through `ui` if those frames are gone).
     pub fn options(&self, model_dir: &Path, model: &Model, device: &Device, ui: &Ui) -> puppet::Result<FitOptions> {
         let (latent, vertex) = if self.one_pass {
             (0, 0)
@@ -109,23 +109,35 @@ impl FitArgs {
                 return Err(puppet::Error::setting(name, v, "a finite number ≥ 0"));
             }
         }
-        let steps = latent > 0 || (vertex > 0 && self.vertex_rounds > 0);
-        let ranges = if steps && self.plausibility_weight > 0.0 {
-            self.training_ranges(model_dir, model, device, "fitting without the plausibility term", ui)?
+        // The training poses are read (and encoded) once, for whichever of the plausibility
+        // ranges and the hidden limbs' twins needs them; the ranges are kept whenever they are
+        // read, to name unseen poses even with the term off.
+        let moves = vertex > 0 && self.vertex_rounds > 0;
+        let plausible = (latent > 0 || moves) && self.plausibility_weight > 0.0;
+        let hidden = moves && !self.no_hidden_limbs;
+        let purpose = match (plausible, hidden) {
+            (true, true) => "fitting without the plausibility term, hidden limbs where the fit leaves them",
+            (true, false) => "fitting without the plausibility term",
+            _ => "hidden limbs stay where the fit leaves them",
+        };
+        let poses = if plausible || hidden {
+            training_poses(model_dir, model, device, purpose, ui)?
         } else {
             None
         };
-        let options = FitOptions {
+        Ok(FitOptions {
             vertex_rounds: self.vertex_rounds,
             limb_search: (!self.no_limb_search).then(LimbSearch::default),
-            ranges,
+            ranges: poses
+                .as_ref()
+                .map(|p| JointRanges::from_poses(&model.puppet, p, self.plausible_margin)),
             plausibility_weight: self.plausibility_weight,
+            hidden_limbs: poses
+                .as_ref()
+                .filter(|_| hidden)
+                .map(|p| HiddenLimbs::learn(&model.puppet, p, self.hidden_limb_slack / 100.0)),
             ..options
-        };
-        if self.no_hidden_limbs {
-            return Ok(options);
-        }
-        options.with_hidden_limbs(model_dir, model, self.hidden_limb_slack / 100.0, device, ui)
+        })
     }
 
     /// The turn ranges of `model`'s training frames widened by `--plausible-margin` (`None`, with

@@ -107,7 +107,8 @@ pub fn run(args: FitArgs, s: &Session) -> anyhow::Result<()> {
     s.ui.stage("fitting", pictures.len() as u64);
     let refs: Vec<&Picture> = pictures.iter().collect();
     let fits = fit(&model, &refs, &options, &device, &s.ui)?;
-    // The term's ranges if it is on; otherwise read only to name poses the model has not seen.
+    // The ranges read with the options (for the term or the hidden limbs' twins); otherwise read
+    // here only to name poses the model has not seen.
     let read;
     let ranges = match &options.ranges {
         Some(ranges) => Some(ranges),

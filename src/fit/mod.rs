@@ -81,7 +81,7 @@ pub struct FitOptions {
     /// `None`: no term.
     pub ranges: Option<JointRanges>,
     /// The weight of [`JointRanges::penalty`] in the objective; 0 leaves the fit free of the
-    /// ranges.
+    /// ranges (they are then only there to report against).
     pub plausibility_weight: f32,
     /// After the vertex rounds, limbs the frame hides are turned towards their twins' mirrored
     /// turns ([`HiddenLimbs`]). `None`: left where the fit put them.
