@@ -7,7 +7,8 @@
 //! in-between: `edit/inbetween/arap_setup` (the system factorised for two keyframes) and
 //! `edit/inbetween/arap_frame` (one solve + the crisp render). And the default fit's limb search
 //! over one frame (`edit/fit/limb_search`: every limb of the robot turned through its fan, a
-//! turned arm to find).
+//! turned arm to find), and one round of the default fit's vertex steps on that frame, all at
+//! full size or the first share at half size (`edit/fit/vertex_round/coarse_share=<S>`).
 
 // Benchmarks print their figures, read their own committed data, and criterion's macros write
 // undocumented functions.
@@ -21,7 +22,7 @@ use criterion::{criterion_group, criterion_main, Criterion};
 use puppet::edit::inbetween::{rigid_interpolation, Interpolator};
 use puppet::edit::pose::{PoseEditor, PoseOptions};
 use puppet::fit::limb_search::LimbSearch;
-use puppet::fit::FitOptions;
+use puppet::fit::{fit, FitOptions, DEFAULT_VERTEX_COARSE_SHARE};
 use puppet::model::deformation::DeformationNetConfig;
 use puppet::model::Model;
 use puppet::progress::Silent;
@@ -120,6 +121,21 @@ fn bench(c: &mut Criterion) {
             )
         })
     });
+
+    let drawn = render_crisp(&model.puppet, &turned, w, h).expect("render");
+    group.sample_size(10);
+    for share in [0.0, DEFAULT_VERTEX_COARSE_SHARE] {
+        let options = FitOptions {
+            latent_steps: 0,
+            vertex_rounds: 1,
+            limb_search: None,
+            vertex_coarse_share: share,
+            ..FitOptions::default()
+        };
+        group.bench_function(format!("fit/vertex_round/coarse_share={share}"), |b| {
+            b.iter(|| black_box(fit(&model, &[&drawn], &options, &device, &Silent).expect("fit")))
+        });
+    }
     group.finish();
 }
 

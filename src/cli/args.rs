@@ -61,6 +61,10 @@ pub struct FitArgs {
     /// limbs drawn far from where the network put them).
     #[arg(long, default_value_t = FitOptions::default().vertex_rounds, value_name = "N")]
     pub vertex_rounds: usize,
+    /// The share (0–1) of each round's vertex steps, the first, wide-σ ones, taken at half the
+    /// working size (a quarter of the pixels).
+    #[arg(long, default_value_t = FitOptions::default().vertex_coarse_share, value_name = "SHARE")]
+    pub vertex_coarse_share: f32,
     /// Skip the limb search: vertex steps only.
     #[arg(long)]
     pub no_limb_search: bool,
@@ -127,6 +131,7 @@ impl FitArgs {
         };
         Ok(FitOptions {
             vertex_rounds: self.vertex_rounds,
+            vertex_coarse_share: self.vertex_coarse_share,
             limb_search: (!self.no_limb_search).then(LimbSearch::default),
             ranges: poses
                 .as_ref()

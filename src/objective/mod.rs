@@ -132,6 +132,9 @@ pub struct Objective {
     joint_b: Vec<i64>,
     ndc_scale: f32,
     rest_area: f32,
+    /// What the reconstruction counts for in the total: 1, or k² for an unmasked objective at
+    /// 1/k of the working size, whose sum over pixels has 1/k² as many terms.
+    rec_scale: f32,
 }
 
 impl Objective {
@@ -162,6 +165,32 @@ impl Objective {
             joint_b,
             ndc_scale: 1.0 / half,
             rest_area,
+            rec_scale: 1.0,
+        })
+    }
+
+    /// The objective of `new(puppet, rest, size, weights)` evaluated at 1/`factor` of the working
+    /// size: for vertices and targets scaled by 1/`factor`, each term counts as at full size
+    /// (ARAP and joints are in NDC already; the masked reconstruction and the area are ratios; the
+    /// plain reconstruction is a sum over pixels, so it counts `factor²` times).
+    ///
+    /// # Errors
+    /// As [`Objective::new`]; [`crate::Error::Setting`] if `factor` does not divide `size`.
+    pub fn downsampled(puppet: &Puppet, rest: &[[f32; 2]], size: usize, weights: LossWeights, factor: usize) -> Result<Self> {
+        if factor == 0 || size % factor != 0 {
+            return Err(crate::Error::setting(
+                "objective downsampling",
+                factor,
+                format!("a divisor of the working size {size}"),
+            ));
+        }
+        let f = factor as f32;
+        let rest: Vec<[f32; 2]> = rest.iter().map(|p| [p[0] / f, p[1] / f]).collect();
+        let masked = weights.masked;
+        let objective = Objective::new(puppet, &rest, size / factor, weights)?;
+        Ok(Objective {
+            rec_scale: if masked { 1.0 } else { f * f },
+            ..objective
         })
     }
 
@@ -222,7 +251,7 @@ impl Objective {
             (reconstruction(rendered.image.clone(), target), Tensor::zeros([1], device))
         };
         let w = &self.weights;
-        let total = rec.clone()
+        let total = rec.clone().mul_scalar(self.rec_scale)
             + arap.clone().mul_scalar(w.arap)
             + joints.clone().mul_scalar(w.joints)
             + area_term.clone().mul_scalar(if w.masked { w.area } else { 0.0 });
@@ -234,6 +263,17 @@ impl Objective {
             area: area_term,
         })
     }
+}
+
+/// Images `[B, C, H, W]` at 1/`factor` of their size, each pixel the mean of the `factor²` it
+/// covers (`factor` divides H and W): targets for [`Objective::downsampled`].
+pub fn downsample(images: Tensor<4>, factor: usize) -> Tensor<4> {
+    let [b, c, h, w] = images.dims();
+    images
+        .reshape([b, c, h / factor, factor, w / factor, factor])
+        .mean_dim(5)
+        .mean_dim(3)
+        .reshape([b, c, h / factor, w / factor])
 }
 
 /// The rest pose's silhouette area as a fraction of the S×S square (eq. 11's Σ R(V_init)).
@@ -275,5 +315,48 @@ mod tests {
         let idx = |v: Vec<i64>| Tensor::<1, Int>::from_data(TensorData::new(v, [2]), &device);
         let j = joint_loss(v, idx(vec![0, 2]), idx(vec![1, 0]));
         assert!((scalar(j) - (25.0 + 2.0)).abs() < 1e-6);
+    }
+
+    #[test]
+    fn a_downsampled_objective_counts_each_term_as_at_full_size() {
+        let device = crate::backend::device();
+        let puppet = crate::test_util::hinged_puppet();
+        let size = 48;
+        let rest: Vec<[f32; 2]> = puppet.layers.iter().flat_map(|l| l.mesh.vertices.iter().copied()).collect();
+        let pose = |seed: u64| {
+            let v: Vec<f32> = crate::test_util::jittered(&rest, seed, 1.5).iter().map(|&c| c as f32).collect();
+            Tensor::<3>::from_data(TensorData::new(v, [1, rest.len(), 2]), &device)
+        };
+        let (drawn, guess) = (pose(1), pose(2));
+        for masked in [false, true] {
+            let weights = LossWeights {
+                masked,
+                ..LossWeights::default()
+            };
+            let full = Objective::new(&puppet, &rest, size, weights.clone()).unwrap();
+            let half = Objective::downsampled(&puppet, &rest, size, weights, 2).unwrap();
+            let target = full.render(drawn.clone(), 1.0).unwrap().image;
+            let at_full = full.evaluate(guess.clone(), target.clone(), 1.0, &device).unwrap();
+            let at_half = half
+                .evaluate(guess.clone().mul_scalar(0.5), downsample(target, 2), 0.25, &device)
+                .unwrap();
+            let close = |a: Tensor<1>, b: Tensor<1>, tolerance: f32| {
+                let (a, b) = (scalar(a), scalar(b));
+                assert!((a - b).abs() <= tolerance * a.abs().max(1e-6), "masked {masked}: {a} vs {b}");
+            };
+            close(at_full.arap.clone(), at_half.arap.clone(), 1e-4);
+            close(at_full.joints.clone(), at_half.joints.clone(), 1e-4);
+            // The reconstruction is measured on a quarter of the pixels: equal only roughly.
+            let scale = if masked { 1.0 } else { 4.0 };
+            close(at_full.rec.clone(), at_half.rec.clone().mul_scalar(scale), 0.2);
+            let w = LossWeights::default();
+            let expected = at_half.rec.mul_scalar(scale)
+                + at_half.arap.mul_scalar(w.arap)
+                + at_half.joints.mul_scalar(w.joints)
+                + at_half.area.mul_scalar(if masked { w.area } else { 0.0 });
+            close(at_half.total, expected, 1e-5);
+        }
+        let err = Objective::downsampled(&puppet, &rest, size, LossWeights::default(), 5).unwrap_err();
+        assert!(err.to_string().contains("divisor of the working size 48"), "{err}");
     }
 }
