@@ -68,7 +68,8 @@ pub struct FitArgs {
     /// Skip the limb search: vertex steps only.
     #[arg(long)]
     pub no_limb_search: bool,
-    /// The paper's one-pass fit: no latent or vertex steps (overrides the three above).
+    /// The paper's one-pass fit: no latent or vertex steps (overrides the three above), and no
+    /// hidden limbs placed.
     #[arg(long)]
     pub one_pass: bool,
     /// Keep each limb's turn about its joint within this many degrees of the turns the network
@@ -94,7 +95,7 @@ pub struct FitArgs {
 
 impl FitArgs {
     /// The fit options for `model`, read from `model_dir`: the objective it was trained with;
-    /// with the plausibility term on and steps to take, or with vertex steps and hidden limbs
+    /// with steps to take (more than the one pass) and the plausibility term on or hidden limbs
     /// placed, the network's poses of its training frames, for the turn ranges and the twins (a
     /// warning through `ui` if those frames are gone).
     pub fn options(&self, model_dir: &Path, model: &Model, device: &Device, ui: &Ui) -> puppet::Result<FitOptions> {
@@ -116,9 +117,9 @@ impl FitArgs {
         // The training poses are read (and encoded) once, for whichever of the plausibility
         // ranges and the hidden limbs' twins needs them; the ranges are kept whenever they are
         // read, to name unseen poses even with the term off.
-        let moves = vertex > 0 && self.vertex_rounds > 0;
-        let plausible = (latent > 0 || moves) && self.plausibility_weight > 0.0;
-        let hidden = moves && !self.no_hidden_limbs;
+        let refines = latent > 0 || (vertex > 0 && self.vertex_rounds > 0);
+        let plausible = refines && self.plausibility_weight > 0.0;
+        let hidden = refines && !self.no_hidden_limbs;
         let purpose = match (plausible, hidden) {
             (true, true) => "fitting without the plausibility term, hidden limbs where the fit leaves them",
             (true, false) => "fitting without the plausibility term",

@@ -321,6 +321,36 @@ mod tests {
     }
 
     #[test]
+    fn a_fit_without_vertex_steps_places_hidden_limbs_too() {
+        let puppet = two_armed();
+        let device = crate::backend::device();
+        let config = crate::model::deformation::DeformationNetConfig::new(puppet.vertex_count()).with_input_size(16);
+        // Untrained, the decoder's last layer is zero: every fit decodes the rest pose.
+        let model = crate::model::Model::new(config, puppet.clone(), &device).unwrap();
+        // Training poses whose two turns sum to −10°, so from rest the back arm's mirror is −10°,
+        // still behind the torso.
+        let poses: Vec<Vec<[f32; 2]>> = [-80.0f32, -70.0, -60.0, 60.0, 70.0, 80.0]
+            .iter()
+            .map(|&a| posed(&puppet, a, -10.0 - a))
+            .collect();
+        let frame = render_crisp(&puppet, &posed(&puppet, 0.0, -10.0), 60, 60).unwrap();
+        let turns = LimbTurns::new(&puppet);
+        let back = turns.limbs().iter().position(|l| l.layer == 0).unwrap();
+        let back_turn = |options: &crate::fit::FitOptions| {
+            let pose = crate::fit::fit(&model, &[&frame], options, &device, &crate::progress::Silent).unwrap();
+            turns.of(&pose[0])[back].to_degrees()
+        };
+        let one_pass = crate::fit::FitOptions::one_pass();
+        let placed = crate::fit::FitOptions {
+            hidden_limbs: Some(HiddenLimbs::learn(&puppet, &poses, DEFAULT_SLACK)),
+            ..one_pass.clone()
+        };
+        assert!(back_turn(&one_pass).abs() < 0.1, "the network's pass leaves the arm at rest");
+        let turned = back_turn(&placed);
+        assert!((turned + 10.0).abs() < 0.1, "placed at {turned}°, −10° mirrored");
+    }
+
+    #[test]
     fn twins_pair_limbs_of_one_parent_by_size_and_leave_an_odd_one_alone() {
         let size = (80, 80);
         let grey = |_: f32, _: f32| [0.5; 3];

@@ -9,7 +9,7 @@
 //!    far from where the network put them) and vertex steps (Adam on the vertices themselves,
 //!    held only by the ARAP and joint terms);
 //! 3. limbs the frame hides turned to their twins' mirrored turns ([`hidden_limbs`]), as far as
-//!    the render allows.
+//!    the render allows (after the latent steps when there are no vertex rounds).
 //!
 //! Frames are fitted in batches of [`BATCH`]. Reading a frame for a model: [`frame`].
 
@@ -28,6 +28,7 @@ use crate::model::{Model, ModelFolder};
 use crate::objective::{downsample, LossWeights, Objective};
 use crate::picture::Picture;
 use crate::progress::Progress;
+use crate::render::soft_raster::SoftRasterizer;
 use crate::user_file;
 use hidden_limbs::HiddenLimbs;
 use limb_search::LimbSearch;
@@ -92,8 +93,8 @@ pub struct FitOptions {
     /// The weight of [`JointRanges::penalty`] in the objective; 0 leaves the fit free of the
     /// ranges (they are then only there to report against).
     pub plausibility_weight: f32,
-    /// After the vertex rounds, limbs the frame hides are turned towards their twins' mirrored
-    /// turns ([`HiddenLimbs`]). `None`: left where the fit put them.
+    /// Last, limbs the frame hides are turned towards their twins' mirrored turns
+    /// ([`HiddenLimbs`]). `None`: left where the fit put them.
     pub hidden_limbs: Option<HiddenLimbs>,
 }
 
@@ -162,13 +163,14 @@ impl FitOptions {
 
     /// These options placing the limbs a frame hides by their twins ([`HiddenLimbs`], learned
     /// from the network's poses of the frames the model in `model_dir` was trained on), the
-    /// crisp L2 allowed to rise by `slack` (relative), if they move vertices; unchanged, with a
-    /// warning through `progress`, if those frames are gone.
+    /// crisp L2 allowed to rise by `slack` (relative), if they are more than the encoder's pass
+    /// ([`FitOptions::refines`]); unchanged, with a warning through `progress`, if those frames
+    /// are gone.
     ///
     /// # Errors
     /// As [`frame::training_poses`].
     pub fn with_hidden_limbs(self, model_dir: &Path, model: &Model, slack: f64, device: &Device, progress: &dyn Progress) -> Result<Self> {
-        if !self.moves_vertices() {
+        if !self.refines() {
             return Ok(self);
         }
         let poses = frame::training_poses(model_dir, model, device, "hidden limbs stay where the fit leaves them", progress)?;
@@ -186,6 +188,11 @@ impl FitOptions {
     /// Whether the options go past the decoder's manifold (vertex steps in some round).
     pub fn moves_vertices(&self) -> bool {
         self.vertex_steps > 0 && self.vertex_rounds > 0
+    }
+
+    /// Whether the fit is more than the encoder's one pass (latent or vertex steps).
+    pub fn refines(&self) -> bool {
+        self.latent_steps > 0 || self.moves_vertices()
     }
 }
 
@@ -238,7 +245,11 @@ pub fn fit_with_latents(
 fn fit_batch(model: &Model, frames: &[&Picture], options: &FitOptions, device: &Device) -> Result<(Tensor<2>, Vec<Vec<[f32; 2]>>)> {
     if !options.moves_vertices() || frames.is_empty() {
         let z = fit_latents(model, frames, options, device)?;
-        let poses = model.to_frame_vertices(model.decode(z.clone(), device));
+        let mut poses = model.to_frame_vertices(model.decode(z.clone(), device));
+        if let Some(hidden) = options.hidden_limbs.as_ref().filter(|_| !frames.is_empty()) {
+            let raster = SoftRasterizer::new(&model.puppet)?;
+            place_hidden_limbs(hidden, &raster, model, frames, &mut poses)?;
+        }
         return Ok((z, poses));
     }
     // One analysis (rasterizer, objective, network input) for both stages.
@@ -262,11 +273,23 @@ fn fit_batch(model: &Model, frames: &[&Picture], options: &FitOptions, device: &
         poses = model.to_frame_vertices(analysis.decoder.expand(free));
     }
     if let Some(hidden) = &options.hidden_limbs {
-        for (pose, frame) in poses.iter_mut().zip(frames) {
-            hidden.place(analysis.objective.raster(), &model.puppet, model.expansion.rig_map(), frame, pose)?;
-        }
+        place_hidden_limbs(hidden, analysis.objective.raster(), model, frames, &mut poses)?;
     }
     Ok((z, poses))
+}
+
+/// Each pose's hidden limbs turned towards their twins' mirrored turns ([`HiddenLimbs::place`]).
+fn place_hidden_limbs(
+    hidden: &HiddenLimbs,
+    raster: &SoftRasterizer,
+    model: &Model,
+    frames: &[&Picture],
+    poses: &mut [Vec<[f32; 2]>],
+) -> Result<()> {
+    for (pose, frame) in poses.iter_mut().zip(frames) {
+        hidden.place(raster, &model.puppet, model.expansion.rig_map(), frame, pose)?;
+    }
+    Ok(())
 }
 
 /// The latents `[B, Z]` of `frames` (one batch): the encoder's, then `options.latent_steps`
