@@ -122,6 +122,10 @@ fn training_lowers_the_reconstruction_loss_and_fit_and_eval_run() {
     fit(&tmp.path().join("fit-free"), &["--no-hidden-limbs"]).assert_ok();
     fit(&tmp.path().join("fit-slack"), &["--hidden-limb-slack", "nan"]).assert_error(&["--hidden-limb-slack"]);
     assert!(!tmp.path().join("fit-slack").exists());
+    // All vertex steps at half size fits; a share past 1 is refused by name.
+    fit(&tmp.path().join("fit-coarse"), &["--vertex-coarse-share", "1"]).assert_ok();
+    fit(&tmp.path().join("fit-share"), &["--vertex-coarse-share", "1.5"]).assert_error(&["--vertex-coarse-share"]);
+    assert!(!tmp.path().join("fit-share").exists());
     // Scored on all four frames: the encoder's fit, refined latents, then refined vertices.
     let scores = |refine: &str, vertices: &str| -> serde_json::Value {
         let out = tmp.path().join(format!("eval-{refine}-{vertices}.json"));

@@ -114,6 +114,13 @@ impl FitArgs {
                 return Err(puppet::Error::setting(name, v, "a finite number ≥ 0"));
             }
         }
+        if !(0.0..=1.0).contains(&self.vertex_coarse_share) {
+            return Err(puppet::Error::setting(
+                "--vertex-coarse-share",
+                self.vertex_coarse_share,
+                "a number from 0 to 1",
+            ));
+        }
         // The training poses are read (and encoded) once, for whichever of the plausibility
         // ranges and the hidden limbs' twins needs them; the ranges are kept whenever they are
         // read, to name unseen poses even with the term off.

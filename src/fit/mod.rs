@@ -51,6 +51,9 @@ pub const DEFAULT_VERTEX_STEPS: usize = 100;
 /// is within noise of all steps at full size, in about two thirds of the time.
 pub const DEFAULT_VERTEX_COARSE_SHARE: f32 = 0.75;
 
+/// How much smaller the square of the coarse vertex steps is ([`FitOptions::vertex_coarse_share`]).
+const COARSE_FACTOR: usize = 2;
+
 /// The plausibility term's weight unless asked otherwise: off, as it did not win on the Kenney
 /// robot's held-out frames (README "Plausible fits").
 pub const DEFAULT_PLAUSIBILITY_WEIGHT: f32 = 0.0;
@@ -79,8 +82,8 @@ pub struct FitOptions {
     /// limb far from its drawn place feel it).
     pub vertex_sigma_start: f32,
     /// The share (0–1) of each round's vertex steps, the first ones, taken at half the working
-    /// size: while σ is wide the render is blurred anyway, and a quarter of the pixels costs about
-    /// a quarter of the time. 0 = every step at full size.
+    /// size (when it is even): while σ is wide the render is blurred anyway, and a quarter of the
+    /// pixels costs less. 0 = every step at full size.
     pub vertex_coarse_share: f32,
     /// Soft-rasterizer σ (px² of the working square); the end of a training schedule suits.
     pub sigma: f32,
@@ -313,8 +316,9 @@ struct Analysis<'a> {
     device: &'a Device,
     images: Tensor<4>,
     objective: Objective,
-    /// The objective and targets at half the working size, for the first vertex steps of each
-    /// round (`None` when none are taken there).
+    /// The objective and targets at 1/[`COARSE_FACTOR`] of the working size, for the first
+    /// vertex steps of each round (`None` when none are taken there, or the factor does not
+    /// divide the working size).
     coarse: Option<(Objective, Tensor<4>)>,
     decoder: Decoder,
 }
@@ -338,9 +342,9 @@ impl<'a> Analysis<'a> {
         let size = model.letterbox.size as usize;
         let rest_points = model.rest_work_points();
         let images = model.input(frames, device)?;
-        let coarse = if options.moves_vertices() && share > 0.0 && size % 2 == 0 {
-            let objective = Objective::downsampled(&model.puppet, &rest_points, size, options.weights.clone(), 2)?;
-            Some((objective, downsample(images.clone(), 2)))
+        let coarse = if options.moves_vertices() && share > 0.0 && size % COARSE_FACTOR == 0 {
+            let objective = Objective::downsampled(&model.puppet, &rest_points, size, options.weights.clone(), COARSE_FACTOR)?;
+            Some((objective, downsample(images.clone(), COARSE_FACTOR)))
         } else {
             None
         };
@@ -381,12 +385,12 @@ impl<'a> Analysis<'a> {
         let level = |k: usize| {
             let sigma = start * (end / start).powf(k as f32 / (steps.max(2) - 1) as f32);
             match &self.coarse {
-                // σ is in px² of the square rendered, a quarter at half its size.
+                // σ is in px² of the square rendered.
                 Some((objective, images)) if k < coarse_steps => Level {
                     objective,
                     images,
-                    scale: 0.5,
-                    sigma: sigma / 4.0,
+                    scale: 1.0 / COARSE_FACTOR as f32,
+                    sigma: sigma / (COARSE_FACTOR * COARSE_FACTOR) as f32,
                 },
                 _ => Level {
                     objective: &self.objective,
