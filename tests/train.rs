@@ -126,6 +126,8 @@ fn training_lowers_the_reconstruction_loss_and_fit_and_eval_run() {
     fit(&tmp.path().join("fit-coarse"), &["--vertex-coarse-share", "1"]).assert_ok();
     fit(&tmp.path().join("fit-share"), &["--vertex-coarse-share", "1.5"]).assert_error(&["--vertex-coarse-share"]);
     assert!(!tmp.path().join("fit-share").exists());
+    fit(&tmp.path().join("fit-gain"), &["--min-round-gain", "nan"]).assert_error(&["--min-round-gain"]);
+    assert!(!tmp.path().join("fit-gain").exists());
     // Scored on all four frames: the encoder's fit, refined latents, then refined vertices.
     let scores = |refine: &str, vertices: &str| -> serde_json::Value {
         let out = tmp.path().join(format!("eval-{refine}-{vertices}.json"));

@@ -18,7 +18,8 @@ use puppet::fit::frame::training_poses;
 use puppet::fit::hidden_limbs::{HiddenLimbs, DEFAULT_SLACK};
 use puppet::fit::plausible::JointRanges;
 use puppet::fit::{
-    limb_search::LimbSearch, FitOptions, DEFAULT_LATENT_STEPS, DEFAULT_PLAUSIBILITY_WEIGHT, DEFAULT_PLAUSIBLE_MARGIN, DEFAULT_VERTEX_STEPS,
+    limb_search::LimbSearch, FitOptions, DEFAULT_LATENT_STEPS, DEFAULT_MIN_ROUND_GAIN, DEFAULT_PLAUSIBILITY_WEIGHT,
+    DEFAULT_PLAUSIBLE_MARGIN, DEFAULT_VERTEX_STEPS,
 };
 
 /// The trained model a command uses.
@@ -65,10 +66,14 @@ pub struct FitArgs {
     /// working size (a quarter of the pixels).
     #[arg(long, default_value_t = FitOptions::default().vertex_coarse_share, value_name = "SHARE")]
     pub vertex_coarse_share: f32,
+    /// From the third round on, a frame whose previous round lowered its L2 by less than this
+    /// (percent) takes no more rounds; 0 = every frame takes every round.
+    #[arg(long, default_value_t = 100.0 * DEFAULT_MIN_ROUND_GAIN, value_name = "PERCENT")]
+    pub min_round_gain: f64,
     /// Skip the limb search: vertex steps only.
     #[arg(long)]
     pub no_limb_search: bool,
-    /// The paper's one-pass fit: no latent or vertex steps (overrides the three above), and no
+    /// The paper's one-pass fit: no latent or vertex steps (overrides the options of both), and no
     /// hidden limbs placed.
     #[arg(long)]
     pub one_pass: bool,
@@ -109,6 +114,7 @@ impl FitArgs {
             ("--plausible-margin", self.plausible_margin),
             ("--plausibility-weight", self.plausibility_weight),
             ("--hidden-limb-slack", self.hidden_limb_slack as f32),
+            ("--min-round-gain", self.min_round_gain as f32),
         ] {
             if !(v.is_finite() && v >= 0.0) {
                 return Err(puppet::Error::setting(name, v, "a finite number ≥ 0"));
@@ -140,6 +146,7 @@ impl FitArgs {
         Ok(FitOptions {
             vertex_rounds: self.vertex_rounds,
             vertex_coarse_share: self.vertex_coarse_share,
+            min_round_gain: self.min_round_gain / 100.0,
             limb_search: (!self.no_limb_search).then(LimbSearch::default),
             ranges: poses
                 .as_ref()
