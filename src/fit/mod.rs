@@ -268,6 +268,18 @@ fn fit_batch(model: &Model, frames: &[&Picture], options: &FitOptions, device: &
     let analysis = Analysis::new(model, frames, options, device)?;
     let z = analysis.latents(model.net.encode(analysis.images.clone()))?;
     let mut poses = model.to_frame_vertices(model.decode(z.clone(), device));
+    vertex_rounds(&analysis, frames, &mut poses)?;
+    if let Some(hidden) = &options.hidden_limbs {
+        place_hidden_limbs(hidden, analysis.objective.raster(), model, frames, &mut poses)?;
+    }
+    Ok((z, poses))
+}
+
+/// `options.vertex_rounds` rounds of a limb search and vertex steps on `poses` (frame pixels), one
+/// per frame of `analysis`; from the third round on, a frame whose previous round gained less
+/// than `options.min_round_gain` takes no more.
+fn vertex_rounds(analysis: &Analysis, frames: &[&Picture], poses: &mut [Vec<[f32; 2]>]) -> Result<()> {
+    let (model, options, device) = (analysis.model, analysis.options, analysis.device);
     // The frames still in the rounds, and each one's crisp L2 after its last two rounds.
     let mut active: Vec<usize> = (0..frames.len()).collect();
     let mut scores: Vec<[f64; 2]> = vec![[f64::INFINITY; 2]; frames.len()];
@@ -309,10 +321,7 @@ fn fit_batch(model: &Model, frames: &[&Picture], options: &FitOptions, device: &
             }
         }
     }
-    if let Some(hidden) = &options.hidden_limbs {
-        place_hidden_limbs(hidden, analysis.objective.raster(), model, frames, &mut poses)?;
-    }
-    Ok((z, poses))
+    Ok(())
 }
 
 /// Each pose's hidden limbs turned towards their twins' mirrored turns ([`HiddenLimbs::place`]).
