@@ -161,9 +161,14 @@ pub fn weld(puppet: &mut Puppet, parent: usize, child: usize, point: [f32; 2]) {
 /// An untrained model of [`layered_puppet`] whose network reads 16² input, and its device: for
 /// tests of what goes in and out of a model, not of what it learned.
 pub fn tiny_model() -> (crate::model::Model, burn::tensor::Device) {
+    untrained_model(layered_puppet(), 16)
+}
+
+/// An untrained model of `puppet` whose network reads `input`² frames (its decoder's last layer
+/// is zero, so it decodes the rest pose), and its device.
+pub fn untrained_model(puppet: Puppet, input: usize) -> (crate::model::Model, burn::tensor::Device) {
     let device = crate::backend::device();
-    let puppet = layered_puppet();
-    let config = crate::model::deformation::DeformationNetConfig::new(puppet.vertex_count()).with_input_size(16);
+    let config = crate::model::deformation::DeformationNetConfig::new(puppet.vertex_count()).with_input_size(input);
     (crate::model::Model::new(config, puppet, &device).unwrap(), device)
 }
 

@@ -323,10 +323,8 @@ mod tests {
     #[test]
     fn a_fit_without_vertex_steps_places_hidden_limbs_too() {
         let puppet = two_armed();
-        let device = crate::backend::device();
-        let config = crate::model::deformation::DeformationNetConfig::new(puppet.vertex_count()).with_input_size(16);
         // Untrained, the decoder's last layer is zero: every fit decodes the rest pose.
-        let model = crate::model::Model::new(config, puppet.clone(), &device).unwrap();
+        let (model, device) = crate::test_util::untrained_model(puppet.clone(), 16);
         // Training poses whose two turns sum to −10°, so from rest the back arm's mirror is −10°,
         // still behind the torso.
         let poses: Vec<Vec<[f32; 2]>> = [-80.0f32, -70.0, -60.0, 60.0, 70.0, 80.0]

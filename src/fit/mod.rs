@@ -255,20 +255,21 @@ pub fn fit_with_latents(
 
 /// One batch of [`fit`]: the latents after the latent steps and the fitted poses.
 fn fit_batch(model: &Model, frames: &[&Picture], options: &FitOptions, device: &Device) -> Result<(Tensor<2>, Vec<Vec<[f32; 2]>>)> {
-    if !options.moves_vertices() || frames.is_empty() {
-        let z = fit_latents(model, frames, options, device)?;
+    if !options.refines() || frames.is_empty() {
+        let z = model.encode(frames, device)?;
         let mut poses = model.to_frame_vertices(model.decode(z.clone(), device));
         if let Some(hidden) = options.hidden_limbs.as_ref().filter(|_| !frames.is_empty()) {
-            let raster = SoftRasterizer::new(&model.puppet)?;
-            place_hidden_limbs(hidden, &raster, model, frames, &mut poses)?;
+            place_hidden_limbs(hidden, &SoftRasterizer::new(&model.puppet)?, model, frames, &mut poses)?;
         }
         return Ok((z, poses));
     }
-    // One analysis (rasterizer, objective, network input) for both stages.
+    // One analysis (rasterizer, objective, network input) for every stage.
     let analysis = Analysis::new(model, frames, options, device)?;
     let z = analysis.latents(model.net.encode(analysis.images.clone()))?;
     let mut poses = model.to_frame_vertices(model.decode(z.clone(), device));
-    vertex_rounds(&analysis, frames, &mut poses)?;
+    if options.moves_vertices() {
+        vertex_rounds(&analysis, frames, &mut poses)?;
+    }
     if let Some(hidden) = &options.hidden_limbs {
         place_hidden_limbs(hidden, analysis.objective.raster(), model, frames, &mut poses)?;
     }
@@ -562,10 +563,7 @@ mod tests {
     /// 48 pixels (at 16, `tiny_model`'s, a limb would be a pixel wide at half size), untrained
     /// (it decodes the rest pose), and a frame of it shifted with the front arm lowered further.
     fn model_and_frame() -> (Model, Device, Picture) {
-        let device = crate::backend::device();
-        let puppet = crate::test_util::layered_puppet();
-        let config = crate::model::deformation::DeformationNetConfig::new(puppet.vertex_count()).with_input_size(48);
-        let model = Model::new(config, puppet, &device).unwrap();
+        let (model, device) = crate::test_util::untrained_model(crate::test_util::layered_puppet(), 48);
         let puppet = &model.puppet;
         let arm = puppet.layer_index("arm_front").unwrap();
         let drawn: Vec<[f32; 2]> = puppet
