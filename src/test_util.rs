@@ -168,7 +168,7 @@ pub fn tiny_model() -> (crate::model::Model, burn::tensor::Device) {
 /// is zero, so it decodes the rest pose), and its device.
 pub fn untrained_model(puppet: Puppet, input: usize) -> (crate::model::Model, burn::tensor::Device) {
     let device = crate::backend::device();
-    let config = crate::model::deformation::DeformationNetConfig::new(puppet.vertex_count()).with_input_size(input);
+    let config = crate::model::deformation::DeformationNetConfig::new(puppet.free_vertices().len()).with_input_size(input);
     (crate::model::Model::new(config, puppet, &device).unwrap(), device)
 }
 

@@ -18,8 +18,8 @@ use puppet::fit::frame::training_poses;
 use puppet::fit::hidden_limbs::{HiddenLimbs, DEFAULT_SLACK};
 use puppet::fit::plausible::JointRanges;
 use puppet::fit::{
-    limb_search::LimbSearch, FitOptions, DEFAULT_LATENT_STEPS, DEFAULT_MIN_ROUND_GAIN, DEFAULT_PLAUSIBILITY_WEIGHT,
-    DEFAULT_PLAUSIBLE_MARGIN, DEFAULT_VERTEX_STEPS,
+    limb_search::LimbSearch, FitOptions, DEFAULT_ACCESSORY_STEPS, DEFAULT_LATENT_STEPS, DEFAULT_MIN_ROUND_GAIN,
+    DEFAULT_PLAUSIBILITY_WEIGHT, DEFAULT_PLAUSIBLE_MARGIN, DEFAULT_VERTEX_STEPS,
 };
 
 /// The trained model a command uses.
@@ -70,6 +70,12 @@ pub struct FitArgs {
     /// (percent) takes no more rounds; 0 = every frame takes every round.
     #[arg(long, default_value_t = 100.0 * DEFAULT_MIN_ROUND_GAIN, value_name = "PERCENT")]
     pub min_round_gain: f64,
+    /// With an accessory rig, then this many Adam steps on how far each accessory vertex is from
+    /// where the rig puts it (a drawn accessory is seldom exactly there), the body and the rig's
+    /// pins held, bending paid for as the body's is. 0 = accessories exactly where the rig puts
+    /// them.
+    #[arg(long, default_value_t = DEFAULT_ACCESSORY_STEPS, value_name = "N")]
+    pub accessory_steps: usize,
     /// Skip the limb search: vertex steps only.
     #[arg(long)]
     pub no_limb_search: bool,
@@ -147,6 +153,7 @@ impl FitArgs {
             vertex_rounds: self.vertex_rounds,
             vertex_coarse_share: self.vertex_coarse_share,
             min_round_gain: self.min_round_gain / 100.0,
+            accessory_steps: self.accessory_steps,
             limb_search: (!self.no_limb_search).then(LimbSearch::default),
             ranges: poses
                 .as_ref()

@@ -9,10 +9,13 @@
 //!    far from where the network put them) and vertex steps (Adam on the vertices themselves,
 //!    held only by the ARAP and joint terms);
 //! 3. limbs the frame hides turned to their twins' mirrored turns ([`hidden_limbs`]), as far as
-//!    the render allows (after the latent steps when there are no vertex rounds).
+//!    the render allows (after the latent steps when there are no vertex rounds);
+//! 4. with an accessory rig and vertex steps, Adam on the accessories' moves from where the rig
+//!    puts them, the body held ([`accessory_moves`]).
 //!
 //! Frames are fitted in batches of [`BATCH`]. Reading a frame for a model: [`frame`].
 
+pub mod accessory_moves;
 pub mod frame;
 pub mod hidden_limbs;
 pub mod limb_search;
@@ -30,6 +33,7 @@ use crate::picture::Picture;
 use crate::progress::Progress;
 use crate::render::soft_raster::SoftRasterizer;
 use crate::user_file;
+use accessory_moves::AccessoryMoves;
 use hidden_limbs::HiddenLimbs;
 use limb_search::LimbSearch;
 use plausible::JointRanges;
@@ -55,6 +59,10 @@ pub const DEFAULT_VERTEX_COARSE_SHARE: f32 = 0.75;
 /// otherwise (README): on the walker 12 of 19 frames skip their third round, 18 % less time for
 /// L2 +0.1 %.
 pub const DEFAULT_MIN_ROUND_GAIN: f64 = 0.005;
+
+/// Steps on a rigged model's accessories after its body's fit unless asked otherwise (README
+/// "Rigged accessories in training and every edit").
+pub const DEFAULT_ACCESSORY_STEPS: usize = 50;
 
 /// How much smaller the square of the coarse vertex steps is ([`FitOptions::vertex_coarse_share`]).
 const COARSE_FACTOR: usize = 2;
@@ -104,6 +112,11 @@ pub struct FitOptions {
     /// From the third round on, a frame whose previous round lowered its crisp L2 by less than
     /// this share (e.g. 0.005) takes no more rounds. 0 = every frame takes every round.
     pub min_round_gain: f64,
+    /// After the vertex rounds, with an accessory rig, Adam steps on how far each accessory
+    /// vertex is from where the rig puts it, the body and the pins held ([`AccessoryMoves`]), at
+    /// the final σ; a frame keeps the moves if they lower its crisp L2. 0 = the rig's placement
+    /// exactly.
+    pub accessory_steps: usize,
     /// Last, limbs the frame hides are turned towards their twins' mirrored turns
     /// ([`HiddenLimbs`]). `None`: left where the fit put them.
     pub hidden_limbs: Option<HiddenLimbs>,
@@ -119,6 +132,7 @@ impl Default for FitOptions {
             vertex_sigma_start: 4.0,
             vertex_coarse_share: DEFAULT_VERTEX_COARSE_SHARE,
             min_round_gain: DEFAULT_MIN_ROUND_GAIN,
+            accessory_steps: DEFAULT_ACCESSORY_STEPS,
             vertex_rounds: 3,
             limb_search: Some(LimbSearch::default()),
             sigma: 0.5,
@@ -273,7 +287,32 @@ fn fit_batch(model: &Model, frames: &[&Picture], options: &FitOptions, device: &
     if let Some(hidden) = &options.hidden_limbs {
         place_hidden_limbs(hidden, analysis.objective.raster(), model, frames, &mut poses)?;
     }
+    if options.moves_vertices() && options.accessory_steps > 0 {
+        move_accessories(&analysis, frames, &mut poses)?;
+    }
     Ok((z, poses))
+}
+
+/// With an accessory rig, each pose's accessories moved from where the rig puts them
+/// ([`AccessoryMoves`]), moves that turn triangles over taken back; a frame keeps the moves only
+/// if they lower its crisp L2 too (the steps lower the soft objective, and the rig's placement
+/// is often the drawing's already).
+fn move_accessories(analysis: &Analysis, frames: &[&Picture], poses: &mut [Vec<[f32; 2]>]) -> Result<()> {
+    let model = analysis.model;
+    let Some(moves) = AccessoryMoves::new(model, analysis.device)? else {
+        return Ok(());
+    };
+    let free = model.to_work_free(poses, analysis.device);
+    let moved = model.to_frame_vertices(analysis.accessories(free, &moves)?);
+    for ((pose, mut moved), frame) in poses.iter_mut().zip(moved).zip(frames) {
+        accessory_moves::unfold(&model.puppet, pose, &mut moved);
+        let scores =
+            limb_search::CrispScorer::new(analysis.objective.raster(), &model.puppet, frame).full(&[pose.as_slice(), &moved].concat())?;
+        if scores[1] < scores[0] {
+            *pose = moved;
+        }
+    }
+    Ok(())
 }
 
 /// `options.vertex_rounds` rounds of a limb search and vertex steps on `poses` (frame pixels), one
@@ -416,38 +455,78 @@ impl<'a> Analysis<'a> {
             self.options.latent_steps,
             self.options.learning_rate,
             |_| level.clone(),
-            |z| self.decoder.vertices(&self.model.net, z),
+            |z| Ok((self.decoder.vertices(&self.model.net, z), None)),
         )
     }
 
     /// `options.vertex_steps` Adam steps on the working-square free vertices `[B, Vb, 2]`
     /// themselves (the body's, with a rig: the accessories follow it).
     fn vertices(&self, free: Tensor<3>) -> Result<Tensor<3>> {
-        let (start, end) = (self.options.vertex_sigma_start.max(self.options.sigma), self.options.sigma);
         let steps = self.options.vertex_steps;
-        let coarse_steps = (self.options.vertex_coarse_share * steps as f32).round() as usize;
-        let level = |k: usize| {
-            let sigma = start * (end / start).powf(k as f32 / (steps.max(2) - 1) as f32);
-            match &self.coarse {
-                // σ is in px² of the square rendered.
-                Some((objective, images)) if k < coarse_steps => Level {
-                    objective,
-                    images,
-                    scale: 1.0 / COARSE_FACTOR as f32,
-                    sigma: sigma / (COARSE_FACTOR * COARSE_FACTOR) as f32,
-                },
-                _ => Level {
-                    objective: &self.objective,
-                    images: &self.images,
-                    scale: 1.0,
-                    sigma,
-                },
-            }
-        };
-        self.descend(free, steps, self.options.vertex_learning_rate, level, |v| self.decoder.expand(v))
+        self.descend(
+            free,
+            steps,
+            self.options.vertex_learning_rate,
+            |k| self.vertex_level(k, steps),
+            |v| Ok((self.decoder.expand(v), None)),
+        )
     }
 
-    /// Adam on `x`, whose image under `to_vertices` is scored by the objective. The objective is
+    /// `options.accessory_steps` Adam steps on the moves of the accessories of `moves` from where
+    /// the rig puts them on the body `free` `[B, Vb, 2]` (held); every vertex `[B, V, 2]`.
+    fn accessories(&self, free: Tensor<3>, moves: &AccessoryMoves) -> Result<Tensor<3>> {
+        let steps = self.options.accessory_steps;
+        let zero = Tensor::<3>::zeros([free.dims()[0], moves.count(), 2], self.device);
+        let weight = self.options.weights.arap;
+        let fitted = self.descend(
+            zero,
+            steps,
+            self.options.vertex_learning_rate,
+            // At the end of the schedule throughout: the body is in place, and the moves are
+            // small.
+            |_| Level {
+                objective: &self.objective,
+                images: &self.images,
+                scale: 1.0,
+                sigma: self.options.sigma,
+            },
+            |m| {
+                let m = moves.pinned(m);
+                Ok((
+                    self.decoder.expand_moved(free.clone(), m.clone()),
+                    Some(moves.energy(m)?.mul_scalar(weight)),
+                ))
+            },
+        )?;
+        Ok(self.decoder.expand_moved(free, moves.pinned(fitted)))
+    }
+
+    /// Where step `k` of `steps` on the vertices is scored: σ falls geometrically from the
+    /// schedule's start to its end, and the first `vertex_coarse_share` of the steps are at half
+    /// size.
+    fn vertex_level(&self, k: usize, steps: usize) -> Level<'_> {
+        let (start, end) = (self.options.vertex_sigma_start.max(self.options.sigma), self.options.sigma);
+        let coarse_steps = (self.options.vertex_coarse_share * steps as f32).round() as usize;
+        let sigma = start * (end / start).powf(k as f32 / (steps.max(2) - 1) as f32);
+        match &self.coarse {
+            // σ is in px² of the square rendered.
+            Some((objective, images)) if k < coarse_steps => Level {
+                objective,
+                images,
+                scale: 1.0 / COARSE_FACTOR as f32,
+                sigma: sigma / (COARSE_FACTOR * COARSE_FACTOR) as f32,
+            },
+            _ => Level {
+                objective: &self.objective,
+                images: &self.images,
+                scale: 1.0,
+                sigma,
+            },
+        }
+    }
+
+    /// Adam on `x`, whose image under `to_vertices` — every vertex, and a term of its own if
+    /// any, a batch mean — is scored by the objective. The objective is
     /// a batch mean, so each frame's unknowns see only its own frame's terms, scaled by 1/B; the
     /// total is multiplied back by B because Adam's ε is not scale-free: without it a frame's fit
     /// depended on how many frames shared its batch.
@@ -457,7 +536,7 @@ impl<'a> Analysis<'a> {
         steps: usize,
         learning_rate: f32,
         level: impl Fn(usize) -> Level<'s>,
-        to_vertices: impl Fn(Tensor<D>) -> Tensor<3>,
+        to_vertices: impl Fn(Tensor<D>) -> Result<(Tensor<3>, Option<Tensor<1>>)>,
     ) -> Result<Tensor<D>> {
         let shape = x0.dims();
         let mut x = to_vec(x0);
@@ -467,7 +546,7 @@ impl<'a> Analysis<'a> {
             let xt = Tensor::<D>::from_data(TensorData::new(x.clone(), shape), self.device)
                 .autodiff()
                 .require_grad();
-            let vertices = to_vertices(xt.clone());
+            let (vertices, own_term) = to_vertices(xt.clone())?;
             let at = level(k);
             let scaled = if at.scale == 1.0 {
                 vertices.clone()
@@ -477,6 +556,9 @@ impl<'a> Analysis<'a> {
             let mut total = at.objective.evaluate(scaled, at.images.clone(), at.sigma, self.device)?.total;
             if let Some(ranges) = self.options.plausible_ranges() {
                 total = total + ranges.penalty(vertices, self.device).mul_scalar(self.options.plausibility_weight);
+            }
+            if let Some(term) = own_term {
+                total = total + term;
             }
             let grads = total.mul_scalar(batch).backward();
             let g = xt

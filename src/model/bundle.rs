@@ -119,8 +119,12 @@ impl Model {
 
     /// A pose of `other`'s puppet (a model of the same body, e.g. the one this was made from by
     /// [`Model::wearing`]) as a pose of this model's puppet: the body kept, the accessories placed
-    /// by this puppet's rig.
+    /// by this puppet's rig. A pose of this very model is kept as it is: a fit may have moved its
+    /// accessories off the rig's placement ([`crate::fit::accessory_moves`]).
     pub fn pose_from(&self, other: &Model, pose: &[[f32; 2]]) -> Vec<[f32; 2]> {
+        if std::ptr::eq(self, other) {
+            return pose.to_vec();
+        }
         self.expansion.expand_frame(&other.expansion.free_of(pose))
     }
 

@@ -149,6 +149,17 @@ impl Decoder {
     /// Free vertices `[B, Vb, 2]` → every vertex `[B, V, 2]` (working pixels); the identity
     /// without a rig.
     pub fn expand(&self, free: Tensor<3>) -> Tensor<3> {
+        self.place(free, None)
+    }
+
+    /// [`Decoder::expand`] with every accessory vertex moved by `moves` `[B, Va, 2]` (working
+    /// pixels, in the rows of the rig's map) from where the rig puts it; `free` alone without a
+    /// rig.
+    pub fn expand_moved(&self, free: Tensor<3>, moves: Tensor<3>) -> Tensor<3> {
+        self.place(free, Some(moves))
+    }
+
+    fn place(&self, free: Tensor<3>, moves: Option<Tensor<3>>) -> Tensor<3> {
         let Some(rig) = &self.rig else {
             return free;
         };
@@ -156,7 +167,10 @@ impl Decoder {
         let va = rig.offsets.dims()[0];
         // [B, Vb, 2] → [Vb, 2B], one product for the whole batch, → [B, Va, 2].
         let columns = free.clone().swap_dims(0, 1).reshape([vb, 2 * batch]);
-        let placed = rig.matrix.clone().matmul(columns).reshape([va, batch, 2]).swap_dims(0, 1) + rig.offsets.clone().unsqueeze::<3>();
+        let mut placed = rig.matrix.clone().matmul(columns).reshape([va, batch, 2]).swap_dims(0, 1) + rig.offsets.clone().unsqueeze::<3>();
+        if let Some(moves) = moves {
+            placed = placed + moves;
+        }
         Tensor::cat(vec![free, placed], 1).select(1, rig.order.clone())
     }
 }
