@@ -406,6 +406,7 @@ impl Report {
                     out.push_str(&format!("  {name:<23} {n:>6} | {}\n", s.row()));
                 }
             }
+            out.push_str("  (shares and distances of the worst pose; leaks, inv and holes summed over the poses)\n");
         }
         out
     }
