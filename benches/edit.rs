@@ -8,7 +8,10 @@
 //! `edit/inbetween/arap_frame` (one solve + the crisp render). And the default fit's limb search
 //! over one frame (`edit/fit/limb_search`: every limb of the robot turned through its fan, a
 //! turned arm to find), and one round of the default fit's vertex steps on that frame, all at
-//! full size or the first share at half size (`edit/fit/vertex_round/coarse_share=<S>`).
+//! full size or the first share at half size (`edit/fit/vertex_round/coarse_share=<S>`). On
+//! the male adventurer, his hair rigged, one frame with the hair drawn off the rig: one round of
+//! vertex steps, then none or the default number of steps on the accessories' moves
+//! (`edit/fit/accessory_steps=<N>`).
 
 // Benchmarks print their figures, read their own committed data, and criterion's macros write
 // undocumented functions.
@@ -22,7 +25,7 @@ use criterion::{criterion_group, criterion_main, Criterion};
 use puppet::edit::inbetween::{rigid_interpolation, Interpolator};
 use puppet::edit::pose::{PoseEditor, PoseOptions};
 use puppet::fit::limb_search::LimbSearch;
-use puppet::fit::{fit, FitOptions, DEFAULT_VERTEX_COARSE_SHARE};
+use puppet::fit::{fit, FitOptions, DEFAULT_ACCESSORY_STEPS, DEFAULT_VERTEX_COARSE_SHARE};
 use puppet::model::deformation::DeformationNetConfig;
 use puppet::model::Model;
 use puppet::progress::Silent;
@@ -43,19 +46,28 @@ impl ModuleMapper for Noise {
     }
 }
 
-fn robot_model() -> Model {
-    let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("data/kenney/robot");
-    let art = puppet::puppet::artwork::load(&dir, &Default::default()).expect("the bundled robot loads");
-    let (p, _) = puppet::puppet::build::build(&art, &Default::default(), &Silent).expect("the robot builds");
+/// An untrained model of a bundled Kenney character (with its accessory rig, if `rigged`), its
+/// decoder's last layer given small random weights.
+fn kenney_model(name: &str, rigged: bool) -> Model {
+    let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("data/kenney").join(name);
+    let art = puppet::puppet::artwork::load(&dir, &Default::default()).expect("the bundled character loads");
+    let p = if rigged {
+        puppet::rig::build_rigged(&art, &Default::default(), &Default::default(), &Silent).expect("the character rigs")
+    } else {
+        puppet::puppet::build::build(&art, &Default::default(), &Silent)
+            .expect("the character builds")
+            .0
+    };
     let device = puppet::backend::device();
-    let mut model = Model::new(DeformationNetConfig::new(p.vertex_count()), p, &device).expect("a model for the robot");
+    let outputs = p.free_vertices().len();
+    let mut model = Model::new(DeformationNetConfig::new(outputs), p, &device).expect("a model for the character");
     model.net = model.net.map(&mut Noise);
     model
 }
 
 fn bench(c: &mut Criterion) {
     let device = puppet::backend::device();
-    let model = robot_model();
+    let model = kenney_model("robot", false);
     let (w, h) = (model.puppet.width, model.puppet.height);
     let frame = render_crisp(&model.puppet, &model.puppet.rest_vertices(), w, h).expect("rest render");
     let mut group = c.benchmark_group("edit");
@@ -134,6 +146,32 @@ fn bench(c: &mut Criterion) {
         };
         group.bench_function(format!("fit/vertex_round/coarse_share={share}"), |b| {
             b.iter(|| black_box(fit(&model, &[&drawn], &options, &device, &Silent).expect("fit")))
+        });
+    }
+
+    let dressed = kenney_model("male_adventurer", true);
+    let (w, h) = (dressed.puppet.width, dressed.puppet.height);
+    // The hair drawn 2 px lower and 1 px to the right of where the rig puts it at rest.
+    let mut off_rig = dressed.puppet.rest_vertices();
+    let offsets = dressed.puppet.vertex_offsets();
+    for (l, layer) in dressed.puppet.layers.iter().enumerate() {
+        if layer.kind == puppet::puppet::LayerKind::Accessory {
+            off_rig[offsets[l]..offsets[l + 1]]
+                .iter_mut()
+                .for_each(|p| *p = [p[0] + 1.0, p[1] + 2.0]);
+        }
+    }
+    let drawn = render_crisp(&dressed.puppet, &off_rig, w, h).expect("render");
+    for accessory_steps in [0, DEFAULT_ACCESSORY_STEPS] {
+        let options = FitOptions {
+            latent_steps: 0,
+            vertex_rounds: 1,
+            limb_search: None,
+            accessory_steps,
+            ..FitOptions::default()
+        };
+        group.bench_function(format!("fit/accessory_steps={accessory_steps}"), |b| {
+            b.iter(|| black_box(fit(&dressed, &[&drawn], &options, &device, &Silent).expect("fit")))
         });
     }
     group.finish();
