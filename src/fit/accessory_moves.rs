@@ -4,13 +4,15 @@
 //! from behind — and the rig, a linear map of the body, cannot follow. So after the body's fit the
 //! accessory vertices may move from where the rig puts them, the body held: the pins stay exactly
 //! on the rig's points (what the rig promises — the occlusion pins keep covering the parent's
-//! outline — still holds), and the moves pay the ARAP energy of the accessory's rest shape moved
-//! by them, at the weight the body's ARAP term has. That is, the moves bend an accessory as the
-//! ARAP term lets a body layer bend, and a move that is rigid about the pins costs nothing.
+//! outline — still holds), and the accessory as placed and moved pays the ARAP energy against its
+//! rest shape that a body layer pays, at the same weight: it bends as a body layer may. Where the
+//! rig's skinning stretches an accessory the moves may relax it too. Measured against paying for
+//! the moves alone (the ARAP energy of the rest shape moved by them; README), this keeps the
+//! accessories nearer their truth and on their parents at the same L2.
 
 use std::sync::Arc;
 
-use burn::tensor::{Device, Tensor, TensorData};
+use burn::tensor::{Device, Int, Tensor, TensorData};
 
 use crate::error::Result;
 use crate::geom::arap::ArapEnergy;
@@ -18,15 +20,15 @@ use crate::model::Model;
 use crate::objective::arap_op::arap_loss;
 use crate::puppet::{LayerKind, Puppet};
 
-/// What the moves of a rigged model's accessories need on a device: which vertices may move, the
-/// accessories' rest shape and its ARAP energy.
+/// What the moves of a rigged model's accessories need on a device: which vertices may move,
+/// where the accessories are among all vertices, and the ARAP energy of their rest shape.
 #[derive(Clone, Debug)]
 pub struct AccessoryMoves {
     /// `[1, Va, 1]`: 0 at the pins, 1 at every other accessory vertex (rows of the rig's map).
     movable: Tensor<3>,
-    /// `[1, Va, 2]`: the accessory vertices at rest, NDC of the working square.
-    rest: Tensor<3>,
-    /// The ARAP energy of the accessories' triangles at rest (NDC).
+    /// `[Va]`: the accessory vertices' global indices, in the rows of the rig's map.
+    rows: Tensor<1, Int>,
+    /// The ARAP energy of the accessories' triangles at rest (NDC of the working square).
     energy: Arc<ArapEnergy<f32>>,
     /// Working pixels → NDC.
     ndc_scale: f32,
@@ -59,20 +61,18 @@ impl AccessoryMoves {
         let all_rest = model.rest_work_points();
         let rest: Vec<[f32; 2]> = map.rows.iter().map(|&g| all_rest[g].map(|c| c * ndc_scale)).collect();
         let va = rest.len();
+        let rows: Vec<i64> = map.rows.iter().map(|&g| g as i64).collect();
         Ok(Some(AccessoryMoves {
             movable: Tensor::from_data(TensorData::new(movable, [1, va, 1]), device),
+            rows: Tensor::from_data(TensorData::new(rows, [va]), device),
             energy: Arc::new(ArapEnergy::new(&rest, &triangles)?),
-            rest: Tensor::from_data(
-                TensorData::new(rest.into_iter().flatten().collect::<Vec<f32>>(), [1, va, 2]),
-                device,
-            ),
             ndc_scale,
         }))
     }
 
     /// Number of accessory vertices (the rows of the rig's map).
     pub fn count(&self) -> usize {
-        self.rest.dims()[1]
+        self.rows.dims()[0]
     }
 
     /// Moves `[B, Va, 2]` (working pixels) with the pins' zeroed: what is added to the rig's
@@ -81,13 +81,13 @@ impl AccessoryMoves {
         moves * self.movable.clone()
     }
 
-    /// The batch mean of the ARAP energy of the accessories' rest shape moved by `moves`
-    /// `[B, Va, 2]` (working pixels, pins already zeroed), in the objective's units.
+    /// The batch mean of the ARAP energy of the accessories of poses `[B, V, 2]` (every vertex,
+    /// working pixels) against their rest shape, in the objective's units.
     ///
     /// # Errors
     /// As [`arap_loss`].
-    pub fn energy(&self, moves: Tensor<3>) -> Result<Tensor<1>> {
-        Ok(arap_loss(self.rest.clone() + moves.mul_scalar(self.ndc_scale), &self.energy)?.mean())
+    pub fn energy(&self, poses: Tensor<3>) -> Result<Tensor<1>> {
+        Ok(arap_loss(poses.select(1, self.rows.clone()).mul_scalar(self.ndc_scale), &self.energy)?.mean())
     }
 }
 
@@ -224,14 +224,29 @@ mod tests {
     }
 
     #[test]
-    fn a_model_without_a_rig_has_no_moves_and_zero_moves_cost_nothing() {
+    fn a_model_without_a_rig_has_no_moves_and_only_bending_accessories_costs() {
         let (plain, device) = crate::test_util::untrained_model(crate::test_util::layered_puppet(), 48);
         assert!(AccessoryMoves::new(&plain, &device).unwrap().is_none());
         let (dressed, device) = crate::test_util::untrained_model(crate::test_util::dressed_puppet(), 48);
         let moves = AccessoryMoves::new(&dressed, &device).unwrap().unwrap();
-        let zero = Tensor::<3>::zeros([2, moves.count(), 2], &device);
-        let energy: Vec<f32> = moves.energy(zero).unwrap().into_data().try_into_vec::<f32>().unwrap();
-        assert!(energy[0].abs() < 1e-9, "{energy:?}");
+        // The rest pose, the same turned by 0.3 rad and shifted, and squashed vertically.
+        let rest = dressed.rest_work_points();
+        let (s, c) = 0.3f32.sin_cos();
+        let poses: Vec<f32> = [
+            rest.clone(),
+            rest.iter()
+                .map(|p| [c * p[0] - s * p[1] + 3.0, s * p[0] + c * p[1] - 2.0])
+                .collect(),
+            rest.iter().map(|p| [p[0], 0.7 * p[1]]).collect(),
+        ]
+        .concat()
+        .into_iter()
+        .flatten()
+        .collect();
+        let poses = Tensor::<3>::from_data(TensorData::new(poses, [3, rest.len(), 2]), &device);
+        let each = |k: usize| -> f32 { moves.energy(poses.clone().narrow(0, k, 1)).unwrap().into_scalar() };
+        assert!(each(0).abs() < 1e-9 && each(1).abs() < 1e-6, "{} {}", each(0), each(1));
+        assert!(each(2) > 1e-4, "squashing costs {}", each(2));
         let ones = moves.pinned(Tensor::<3>::ones([1, moves.count(), 2], &device));
         let kept: f32 = ones.sum().into_scalar();
         let pins = dressed

@@ -113,7 +113,8 @@ pub struct FitOptions {
     /// this share (e.g. 0.005) takes no more rounds. 0 = every frame takes every round.
     pub min_round_gain: f64,
     /// After the vertex rounds, with an accessory rig, Adam steps on how far each accessory
-    /// vertex is from where the rig puts it, the body and the pins held ([`AccessoryMoves`]), at
+    /// vertex is from where the rig puts it, the body and the pins held, the accessories' ARAP
+    /// energy paid ([`AccessoryMoves`]), at
     /// the final σ; a frame keeps the moves if they lower its crisp L2. 0 = the rig's placement
     /// exactly.
     pub accessory_steps: usize,
@@ -491,11 +492,9 @@ impl<'a> Analysis<'a> {
                 sigma: self.options.sigma,
             },
             |m| {
-                let m = moves.pinned(m);
-                Ok((
-                    self.decoder.expand_moved(free.clone(), m.clone()),
-                    Some(moves.energy(m)?.mul_scalar(weight)),
-                ))
+                let all = self.decoder.expand_moved(free.clone(), moves.pinned(m));
+                let bending = moves.energy(all.clone())?.mul_scalar(weight);
+                Ok((all, Some(bending)))
             },
         )?;
         Ok(self.decoder.expand_moved(free, moves.pinned(fitted)))
