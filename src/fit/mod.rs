@@ -114,7 +114,7 @@ pub struct FitOptions {
     pub min_round_gain: f64,
     /// After the vertex rounds, with an accessory rig, Adam steps on how far each accessory
     /// vertex is from where the rig puts it, the body and the pins held, the accessories' ARAP
-    /// energy paid ([`AccessoryMoves`]), at
+    /// energy paid ([`AccessoryMoves`]), the first `vertex_coarse_share` of them at half size, at
     /// the final σ; a frame keeps the moves if they lower its crisp L2. 0 = the rig's placement
     /// exactly.
     pub accessory_steps: usize,
@@ -483,14 +483,9 @@ impl<'a> Analysis<'a> {
             zero,
             steps,
             self.options.vertex_learning_rate,
-            // At the end of the schedule throughout: the body is in place, and the moves are
+            // At the end of the σ schedule throughout: the body is in place, and the moves are
             // small.
-            |_| Level {
-                objective: &self.objective,
-                images: &self.images,
-                scale: 1.0,
-                sigma: self.options.sigma,
-            },
+            |k| self.level(k, steps, self.options.sigma),
             |m| {
                 let all = self.decoder.expand_moved(free.clone(), moves.pinned(m));
                 let bending = moves.energy(all.clone())?.mul_scalar(weight);
@@ -501,12 +496,16 @@ impl<'a> Analysis<'a> {
     }
 
     /// Where step `k` of `steps` on the vertices is scored: σ falls geometrically from the
-    /// schedule's start to its end, and the first `vertex_coarse_share` of the steps are at half
-    /// size.
+    /// schedule's start to its end ([`Analysis::level`]).
     fn vertex_level(&self, k: usize, steps: usize) -> Level<'_> {
         let (start, end) = (self.options.vertex_sigma_start.max(self.options.sigma), self.options.sigma);
+        self.level(k, steps, start * (end / start).powf(k as f32 / (steps.max(2) - 1) as f32))
+    }
+
+    /// Where step `k` of `steps` is scored at `sigma` (px² of the working square): the first
+    /// `vertex_coarse_share` of the steps at half size.
+    fn level(&self, k: usize, steps: usize, sigma: f32) -> Level<'_> {
         let coarse_steps = (self.options.vertex_coarse_share * steps as f32).round() as usize;
-        let sigma = start * (end / start).powf(k as f32 / (steps.max(2) - 1) as f32);
         match &self.coarse {
             // σ is in px² of the square rendered.
             Some((objective, images)) if k < coarse_steps => Level {
