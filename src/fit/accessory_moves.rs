@@ -91,22 +91,26 @@ impl AccessoryMoves {
     }
 }
 
-/// Takes back the moves that turn accessory triangles over: while some accessory triangle of
-/// `moved` is turned over (or flat) where in `rigged`, the same pose without the moves, it is
-/// not, its corners go back to their places in `rigged`. Adam's steps are a fixed length, and an
-/// accessory's thin triangles along its outline can flip in one; the ARAP term only pays for a
-/// flip afterwards. Ends within one pass per vertex (each pass returns at least one).
+/// Takes back the moves that turn accessory triangles over: while some accessory triangle is
+/// turned over (or flat) against its rest orientation in `moved` but not in `rigged`, the same
+/// pose without the moves, its corners go back to their places in `rigged`. Adam's steps are a
+/// fixed length, and an accessory's thin triangles along its outline can flip in one; the ARAP
+/// term only pays for a flip afterwards. A triangle the rig's own placement turns over is left to
+/// the moves (they may turn it back). Ends within one pass per vertex (each pass returns at least
+/// one).
 pub fn unfold(puppet: &Puppet, rigged: &[[f32; 2]], moved: &mut [[f32; 2]]) {
     let triangles = accessory_triangles(puppet);
     let area = |pose: &[[f32; 2]], t: [usize; 3]| {
         let [a, b, c] = t.map(|i| pose[i]);
         (b[0] - a[0]) * (c[1] - a[1]) - (c[0] - a[0]) * (b[1] - a[1])
     };
-    let sign: Vec<f32> = triangles.iter().map(|&t| area(rigged, t)).collect();
+    let rest = puppet.rest_vertices();
+    let turned = |pose: &[[f32; 2]], t: [usize; 3]| area(pose, t) * area(&rest, t).signum() <= 0.0;
+    let watched: Vec<[usize; 3]> = triangles.into_iter().filter(|&t| !turned(rigged, t)).collect();
     loop {
         let mut returned = false;
-        for (&t, &s) in triangles.iter().zip(&sign) {
-            if s != 0.0 && area(moved, t) * s.signum() <= 0.0 {
+        for &t in &watched {
+            if turned(moved, t) {
                 for i in t {
                     returned |= moved[i] != rigged[i];
                     moved[i] = rigged[i];
@@ -221,6 +225,11 @@ mod tests {
         };
         assert!(mesh.triangles.iter().all(|&t| area(&unfolded, t) * area(&rigged, t) > 0.0));
         assert!(area(&moved, t) * area(&rigged, t) < 0.0, "the test turns a triangle over");
+        // A triangle the rig's placement turns over, which the moves turn back, keeps its moves.
+        // (The rig's placement is `moved` now, the moves bring the rest pose back.)
+        let mut turned_back = rigged.clone();
+        unfold(&puppet, &moved, &mut turned_back);
+        assert_eq!(turned_back, rigged, "moves that turn the rig's flipped triangle back stay");
     }
 
     #[test]
