@@ -182,6 +182,11 @@ pub fn dressed_puppet() -> Puppet {
     crate::rig::rig_puppet(&p, &Default::default(), &mesh, &Default::default(), &crate::progress::Silent).unwrap()
 }
 
+/// The largest distance between corresponding points of two poses (pixels).
+pub fn largest_distance(a: &[[f32; 2]], b: &[[f32; 2]]) -> f32 {
+    a.iter().zip(b).map(|(p, q)| (p[0] - q[0]).hypot(p[1] - q[1])).fold(0.0, f32::max)
+}
+
 /// `vertices` flattened to `[x0, y0, x1, y1, …]` with each coordinate moved by a uniform amount
 /// in `[-amount, amount)` (seeded), so that no pixel centre lies exactly on an edge.
 pub fn jittered(vertices: &[[f32; 2]], seed: u64, amount: f64) -> Vec<f64> {

@@ -187,12 +187,7 @@ mod tests {
         // places its accessories anew.
         assert_eq!(model.pose_from(&model, &moved), moved);
         let other = model.wearing(puppet.clone()).unwrap();
-        let replaced = other.pose_from(&model, &moved);
-        let apart = replaced
-            .iter()
-            .zip(&rigged)
-            .map(|(p, q)| (p[0] - q[0]).abs().max((p[1] - q[1]).abs()))
-            .fold(0.0, f32::max);
+        let apart = crate::test_util::largest_distance(&other.pose_from(&model, &moved), &rigged);
         assert!(apart < 1e-3, "{apart} px from the rig's placement");
     }
 

@@ -253,11 +253,7 @@ mod tests {
             "the search's L2 is DESIGN.md's"
         );
         assert!(after < 0.2 * before, "L2 {before} → {after}");
-        let worst = pose
-            .iter()
-            .zip(&rest)
-            .map(|(a, b)| (a[0] - b[0]).hypot(a[1] - b[1]))
-            .fold(0.0, f32::max);
+        let worst = crate::test_util::largest_distance(&pose, &rest);
         assert!(worst < 1e-3, "the limb should be back at rest: {worst} px off");
     }
 

@@ -717,11 +717,7 @@ mod tests {
         // as if fitted alone (a frame's terms are its own).
         let some = fit_with(&both, 3, 1e-4);
         let close = |a: &[[f32; 2]], b: &[[f32; 2]]| {
-            let worst = a
-                .iter()
-                .zip(b)
-                .map(|(p, q)| (p[0] - q[0]).abs().max((p[1] - q[1]).abs()))
-                .fold(0.0, f32::max);
+            let worst = crate::test_util::largest_distance(a, b);
             assert!(worst < 1e-3, "{worst} px apart");
         };
         close(&some[1], &fit_with(&[&rest], 2, 0.0)[0]);
