@@ -330,3 +330,68 @@ fn a_dicebear_character_of_thin_line_art_builds_and_rigs() {
         assert_eq!(truth["attach_to"][child].as_str(), Some(parent.as_str()), "{child}");
     }
 }
+
+/// An edit that moves nothing keeps every hidden outline sample covered, on real art whose
+/// outline pixels lie partly outside the layer's mesh (the sample is where the mesh puts it).
+#[test]
+fn eval_rig_keeps_the_whole_hidden_outline_under_an_edit_that_moves_nothing() {
+    let tmp = tempfile::tempdir().unwrap();
+    let set = tmp.path().join("set");
+    std::fs::create_dir(&set).unwrap();
+    let art = repo().join("data/rigs/dicebear/personas-4");
+    let member = set.join("personas-4");
+    std::fs::create_dir(&member).unwrap();
+    for entry in std::fs::read_dir(&art).unwrap() {
+        let path = entry.unwrap().path();
+        std::fs::copy(&path, member.join(path.file_name().unwrap())).unwrap();
+    }
+    let edits = tmp.path().join("edits.toml");
+    std::fs::write(
+        &edits,
+        "[[edit]]\nname = \"still\"\nkind = \"widen\"\nlayer = \"head\"\nfactor = 1.0\n",
+    )
+    .unwrap();
+    let report = tmp.path().join("report.json");
+    puppet(
+        tmp.path(),
+        &[
+            "eval-rig",
+            "set",
+            "--edits",
+            edits.to_str().unwrap(),
+            "-o",
+            report.to_str().unwrap(),
+        ],
+    )
+    .assert_ok();
+    let json: serde_json::Value = serde_json::from_slice(&std::fs::read(&report).unwrap()).unwrap();
+    for method in ["rig", "sticker", "unchanged"] {
+        let scores = &json["characters"][0]["edits"][0][method];
+        for key in ["occlusion_kept", "own_occlusion_kept"] {
+            assert_eq!(scores[key].as_f64(), Some(1.0), "{method} {key}: {scores}");
+        }
+    }
+}
+
+/// Dense pins on real art: the active-set BBW of big-smile-6's seven-piece layer needs 341
+/// iterations with a pin every 3.2 px, more than the old limit of 200 allowed.
+#[test]
+fn a_dicebear_character_rigs_with_pins_every_three_pixels() {
+    let tmp = tempfile::tempdir().unwrap();
+    let art = tmp.path().join("big-smile-6");
+    std::fs::create_dir(&art).unwrap();
+    for entry in std::fs::read_dir(repo().join("data/rigs/dicebear/big-smile-6")).unwrap() {
+        let path = entry.unwrap().path();
+        std::fs::copy(&path, art.join(path.file_name().unwrap())).unwrap();
+    }
+    let toml = art.join("character.toml");
+    let text = std::fs::read_to_string(&toml).unwrap();
+    std::fs::write(&toml, format!("{text}\n[rig]\npin_spacing = 3.2\n")).unwrap();
+    puppet(tmp.path(), &["build", art.to_str().unwrap(), "-o", "out"]).assert_ok();
+    let p = format::load(&tmp.path().join("out")).unwrap();
+    assert!(
+        p.rig.as_ref().is_some_and(|r| r.accessories.len() == 4),
+        "{:?}",
+        p.rig.as_ref().map(|r| r.accessories.len())
+    );
+}

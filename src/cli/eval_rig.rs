@@ -16,7 +16,7 @@ use super::Session;
 /// Score accessory rigs on a set of characters: each subfolder is a character in the PNG-layer
 /// form (character.toml), with an optional rig_truth.json ({"attach_to": {"layer": "parent"}}).
 /// Each is built, rigged and put through a suite of body edits (the head widened 10 % and 20 %,
-/// tilted ±12°, the body squashed to 0.8, the torso widened 15 %, five ARAP drags); the rig is
+/// tilted ±12°, the body squashed to 0.8, the body widened 15 %, five ARAP drags); the rig is
 /// scored against accessories left unchanged and accessories stuck to the body under them.
 /// A subfolder may also be a synthetic sequence of `puppet synth --accessories` (template/ and
 /// truth.json): its rig is then also scored along the sequence's true body motion, against the

@@ -6,13 +6,16 @@
 //!   linear map, then ARAP polish of a folded accessory);
 //! - **unchanged**: left at rest;
 //! - **sticker**: each accessory vertex bound to the body point under it at rest (the front-most
-//!   body layer holding it, else the nearest), moving with that point.
+//!   body layer holding it, else the nearest layer's nearest point, keeping its offset from
+//!   it), moving with that point.
 //!
 //! The metrics, per edit:
-//! - **occlusion kept**: the body outline hidden under accessories' rest meshes, sampled every
-//!   pixel and carried by the edit, still covered by an accessory in front of it — the share of
-//!   samples, the deepest exposure (pixels from an uncovered sample to the nearest cover), and
-//!   leak blobs (runs of more than 4 consecutive uncovered samples along an outline); and
+//! - **occlusion kept**: the body outline hidden under accessories' rest meshes (by at least
+//!   half a pixel), sampled every pixel and carried by the edit, still covered by an accessory in
+//!   front of it — the share of samples, the deepest exposure (pixels from an uncovered sample to
+//!   the nearest cover), and leak blobs (runs of more than 4 consecutive uncovered samples along
+//!   an outline). Coverage is tested on the accessories' triangles, not on pixels, so rounding
+//!   does not expose a sample that did not move off its cover; and
 //!   **own occlusion kept**, the same share over only the outline each accessory hides of the
 //!   body layer it follows (its DAG parent, or the body layer its parent chain ends in), covered
 //!   by those accessories: what the occlusion constraint promises. The first counts a torso
@@ -37,6 +40,7 @@ use serde::{Deserialize, Serialize};
 use crate::edit::arap_drag::arap_drag;
 use crate::edit::bind::Binding;
 use crate::error::{Error, Result};
+use crate::geom::triangle_grid::TriangleGrid;
 use crate::progress::{Progress, Silent};
 use crate::puppet::rig_data::{Constraint, RigData, RigEdge, RigOverrides};
 use crate::puppet::{LayerKind, Puppet};
@@ -81,9 +85,11 @@ impl RigTruth {
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "lowercase")]
 pub enum Role {
-    /// The body layer highest in the frame other than the root (the root if it is alone).
+    /// The body layer highest in the frame (least mean y of its rest vertices).
     Head,
-    /// The root body layer.
+    /// The root body layer; when the root is the head, the largest other body layer (the head
+    /// if it is alone). The layers an edit carries along are those hanging, through joints,
+    /// from the edited layer on the side away from the torso.
     Torso,
 }
 
@@ -132,7 +138,7 @@ pub struct NamedEdit {
 }
 
 /// The committed suite (issue 13): widen the head 10 % and 20 %, tilt it ±12°, squash the body
-/// to 0.8 of its height, widen the torso 15 %, five seeded ARAP drags.
+/// to 0.8 of its height, widen the body (the torso and all it carries) 15 %, five seeded ARAP drags.
 pub fn default_edits() -> Vec<NamedEdit> {
     let named = |name: &str, edit| NamedEdit { name: name.into(), edit };
     let mut edits = vec![
@@ -166,7 +172,7 @@ pub fn default_edits() -> Vec<NamedEdit> {
         ),
         named("body squash 0.8", Edit::Squash { factor: 0.8 }),
         named(
-            "torso wider 15%",
+            "body wider 15%",
             Edit::Widen {
                 layer: Role::Torso,
                 factor: 1.15,
@@ -681,15 +687,31 @@ fn body_layers(puppet: &Puppet) -> impl Iterator<Item = usize> + '_ {
     (0..puppet.layers.len()).filter(|&l| puppet.layers[l].kind == LayerKind::Body)
 }
 
-/// The body layer playing `role` (module doc of [`Role`]).
+/// The body layer playing `role` (doc of [`Role`]).
 fn role(puppet: &Puppet, role: Role) -> usize {
+    let head = body_layers(puppet)
+        .min_by(|&a, &b| top(puppet, a).total_cmp(&top(puppet, b)))
+        .unwrap_or(puppet.root);
     match role {
-        Role::Torso => puppet.root,
-        Role::Head => body_layers(puppet)
-            .filter(|&l| l != puppet.root)
-            .min_by(|&a, &b| top(puppet, a).total_cmp(&top(puppet, b)))
-            .unwrap_or(puppet.root),
+        Role::Head => head,
+        Role::Torso if puppet.root != head => puppet.root,
+        Role::Torso => body_layers(puppet)
+            .filter(|&l| l != head)
+            .max_by(|&a, &b| area(puppet, a).total_cmp(&area(puppet, b)))
+            .unwrap_or(head),
     }
+}
+
+/// The area of a layer's rest mesh.
+fn area(puppet: &Puppet, l: usize) -> f32 {
+    let mesh = &puppet.layers[l].mesh;
+    mesh.triangles
+        .iter()
+        .map(|t| {
+            let [a, b, c] = t.map(|i| mesh.vertices[i as usize]);
+            0.5 * ((b[0] - a[0]) * (c[1] - a[1]) - (c[0] - a[0]) * (b[1] - a[1])).abs()
+        })
+        .sum()
 }
 
 /// The mean y of a layer's rest vertices.
@@ -698,7 +720,7 @@ fn top(puppet: &Puppet, l: usize) -> f32 {
     v.iter().map(|p| p[1]).sum::<f32>() / v.len().max(1) as f32
 }
 
-/// `layer` and the body layers hanging from it (through joints, away from the root).
+/// `layer` and the body layers hanging from it (through joints, away from the torso).
 fn hanging(puppet: &Puppet, layer: usize) -> Vec<usize> {
     let tree = body_tree(puppet);
     let mut out = vec![layer];
@@ -711,13 +733,14 @@ fn hanging(puppet: &Puppet, layer: usize) -> Vec<usize> {
     out
 }
 
-/// Each body layer's parent in the joint tree rooted at the root (breadth first).
+/// Each body layer's parent in the joint tree rooted at the torso (breadth first).
 fn body_tree(puppet: &Puppet) -> Vec<Option<usize>> {
     let n = puppet.layers.len();
+    let torso = role(puppet, Role::Torso);
     let mut parent = vec![None; n];
     let mut seen = vec![false; n];
-    seen[puppet.root] = true;
-    let mut queue = vec![puppet.root];
+    seen[torso] = true;
+    let mut queue = vec![torso];
     let mut k = 0;
     while k < queue.len() {
         let l = queue[k];
@@ -749,16 +772,18 @@ fn joint_with_parent(puppet: &Puppet, layer: usize) -> Option<usize> {
     })
 }
 
-/// The sticker baseline's bindings: each accessory vertex in the front-most body layer under it.
+/// The sticker baseline's bindings: each accessory vertex in the front-most body layer under it
+/// (or off the nearest body layer, keeping its offset from that layer's nearest point).
 struct Sticker {
-    /// (global accessory vertex, global body triangle corners, barycentric weights).
-    bound: Vec<(usize, [usize; 3], [f32; 3])>,
+    /// (global accessory vertex, the body point it follows, its offset from that point at rest).
+    bound: Vec<(usize, Bound, [f32; 2])>,
 }
 
 impl Sticker {
     fn new(puppet: &Puppet) -> Self {
         let offsets = puppet.vertex_offsets();
         let bodies: Vec<usize> = body_layers(puppet).collect();
+        let rest = puppet.rest_vertices();
         let mut bound = Vec::new();
         for (l, layer) in puppet.layers.iter().enumerate() {
             if layer.kind == LayerKind::Body {
@@ -779,7 +804,8 @@ impl Sticker {
                 });
                 let (t, w) = bind_point(&puppet.layers[b].mesh, p);
                 let tri = puppet.layers[b].mesh.triangles[t as usize].map(|i| offsets[b] + i as usize);
-                bound.push((offsets[l] + v, tri, w));
+                let at = position(&(tri, w), &rest);
+                bound.push((offsets[l] + v, (tri, w), [p[0] - at[0], p[1] - at[1]]));
             }
         }
         Sticker { bound }
@@ -787,8 +813,9 @@ impl Sticker {
 
     fn apply(&self, body: &[[f32; 2]]) -> Vec<[f32; 2]> {
         let mut out = body.to_vec();
-        for &(v, tri, w) in &self.bound {
-            out[v] = [0, 1].map(|c| w[0] * body[tri[0]][c] + w[1] * body[tri[1]][c] + w[2] * body[tri[2]][c]);
+        for (v, point, offset) in &self.bound {
+            let at = position(point, body);
+            out[*v] = [at[0] + offset[0], at[1] + offset[1]];
         }
         out
     }
@@ -829,6 +856,21 @@ struct Hidden {
     count: usize,
 }
 
+/// Layer `l`'s triangles (corner positions) in `pose`, its vertices from global index `offset`.
+fn placed_triangles(puppet: &Puppet, l: usize, pose: &[[f32; 2]], offset: usize) -> Vec<[[f32; 2]; 3]> {
+    puppet.layers[l]
+        .mesh
+        .triangles
+        .iter()
+        .map(|t| t.map(|i| pose[offset + i as usize]))
+        .collect()
+}
+
+/// Where a bound point is in `pose`.
+fn position((tri, w): &Bound, pose: &[[f32; 2]]) -> [f32; 2] {
+    [0, 1].map(|c| w[0] * pose[tri[0]][c] + w[1] * pose[tri[1]][c] + w[2] * pose[tri[2]][c])
+}
+
 /// How much of some hidden outline a pose keeps covered.
 struct Covered {
     /// Share of the samples covered (1 without samples).
@@ -840,18 +882,13 @@ struct Covered {
 }
 
 /// Carries each sample of `groups` by the pose (`at`) and checks it against the union of its
-/// group's accessory `masks` in that pose.
-fn covered(groups: &[Hidden], masks: &BTreeMap<usize, Mask>, at: &dyn Fn(&Bound) -> [f32; 2]) -> Covered {
+/// group's accessory triangles in that pose (`placed`): exactly, not on pixels, so a motion
+/// smaller than a pixel does not flip a sample that lies near a pixel's edge.
+fn covered(groups: &[Hidden], placed: &dyn Fn(usize) -> Vec<[[f32; 2]; 3]>, at: &dyn Fn(&Bound) -> [f32; 2]) -> Covered {
     let (mut kept, mut total, mut deepest, mut blobs) = (0usize, 0usize, 0.0f64, 0usize);
     for group in groups {
         total += group.count;
-        let cover = group
-            .cover
-            .iter()
-            .filter_map(|a| masks.get(a))
-            .fold(None::<Mask>, |acc, m| Some(acc.map_or_else(|| m.clone(), |u| u.or(m))));
-        let Some(cover) = cover else { continue };
-        let distance = cover.distance();
+        let cover = TriangleGrid::new(group.cover.iter().flat_map(|&a| placed(a)).collect(), COVER_CELL);
         for ring in &group.rings {
             let mut run = 0usize;
             for bound in ring {
@@ -862,13 +899,7 @@ fn covered(groups: &[Hidden], masks: &BTreeMap<usize, Mask>, at: &dyn Fn(&Bound)
                     run = 0;
                 } else {
                     run += 1;
-                    let (x, y) = (q[0].floor() as i64, q[1].floor() as i64);
-                    let d = if x >= 0 && y >= 0 && x < i64::from(cover.width) && y < i64::from(cover.height) {
-                        f64::from(distance[(y as usize) * cover.width as usize + x as usize])
-                    } else {
-                        f64::INFINITY
-                    };
-                    deepest = deepest.max(d);
+                    deepest = deepest.max(f64::from(cover.distance(q)));
                 }
             }
             blobs += usize::from(run > 4);
@@ -880,6 +911,15 @@ fn covered(groups: &[Hidden], masks: &BTreeMap<usize, Mask>, at: &dyn Fn(&Bound)
         blobs,
     }
 }
+
+/// Grid cell (pixels) of the accessory triangles the occlusion samples are checked against.
+const COVER_CELL: f32 = 4.0;
+
+/// How deep under its accessories an outline sample must lie at rest to count as hidden
+/// (pixels). A sample within half a pixel of the cover's rim shares its pixel with the rim: the
+/// artwork does not hide it, it draws the accessory's edge along it (a cap drawn to the head's
+/// curve), and any motion at all, even a rigid one rounded differently, would "expose" it.
+const HIDDEN_MARGIN: f32 = 0.5;
 
 /// What the metrics measure against, prepared once per character at rest.
 struct Scene<'a> {
@@ -909,15 +949,15 @@ impl<'a> Scene<'a> {
             let (t, w) = bind_point(&puppet.layers[l].mesh, p);
             (puppet.layers[l].mesh.triangles[t as usize].map(|i| offsets[l] + i as usize), w)
         };
+        let rest = puppet.rest_vertices();
+        let at_rest = |bound: &Bound| position(bound, &rest);
         // What covers at rest is what the meshes cover (within the mesher's tolerance of the
         // artwork), so an unedited pose keeps every sample.
-        let covering: Vec<(usize, Mask)> = accessories
-            .iter()
-            .map(|&a| {
-                let m = &puppet.layers[a].mesh;
-                (a, Mask::of_triangles(&m.vertices, &m.triangles, puppet.width, puppet.height))
-            })
-            .collect();
+        let mesh_mask = |l: usize| {
+            let m = &puppet.layers[l].mesh;
+            Mask::of_triangles(&m.vertices, &m.triangles, puppet.width, puppet.height)
+        };
+        let covering: Vec<(usize, Mask)> = accessories.iter().map(|&a| (a, mesh_mask(a))).collect();
         // The body layer each accessory follows, through its first parents.
         let follows = |a: usize| {
             let mut at = a;
@@ -930,11 +970,17 @@ impl<'a> Scene<'a> {
             None
         };
         let hidden_by = |b: usize, cover: Vec<usize>| {
-            let front: Vec<&Mask> = covering.iter().filter(|(a, _)| cover.contains(a)).map(|(_, m)| m).collect();
+            let front = TriangleGrid::new(
+                cover.iter().flat_map(|&a| placed_triangles(puppet, a, &rest, offsets[a])).collect(),
+                COVER_CELL,
+            );
             let (mut ring, mut rings, mut count) = (Vec::new(), Vec::new(), 0);
             for s in masks[b].outline(1.0) {
-                if front.iter().any(|m| m.covers(s)) {
-                    ring.push(bind(b, s));
+                // Judged where the score will look for it: an outline pixel just outside the
+                // layer's mesh is bound to the mesh's nearest point, and that point is the sample.
+                let bound = bind(b, s);
+                if front.covers_disc(at_rest(&bound), HIDDEN_MARGIN) {
+                    ring.push(bound);
                     count += 1;
                 } else if !ring.is_empty() {
                     rings.push(std::mem::take(&mut ring));
@@ -968,7 +1014,9 @@ impl<'a> Scene<'a> {
                 attachments.push(Attachment {
                     child: c,
                     parent: p,
-                    overlap: pixels.len(),
+                    // Counted as the score counts it, on the meshes, so a pose that moves
+                    // nothing retains exactly 1.
+                    overlap: mesh_mask(c).and(&mesh_mask(p)).count(),
                     anchors,
                 });
             }
@@ -1014,10 +1062,11 @@ impl<'a> Scene<'a> {
     }
 
     fn score(&self, pose: &[[f32; 2]]) -> Scores {
-        let at = |(tri, w): &Bound| [0, 1].map(|c| w[0] * pose[tri[0]][c] + w[1] * pose[tri[1]][c] + w[2] * pose[tri[2]][c]);
+        let at = |bound: &Bound| position(bound, pose);
         let masks: BTreeMap<usize, Mask> = self.accessories.iter().map(|&a| (a, self.layer_mask(a, pose))).collect();
-        let occlusion = covered(&self.hidden, &masks, &at);
-        let own = covered(&self.own, &masks, &at);
+        let placed = |a: usize| placed_triangles(self.puppet, a, pose, self.offsets[a]);
+        let occlusion = covered(&self.hidden, &placed, &at);
+        let own = covered(&self.own, &placed, &at);
         let mut retention = Vec::new();
         let mut drift = Vec::new();
         for a in &self.attachments {

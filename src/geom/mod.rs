@@ -22,6 +22,7 @@
 //!   between two poses (Alexa et al. 2000), the classical in-between.
 //! - [`components::component_labels`]: connected components of vertices joined by edges.
 //! - [`similarity::Similarity`]: a 2D similarity transform and its least-squares fit.
+//! - [`triangle_grid::TriangleGrid`]: exact point-in-union and distance queries on a triangle soup.
 
 pub mod arap;
 pub mod bbw;
@@ -31,6 +32,7 @@ pub mod min_quad_with_fixed;
 pub mod rigid_interpolation;
 pub mod similarity;
 pub mod triangle;
+pub mod triangle_grid;
 
 pub use arap::{arap_energy, best_fit_rotations, ArapEnergy, ArapSolver};
 pub use bbw::{bbw, lumped_mass, BbwError, BbwOptions, BbwWeights, MassMatrix, MeshComponent};
