@@ -25,7 +25,7 @@
 //!   retention, median over accessories), and the drift of 16 fixed anchors of the overlap
 //!   bound to both layers (mean pixels between the two places an anchor goes);
 //! - **no tearing**: accessory triangles that turn over, enclosed holes in an accessory's
-//!   coverage that were not there at rest, the change of distance between coincident
+//!   coverage (rasterised at 4× the canvas resolution) that were not there at rest, the change of distance between coincident
 //!   boundaries (95th percentile, pixels), and the largest stretch of an accessory triangle
 //!   (95th percentile of the deformation gradient's larger singular value).
 //!
@@ -952,12 +952,11 @@ impl<'a> Scene<'a> {
         let rest = puppet.rest_vertices();
         let at_rest = |bound: &Bound| position(bound, &rest);
         // What covers at rest is what the meshes cover (within the mesher's tolerance of the
-        // artwork), so an unedited pose keeps every sample.
+        // artwork), so an unedited pose keeps every sample and every overlap.
         let mesh_mask = |l: usize| {
             let m = &puppet.layers[l].mesh;
             Mask::of_triangles(&m.vertices, &m.triangles, puppet.width, puppet.height)
         };
-        let covering: Vec<(usize, Mask)> = accessories.iter().map(|&a| (a, mesh_mask(a))).collect();
         // The body layer each accessory follows, through its first parents.
         let follows = |a: usize| {
             let mut at = a;
@@ -1034,7 +1033,7 @@ impl<'a> Scene<'a> {
                 }
             }
         }
-        let rest_holes = covering.iter().map(|(_, m)| holes(m)).collect();
+        let rest_holes = accessories.iter().map(|&a| fine_holes(puppet, a, &rest, offsets[a])).collect();
         Scene {
             puppet,
             offsets,
@@ -1111,13 +1110,47 @@ impl<'a> Scene<'a> {
                 .accessories
                 .iter()
                 .zip(&self.rest_holes)
-                .map(|(a, &before)| holes(&masks[a]).saturating_sub(before))
+                .map(|(&a, &before)| fine_holes(self.puppet, a, pose, self.offsets[a]).saturating_sub(before))
                 .sum(),
             seam_change_p95: (!seam_change.is_empty()).then(|| percentile(&mut seam_change.clone(), 0.95)),
             stretch_p95: percentile(&mut stretch, 0.95),
         }
     }
 }
+
+/// Enclosed holes in the coverage of layer `l` (its vertices from global index `offset`) in
+/// `pose`, rasterised at [`HOLE_SUPERSAMPLING`] times the canvas resolution: at the canvas's
+/// own, a stroke of line art thinner than a pixel in places is rasterised with gaps, which open
+/// and close as it moves (a glasses frame whose lens is enclosed in one pose and not the next).
+fn fine_holes(puppet: &Puppet, l: usize, pose: &[[f32; 2]], offset: usize) -> usize {
+    let mesh = &puppet.layers[l].mesh;
+    holes_of_triangles(
+        &mesh.triangles,
+        &pose[offset..offset + mesh.vertices.len()],
+        puppet.width,
+        puppet.height,
+    )
+}
+
+/// [`fine_holes`] of a mesh placed at `placed` on a `width` × `height` canvas.
+fn holes_of_triangles(triangles: &[[u32; 3]], placed: &[[f32; 2]], width: u32, height: u32) -> usize {
+    let k = HOLE_SUPERSAMPLING as f32;
+    // Rasterised over the layer's bounding box, with a free pixel round it: a piece of the
+    // complement that reaches the box's rim is open to the outside, as one reaching the
+    // canvas's edge would be.
+    let (lo, hi) = placed.iter().fold(([f32::INFINITY; 2], [f32::NEG_INFINITY; 2]), |(lo, hi), p| {
+        ([lo[0].min(p[0]), lo[1].min(p[1])], [hi[0].max(p[0]), hi[1].max(p[1])])
+    });
+    let clip = |x: f32, n: u32| (x * k).clamp(0.0, (n as f32) * k);
+    let origin = [clip(lo[0], width).floor() - 1.0, clip(lo[1], height).floor() - 1.0];
+    let size = |h: f32, n: u32, o: f32| (clip(h, n).ceil() - o + 2.0).max(1.0) as u32;
+    let (w, h) = (size(hi[0], width, origin[0]), size(hi[1], height, origin[1]));
+    let scaled: Vec<[f32; 2]> = placed.iter().map(|p| [p[0] * k - origin[0], p[1] * k - origin[1]]).collect();
+    holes(&Mask::of_triangles(&scaled, triangles, w, h))
+}
+
+/// Samples per canvas pixel, per axis, of the coverage that holes are counted in.
+const HOLE_SUPERSAMPLING: u32 = 4;
 
 /// Enclosed holes of a coverage mask: pieces of its complement that do not touch the canvas edge.
 fn holes(silhouette: &Mask) -> usize {
@@ -1392,6 +1425,31 @@ mod tests {
         assert!(pose_scores(&p, &[rest], &recorder).is_none());
         let warnings = recorder.warnings();
         assert!(warnings.len() == 1 && warnings[0].contains("patch"), "{warnings:?}");
+    }
+
+    #[test]
+    fn a_frame_thinner_than_a_pixel_encloses_its_hole_wherever_it_lies() {
+        // A square frame 0.6 px wide round [x0, x0 + 12]²: four bars, two triangles each.
+        let frame = |x0: f32| {
+            let (a, b, c, d) = (x0, x0 + 0.6, x0 + 11.4, x0 + 12.0);
+            let bars = [[a, a, d, b], [a, c, d, d], [a, a, b, d], [c, a, d, d]];
+            let mut vertices = Vec::new();
+            let mut triangles = Vec::new();
+            for [x1, y1, x2, y2] in bars {
+                let k = vertices.len() as u32;
+                vertices.extend([[x1, y1], [x2, y1], [x2, y2], [x1, y2]]);
+                triangles.extend([[k, k + 1, k + 2], [k, k + 2, k + 3]]);
+            }
+            (vertices, triangles)
+        };
+        for x0 in [2.0, 2.3, 2.6, 2.9] {
+            let (vertices, triangles) = frame(x0);
+            assert_eq!(holes_of_triangles(&triangles, &vertices, 20, 20), 1, "frame at {x0}");
+        }
+        // At the canvas's own resolution the frame at 2.6 covers no pixel centre of its left
+        // and top bars, and encloses nothing.
+        let (vertices, triangles) = frame(2.6);
+        assert_eq!(holes(&Mask::of_triangles(&vertices, &triangles, 20, 20)), 0);
     }
 
     #[test]
