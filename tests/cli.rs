@@ -240,7 +240,25 @@ fn rig_previews_applies_a_pose_and_eval_rig_scores_a_set() {
     let json: serde_json::Value = serde_json::from_slice(&std::fs::read(&report).unwrap()).unwrap();
     let dag = &json["characters"][0]["dag"];
     assert_eq!((dag["judged"].as_u64(), dag["strict"].as_u64()), (Some(1), Some(1)), "{dag}");
-    assert!(tmp.path().join("pics/hatted.png").is_file());
+    // The third row of the sheet is the head tilted 12°: the hat left at rest uncovers the
+    // head's outline, dotted red in the third column; the rig's hat keeps it covered.
+    let pics = puppet::picture::Picture::load(&tmp.path().join("pics/hatted.png")).unwrap();
+    let red_in_column = |k: u32| {
+        let (w, h) = (pics.width / 3, pics.height / 6);
+        (k * w..(k + 1) * w)
+            .flat_map(|x| (2 * h..3 * h).map(move |y| (x, y)))
+            .filter(|&(x, y)| {
+                let p = pics.get(x, y);
+                p[0] > 0.85 && p[1] < 0.15 && p[2] < 0.15
+            })
+            .count()
+    };
+    assert!(
+        red_in_column(2) > 20 && red_in_column(0) < red_in_column(2) / 4,
+        "{} {}",
+        red_in_column(0),
+        red_in_column(2)
+    );
 
     // A puppet without accessories has no rig to draw; a pose of another puppet is refused.
     let plain = write_layer_character(&tmp.path().join("plain"), "");

@@ -33,7 +33,8 @@ pub struct EvalRigArgs {
     /// Also write the report as JSON here.
     #[arg(short, long, value_name = "FILE")]
     pub output: Option<PathBuf>,
-    /// Also write, per character, a picture of the first edits (rig | sticker | unchanged), and
+    /// Also write, per character, a picture of the first edits (rig | sticker | unchanged; the
+    /// hidden outline each uncovers dotted in red), and
     /// for a synthetic sequence NAME_motion.png: six of its frames (rig | truth | sticker |
     /// unchanged).
     #[arg(long, value_name = "DIR")]

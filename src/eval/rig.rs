@@ -879,6 +879,8 @@ struct Covered {
     deepest: f64,
     /// Runs of more than 4 uncovered samples.
     blobs: usize,
+    /// Where the uncovered samples are, pixels.
+    exposed: Vec<[f32; 2]>,
 }
 
 /// Carries each sample of `groups` by the pose (`at`) and checks it against the union of its
@@ -886,6 +888,7 @@ struct Covered {
 /// smaller than a pixel does not flip a sample that lies near a pixel's edge.
 fn covered(groups: &[Hidden], placed: &dyn Fn(usize) -> Vec<[[f32; 2]; 3]>, at: &dyn Fn(&Bound) -> [f32; 2]) -> Covered {
     let (mut kept, mut total, mut deepest, mut blobs) = (0usize, 0usize, 0.0f64, 0usize);
+    let mut exposed = Vec::new();
     for group in groups {
         total += group.count;
         let cover = TriangleGrid::new(group.cover.iter().flat_map(|&a| placed(a)).collect(), COVER_CELL);
@@ -900,6 +903,7 @@ fn covered(groups: &[Hidden], placed: &dyn Fn(usize) -> Vec<[[f32; 2]; 3]>, at: 
                 } else {
                     run += 1;
                     deepest = deepest.max(f64::from(cover.distance(q)));
+                    exposed.push(q);
                 }
             }
             blobs += usize::from(run > 4);
@@ -909,6 +913,7 @@ fn covered(groups: &[Hidden], placed: &dyn Fn(usize) -> Vec<[[f32; 2]; 3]>, at: 
         share: if total == 0 { 1.0 } else { kept as f64 / total as f64 },
         deepest,
         blobs,
+        exposed,
     }
 }
 
@@ -1058,6 +1063,12 @@ impl<'a> Scene<'a> {
             p.width,
             p.height,
         )
+    }
+
+    /// Where `pose` uncovers outline its accessories hid at rest, pixels.
+    fn exposed(&self, pose: &[[f32; 2]]) -> Vec<[f32; 2]> {
+        let placed = |a: usize| placed_triangles(self.puppet, a, pose, self.offsets[a]);
+        covered(&self.hidden, &placed, &|bound: &Bound| position(bound, pose)).exposed
     }
 
     fn score(&self, pose: &[[f32; 2]]) -> Scores {
@@ -1361,7 +1372,8 @@ impl RigReport {
 }
 
 /// A picture of `puppet` under the first `rows` of `edits`: per row, the edit with the rig |
-/// with the sticker baseline | with the accessories unchanged.
+/// with the sticker baseline | with the accessories unchanged, the hidden outline each uncovers
+/// dotted in red.
 ///
 /// # Errors
 /// As [`apply_edit`]; render errors.
@@ -1371,6 +1383,7 @@ pub fn edit_sheet(puppet: &Puppet, edits: &[NamedEdit], rows: usize) -> Result<c
         .as_ref()
         .ok_or_else(|| Error::setting("edit sheet", "a puppet without a rig", "a rigged puppet"))?;
     let sticker = Sticker::new(puppet);
+    let scene = Scene::new(puppet, &rig.edges);
     let offsets = puppet.vertex_offsets();
     let rest = puppet.rest_vertices();
     let accessory_vertices: Vec<usize> = (0..puppet.layers.len())
@@ -1385,7 +1398,12 @@ pub fn edit_sheet(puppet: &Puppet, edits: &[NamedEdit], rows: usize) -> Result<c
         let mut unchanged = body.clone();
         accessory_vertices.iter().for_each(|&k| unchanged[k] = rest[k]);
         for pose in [rigged, sticker.apply(&body), unchanged] {
-            cells.push(crate::render::render_crisp(puppet, &pose, puppet.width, puppet.height)?.upscaled_on_white(scale));
+            let mut cell = crate::render::render_crisp(puppet, &pose, puppet.width, puppet.height)?.upscaled_on_white(scale);
+            let s = scale as f32;
+            for q in scene.exposed(&pose) {
+                crate::picture::draw::dot(&mut cell, [q[0] * s, q[1] * s], (0.5 * s).max(1.0), [0.9, 0.1, 0.1]);
+            }
+            cells.push(cell);
         }
     }
     let refs: Vec<&crate::picture::Picture> = cells.iter().collect();
