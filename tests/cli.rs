@@ -269,9 +269,9 @@ fn rig_previews_applies_a_pose_and_eval_rig_scores_a_set() {
     puppet(tmp.path(), &["rig", "apply", "out", "--pose", "short.json", "-o", "b.png"]).assert_error(&["short.json", "1 vertices"]);
 }
 
-/// `puppet synth --accessories` makes a rig evaluation member with truth: the DAG is judged
-/// against the generator's parents and the rig is scored along the true motion, where it must
-/// place the accessories far better than leaving them at rest.
+/// `puppet synth --accessories --trim` makes a rig evaluation member with truth: the DAG is
+/// judged against the generator's parents and the rig is scored along the true motion, where it
+/// must place the accessories far better than leaving them at rest.
 #[test]
 fn eval_rig_scores_a_dressed_synthetic_sequence_along_its_true_motion() {
     let tmp = tempfile::tempdir().unwrap();
@@ -280,6 +280,7 @@ fn eval_rig_scores_a_dressed_synthetic_sequence_along_its_true_motion() {
         &[
             "synth",
             "--accessories",
+            "--trim",
             "--seed",
             "3",
             "--frames",
@@ -317,7 +318,18 @@ fn eval_rig_scores_a_dressed_synthetic_sequence_along_its_true_motion() {
     assert_eq!((sheet.width, sheet.height), (4 * 256 + 5 * 2, 6 * 256 + 7 * 2));
     let json: serde_json::Value = serde_json::from_slice(&std::fs::read(tmp.path().join("report.json")).unwrap()).unwrap();
     let c = &json["characters"][0];
-    assert_eq!(c["dag"]["judged"].as_u64(), Some(7), "{}", c["dag"]);
+    // Eight accessories, the trim on the vest among them: an accessory → accessory edge, whose
+    // shared boundary the rig keeps (the seam's change under the tilt, 95th percentile, px).
+    assert_eq!(
+        (c["dag"]["judged"].as_u64(), c["dag"]["strict"].as_u64()),
+        (Some(8), Some(8)),
+        "{}",
+        c["dag"]
+    );
+    let seam = c["edits"][0]["rig"]["seam_change_p95"]
+        .as_f64()
+        .expect("a coincident seam to score");
+    assert!(seam < 1.0, "{seam}");
     let motion = &c["motion"];
     assert_eq!(motion["frames"].as_u64(), Some(6));
     let (rig, unchanged) = (&motion["rig"], &motion["unchanged"]);

@@ -207,6 +207,41 @@ fn a_dressed_character_draws_its_accessories_where_the_truth_puts_them() {
     assert_eq!(truth.attach_to["hat"], "head");
     assert_eq!(truth.attach_to["sleeve"], "arm_front_upper");
     assert_eq!(truth.attach_to["vest"], "torso");
+
+    // With the trim: an eighth accessory on the vest, drawn where its truth says, and everything
+    // else as the dressed character.
+    let trimmed = generate(
+        &SynthOptions {
+            trim: true,
+            ..dressed(3, Motion::Walk)
+        },
+        &Silent,
+    )
+    .unwrap();
+    let others: Vec<_> = trimmed.character.parts.iter().filter(|p| p.name != "trim").cloned().collect();
+    let vest = others.iter().position(|p| p.name == "vest").unwrap();
+    let trim = trimmed.character.part("trim").expect("a trim");
+    assert_eq!(trimmed.character.parts[trim].parent, trimmed.character.part("vest"));
+    assert_eq!(others.len(), seq.character.parts.len());
+    for (a, b) in others.iter().zip(&seq.character.parts) {
+        assert_eq!(
+            (&a.name, &a.shape, a.parent.map(|p| p - usize::from(p > vest))),
+            (&b.name, &b.shape, b.parent),
+            "{}",
+            a.name
+        );
+    }
+    let (deep, deep_bad, _, _) = check_truth_against_labels(&trimmed, 2);
+    assert!(deep > 1000 && deep_bad == 0, "{deep_bad}/{deep} interior points off their part");
+    let dir = tempfile::tempdir().unwrap();
+    write_sequence(&trimmed, dir.path(), &Silent).unwrap();
+    let truth = puppet::eval::rig::RigTruth::load(&dir.path().join("template/rig_truth.json")).unwrap();
+    assert_eq!((truth.attach_to.len(), truth.attach_to["trim"].as_str()), (8, "vest"));
+    let bare_trim = SynthOptions {
+        trim: true,
+        ..opts(3, 8, 128, Motion::Walk)
+    };
+    assert!(generate(&bare_trim, &Silent).unwrap_err().to_string().contains("trim"));
 }
 
 /// The real thing: a puppet built from the template by `puppet::puppet::build` (the mesher of

@@ -53,6 +53,11 @@ pub struct SynthArgs {
     /// parent part; template/rig_truth.json names every accessory's true parent.
     #[arg(long)]
     pub accessories: bool,
+    /// With --accessories, also a trim along the vest's hem: an accessory on an accessory (its
+    /// true parent the vest), sharing the vest's lower edge, so that the rig's coincident-boundary
+    /// constraint has something to keep. Everything else is drawn as with --accessories alone.
+    #[arg(long, requires = "accessories")]
+    pub trim: bool,
 }
 
 /// `--motion` values.
@@ -93,6 +98,7 @@ impl SynthArgs {
             deform_sigma: self.deform,
             wobble: self.wobble,
             accessories: self.accessories,
+            trim: self.trim,
         };
         opts.validate()?;
         if self.sprite_sheet && self.columns == 0 {

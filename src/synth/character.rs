@@ -87,7 +87,7 @@ pub struct Character {
 }
 
 /// Layer order back → front by name; absent optional parts are skipped.
-const Z_ORDER: [&str; 20] = [
+const Z_ORDER: [&str; 21] = [
     "tail",
     "arm_back_lower",
     "arm_back_upper",
@@ -95,6 +95,7 @@ const Z_ORDER: [&str; 20] = [
     "leg_back_upper",
     "torso",
     "vest",
+    "trim",
     "leg_front_lower",
     "leg_front_upper",
     "hair_back",
@@ -200,17 +201,24 @@ struct Build {
 impl Character {
     /// Generates the character for `seed`, scaled to stand in a `width × height` frame.
     pub fn generate(seed: u64, width: u32, height: u32) -> Self {
-        Self::build(seed, width, height, false)
+        Self::build(seed, width, height, Dress::Bare)
     }
 
     /// The character of [`Character::generate`] wearing seven accessory layers (a vest, back hair,
     /// freckles, sunglasses, a hat, a bracelet and a sleeve, each fixed in its parent part's frame):
     /// the same body, scaled anew so that the hat fits in the frame too.
     pub fn dressed(seed: u64, width: u32, height: u32) -> Self {
-        Self::build(seed, width, height, true)
+        Self::build(seed, width, height, Dress::Dressed)
     }
 
-    fn build(seed: u64, width: u32, height: u32, dressed: bool) -> Self {
+    /// The character of [`Character::dressed`] with an eighth accessory on an accessory: a trim
+    /// along the vest's hem, inside the vest, its lower edge the vest's (its true parent is the
+    /// vest, and the two share that boundary). Everything else is as dressed.
+    pub fn trimmed(seed: u64, width: u32, height: u32) -> Self {
+        Self::build(seed, width, height, Dress::Trimmed)
+    }
+
+    fn build(seed: u64, width: u32, height: u32, dress: Dress) -> Self {
         let root = Rng::new(seed);
         let mut rng = root.fork(1);
         let pal = Palette::random(&mut rng);
@@ -393,8 +401,8 @@ impl Character {
                 });
             }
         }
-        if dressed {
-            let extra = accessories(&parts, &mut root.fork(7), b.outline_px);
+        if dress != Dress::Bare {
+            let extra = accessories(&parts, &mut root.fork(7), b.outline_px, dress == Dress::Trimmed);
             parts.extend(extra);
         }
         let parts = reorder(parts);
@@ -819,8 +827,10 @@ fn head(rng: &mut Rng, pal: &Palette, b: &Build) -> (Shape, Look, [f32; 2]) {
 /// the parent's origin, no rest turn) and sized from the parent's silhouette: a vest with a
 /// collar over the torso; back hair behind the head; freckles (several pieces in one layer),
 /// sunglasses and a hat on the head; a bracelet on the front forearm and a sleeve over the front
-/// upper arm. Each covers part of its parent's outline, so the rig has occlusion to keep.
-fn accessories(body: &[Part], rng: &mut Rng, outline_px: f32) -> Vec<Part> {
+/// upper arm. Each covers part of its parent's outline, so the rig has occlusion to keep. With
+/// `trim`, also a trim along the vest's hem ([`Character::trimmed`]), drawn without a random
+/// draw so that the rest is the same.
+fn accessories(body: &[Part], rng: &mut Rng, outline_px: f32, trim: bool) -> Vec<Part> {
     let index = |name: &str| body.iter().position(|p| p.name == name).expect("every character has this part");
     let bounds = |i: usize| body[i].shape.bounds();
     let capsule = |i: usize| match body[i].shape.primitives[0] {
@@ -862,6 +872,17 @@ fn accessories(body: &[Part], rng: &mut Rng, outline_px: f32) -> Vec<Part> {
         width: 1.5,
         color: lighten(vest.fill, 0.4),
     };
+    let hem = tl[1] + 0.62 * tall;
+    let trim_part = trim.then(|| {
+        // Inside the vest, clear of its rounded corners, its lower edge on the vest's hem.
+        let shape = Primitive::RoundedBox {
+            center: [0.0, hem - 0.04 * tall],
+            half: [0.5 * tw, 0.04 * tall],
+            radius: 0.02 * tall,
+            angle: 0.0,
+        };
+        part("trim", body.len(), vec![shape], look(scale_rgb(vest.fill, 0.55), 0.1 * tall))
+    });
     out.push(part(
         "vest",
         torso,
@@ -973,7 +994,16 @@ fn accessories(body: &[Part], rng: &mut Rng, outline_px: f32) -> Vec<Part> {
     // Below the shoulder and hardly wider than the arm, so that it lies on the arm about as much
     // as on the vest behind it (the DAG then takes the arm, nearer in z-order).
     out.push(band("sleeve", "arm_front_upper", [0.42, 0.26], [1.08, 0.5], colour(rng)));
+    out.extend(trim_part);
     out
+}
+
+/// Which accessories [`Character::build`] puts on.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Dress {
+    Bare,
+    Dressed,
+    Trimmed,
 }
 
 /// Sorts parts into [`Z_ORDER`], remapping parent indices.

@@ -46,6 +46,9 @@ pub struct SynthOptions {
     pub wobble: f32,
     /// Dress the character in accessory layers ([`Character::dressed`]).
     pub accessories: bool,
+    /// With `accessories`, also a trim on the vest, an accessory on an accessory
+    /// ([`Character::trimmed`]).
+    pub trim: bool,
 }
 
 impl Default for SynthOptions {
@@ -59,6 +62,7 @@ impl Default for SynthOptions {
             deform_sigma: 0.02,
             wobble: 0.35,
             accessories: false,
+            trim: false,
         }
     }
 }
@@ -98,6 +102,13 @@ impl SynthOptions {
         if !(0.0..=2.0).contains(&self.wobble) {
             problems.push(Error::setting("wobble", format!("{} px", self.wobble), "0 to 2"));
         }
+        if self.trim && !self.accessories {
+            problems.push(Error::setting(
+                "trim",
+                "without accessories",
+                "with accessories (it goes on the vest)",
+            ));
+        }
         Error::collect(problems)
     }
 }
@@ -129,7 +140,9 @@ pub fn frame_name(prefix: &str, t: usize, n: usize) -> String {
 pub fn generate(opts: &SynthOptions, progress: &dyn Progress) -> Result<Sequence> {
     opts.validate()?;
     let (w, h) = (opts.width, opts.height);
-    let character = if opts.accessories {
+    let character = if opts.trim {
+        Character::trimmed(opts.seed, w, h)
+    } else if opts.accessories {
         Character::dressed(opts.seed, w, h)
     } else {
         Character::generate(opts.seed, w, h)
