@@ -404,7 +404,8 @@ fn eval_rig_keeps_the_whole_hidden_outline_under_an_edit_that_moves_nothing() {
 }
 
 /// Dense pins on real art: the active-set BBW of big-smile-6's seven-piece layer needs 341
-/// iterations with a pin every 3.2 px, more than the old limit of 200 allowed.
+/// iterations with a pin every 3.2 px, more than the old limit of 200 allowed; and the
+/// overrides choose affine skinning.
 #[test]
 fn a_dicebear_character_rigs_with_pins_every_three_pixels() {
     let tmp = tempfile::tempdir().unwrap();
@@ -416,12 +417,12 @@ fn a_dicebear_character_rigs_with_pins_every_three_pixels() {
     }
     let toml = art.join("character.toml");
     let text = std::fs::read_to_string(&toml).unwrap();
-    std::fs::write(&toml, format!("{text}\n[rig]\npin_spacing = 3.2\n")).unwrap();
+    std::fs::write(&toml, format!("{text}\n[rig]\npin_spacing = 3.2\nskinning = \"affine\"\n")).unwrap();
     puppet(tmp.path(), &["build", art.to_str().unwrap(), "-o", "out"]).assert_ok();
     let p = format::load(&tmp.path().join("out")).unwrap();
-    assert!(
-        p.rig.as_ref().is_some_and(|r| r.accessories.len() == 4),
-        "{:?}",
-        p.rig.as_ref().map(|r| r.accessories.len())
+    let rig = p.rig.as_ref().expect("a rig");
+    assert_eq!(
+        (rig.accessories.len(), rig.skinning),
+        (4, puppet::puppet::rig_data::Skinning::Affine)
     );
 }

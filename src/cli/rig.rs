@@ -51,7 +51,8 @@ pub struct ApplyArgs {
     /// The picture: without the rig | with it.
     #[arg(short, long)]
     pub output: PathBuf,
-    /// Layers held by single points also turn with their parent (glasses tilt with a head).
+    /// Layers held by single points also turn with their parent (glasses tilt with a head); a rig
+    /// with affine skinning turns them so already.
     #[arg(long)]
     pub turn_points: bool,
 }

@@ -8,7 +8,7 @@ use std::path::{Path, PathBuf};
 
 use serde::{Deserialize, Serialize};
 
-use super::rig_data::{AccessoryRig, Constraint, Origin, RigData, RigEdge, RigPin};
+use super::rig_data::{AccessoryRig, Constraint, Origin, RigData, RigEdge, RigPin, Skinning};
 use super::{Joint, Layer, LayerKind, Mesh, Puppet, VertexRef};
 use crate::error::{Error, Result};
 use crate::picture::Picture;
@@ -40,6 +40,9 @@ struct RigFile {
     version: u32,
     edges: Vec<EdgeFile>,
     accessories: Vec<AccessoryFile>,
+    /// Absent in rigs written before it existed, which skinned by translation.
+    #[serde(default)]
+    skinning: Skinning,
 }
 
 #[derive(Serialize, Deserialize)]
@@ -294,6 +297,7 @@ fn rig_file(puppet: &Puppet, rig: &RigData) -> RigFile {
                 weights: a.weights.clone(),
             })
             .collect(),
+        skinning: rig.skinning,
     }
 }
 
@@ -340,6 +344,7 @@ fn rig_data(puppet: &Puppet, rig: RigFile) -> std::result::Result<RigData, Strin
         version: rig.version,
         edges,
         accessories,
+        skinning: rig.skinning,
     })
 }
 
@@ -386,5 +391,23 @@ mod tests {
             err.to_string(),
             "p/puppet.json: layer \"torso\": triangle 0 [0, 2, 1] is too large (its area is inf)"
         );
+    }
+
+    #[test]
+    fn a_rig_keeps_its_skinning_and_one_written_without_it_skins_by_translation() {
+        let tmp = tempfile::tempdir().unwrap();
+        let mut puppet = crate::test_util::dressed_puppet();
+        puppet.rig.as_mut().unwrap().skinning = Skinning::Affine;
+        save(&puppet, tmp.path()).unwrap();
+        assert_eq!(load(tmp.path()).unwrap().rig.unwrap().skinning, Skinning::Affine);
+        let path = tmp.path().join("puppet.json");
+        let mut json: serde_json::Value = serde_json::from_slice(&std::fs::read(&path).unwrap()).unwrap();
+        json["rig"]
+            .as_object_mut()
+            .unwrap()
+            .remove("skinning")
+            .expect("the skinning is written");
+        std::fs::write(&path, serde_json::to_vec(&json).unwrap()).unwrap();
+        assert_eq!(load(tmp.path()).unwrap().rig.unwrap().skinning, Skinning::Translation);
     }
 }

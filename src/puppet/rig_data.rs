@@ -46,6 +46,22 @@ impl Constraint {
     }
 }
 
+/// How an accessory vertex follows its pins (`v` its rest position, `w_j` its weights).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Skinning {
+    /// By their translations, `v + Σ_j w_j d_j` (accessory-rigs.md §3.5): a turn, a stretch or
+    /// a squash of the parent reaches the accessory only as far as the pins' translations differ.
+    /// Rigs stored without a skinning are read as this.
+    #[default]
+    Translation,
+    /// By each pin's parent triangle carried on to `v`, `Σ_j w_j A_j(v)` with `A_j` the affine
+    /// map of pin `j`'s parent triangle from rest to pose: any affine motion of the parent
+    /// (turn, stretch, squash) moves the accessory exactly with it. Still linear in the body's
+    /// vertices, with the same terms per pin.
+    Affine,
+}
+
 /// Who chose an edge or a constraint.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "lowercase")]
@@ -110,6 +126,8 @@ pub struct RigData {
     pub edges: Vec<RigEdge>,
     /// Per accessory, in topological order.
     pub accessories: Vec<AccessoryRig>,
+    /// How accessories follow their pins.
+    pub skinning: Skinning,
 }
 
 impl RigData {
@@ -192,6 +210,7 @@ impl RigData {
 /// ```toml
 /// [rig]
 /// pin_spacing = 6.0                 # pixels between pins along an outline (default: from the size)
+/// skinning = "affine"               # carry accessories by their pins' triangles (default: "translation")
 ///
 /// [[rig.edge]]                      # a child's edges replace its automatic one; several = several parents
 /// child = "hair_back"
@@ -213,6 +232,8 @@ impl RigData {
 pub struct RigOverrides {
     /// Pixels between pins along an outline.
     pub pin_spacing: Option<f32>,
+    /// How accessories follow their pins (default: [`crate::rig::RigOptions::skinning`]).
+    pub skinning: Option<Skinning>,
     /// Edges chosen by hand.
     #[serde(default, rename = "edge")]
     pub edges: Vec<EdgeOverride>,

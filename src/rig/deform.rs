@@ -1,8 +1,15 @@
 //! Deforming accessories (accessory-rigs.md §3.5): in topological order, each pin's target is
 //! its parent's deformed mesh at the pin's point (barycentric in a parent triangle), and the
-//! accessory moves by its bounded biharmonic weights: `v_i = rest_i + Σ_j w_ij d_j`, `d_j` the
-//! target's displacement from where it is on the parent at rest — so the rest pose is kept
-//! exactly, also for a pin bound by projection just outside its parent.
+//! accessory moves by its bounded biharmonic weights. With [`Skinning::Translation`] (the
+//! paper's) `v_i = rest_i + Σ_j w_ij d_j`, `d_j` the target's displacement from where it is on
+//! the parent at rest — so the rest pose is kept exactly, also for a pin bound by projection just
+//! outside its parent. With [`Skinning::Affine`] `v_i = Σ_j w_ij A_j(rest_i)`, `A_j` the affine
+//! map of pin `j`'s parent triangle from rest to pose, evaluated at the accessory vertex (its
+//! barycentric coordinates in that triangle, outside it as well): the rest pose is kept because
+//! each `A_j` is the identity there, and an affine motion of the parent is reproduced exactly
+//! because every `A_j` is then that motion and the weights sum to one. BBW weights are not
+//! local (a vertex between two pins also leans on farther ones), so translations alone let a
+//! turned or widened head pull the accessory's rim off the outline it covers.
 //!
 //! Every step is linear in the body's vertices, so the whole rig is one sparse affine map
 //! `accessories = M · body + c` ([`RigMap`]); a constant displacement of the body translates
@@ -13,7 +20,7 @@
 //! fold repair; translation-only skinning of a rotation can fold a mesh near its pins).
 
 use crate::geom::triangle::{barycentric, closest_on_segment};
-use crate::puppet::rig_data::{Constraint, RigData};
+use crate::puppet::rig_data::{Constraint, RigData, Skinning};
 use crate::puppet::{LayerKind, Mesh, Puppet};
 
 /// How a layer held by single-point pins only moves.
@@ -22,7 +29,8 @@ pub enum PointMotion {
     /// Translates with the pin (the paper).
     #[default]
     Translate,
-    /// Also turns by the parent triangle's rotation at the pin, so glasses tilt with a head.
+    /// Also turns by the parent triangle's rotation at the pin, so glasses tilt with a head (a
+    /// rig with [`Skinning::Affine`] turns them so already, and this adds nothing).
     Turn,
 }
 
@@ -115,11 +123,32 @@ impl RigMap {
             for (v, row) in acc.weights.iter().enumerate() {
                 let rest = layer.mesh.vertices[v];
                 let mut terms = Vec::new();
-                let mut constant = rest;
+                let mut constant = match rig.skinning {
+                    Skinning::Translation => rest,
+                    Skinning::Affine => [0.0; 2],
+                };
                 for &(j, w) in row {
-                    let ((t, c), pin_rest) = &targets[j as usize];
-                    terms.extend(t.iter().map(|&(k, m)| (k, m * w)));
-                    constant = [constant[0] + w * (c[0] - pin_rest[0]), constant[1] + w * (c[1] - pin_rest[1])];
+                    match rig.skinning {
+                        Skinning::Translation => {
+                            let ((t, c), pin_rest) = &targets[j as usize];
+                            terms.extend(t.iter().map(|&(k, m)| (k, m * w)));
+                            constant = [constant[0] + w * (c[0] - pin_rest[0]), constant[1] + w * (c[1] - pin_rest[1])];
+                        }
+                        Skinning::Affine => {
+                            let pin = &acc.pins[j as usize];
+                            let parent = &puppet.layers[pin.parent].mesh;
+                            let tri = parent.triangles[pin.triangle as usize];
+                            // A degenerate parent triangle has no affine map: its pin's point.
+                            let at = barycentric(tri.map(|i| parent.vertices[i as usize]), rest).unwrap_or(pin.weights);
+                            for (corner, &b) in tri.iter().zip(&at) {
+                                let (t, c) = expressions[offsets_of[pin.parent] + *corner as usize]
+                                    .as_ref()
+                                    .expect("parents come before their children");
+                                terms.extend(t.iter().map(|&(k, m)| (k, m * w * b)));
+                                constant = [constant[0] + w * b * c[0], constant[1] + w * b * c[1]];
+                            }
+                        }
+                    }
                 }
                 let terms = merge(terms);
                 let g = offsets_of[acc.layer] + v;
@@ -197,7 +226,8 @@ pub fn deform(puppet: &Puppet, rig: &RigData, pose: &[[f32; 2]], options: &Defor
     if options.polish_iterations > 0 {
         polish(puppet, rig, &mut out, options.polish_iterations);
     }
-    if options.point_motion == PointMotion::Turn {
+    // Affine skinning turns a point-pinned layer with its parent triangle already.
+    if options.point_motion == PointMotion::Turn && rig.skinning == Skinning::Translation {
         let offsets = puppet.vertex_offsets();
         for acc in &rig.accessories {
             let Some(pin) = acc
@@ -289,6 +319,49 @@ mod tests {
         // Outside, beyond the hypotenuse: projected onto it.
         let (_, w) = bind_point(&mesh, [3.0, 3.0]);
         assert!(w[0].abs() < 1e-6 && (w[1] - 0.5).abs() < 1e-5 && (w[2] - 0.5).abs() < 1e-5, "{w:?}");
+    }
+
+    #[test]
+    fn affine_skinning_carries_an_affine_motion_of_the_body_exactly_and_translations_do_not() {
+        let mut puppet = crate::test_util::dressed_puppet();
+        let offsets = puppet.vertex_offsets();
+        let rest = puppet.rest_vertices();
+        let accessories: Vec<usize> = (0..puppet.layers.len())
+            .filter(|&l| puppet.layers[l].kind == LayerKind::Accessory)
+            .flat_map(|l| offsets[l]..offsets[l + 1])
+            .collect();
+        // A turn of 0.3 rad with a stretch and a shear, about a point off the character.
+        let motion = |p: [f32; 2]| {
+            let (s, c) = 0.3f32.sin_cos();
+            let q = [1.15 * p[0] + 0.1 * p[1], 0.9 * p[1]];
+            [c * q[0] - s * q[1] + 4.0, s * q[0] + c * q[1] - 7.0]
+        };
+        let moved: Vec<[f32; 2]> = rest.iter().map(|&p| motion(p)).collect();
+        let error = |puppet: &Puppet| {
+            let mut pose = moved.clone();
+            for &k in &accessories {
+                pose[k] = [f32::NAN; 2];
+            }
+            RigMap::new(puppet, puppet.rig.as_ref().unwrap()).apply(&mut pose);
+            accessories
+                .iter()
+                .map(|&k| (pose[k][0] - moved[k][0]).hypot(pose[k][1] - moved[k][1]))
+                .fold(0.0f32, f32::max)
+        };
+        assert_eq!(puppet.rig.as_ref().unwrap().skinning, Skinning::Translation, "the default");
+        puppet.rig.as_mut().unwrap().skinning = Skinning::Affine;
+        let affine = error(&puppet);
+        assert!(affine < 1e-3, "{affine}");
+        puppet.rig.as_mut().unwrap().skinning = Skinning::Translation;
+        let translation = error(&puppet);
+        assert!(translation > 0.5, "{translation}");
+        // Both keep the rest pose.
+        for skinning in [Skinning::Translation, Skinning::Affine] {
+            puppet.rig.as_mut().unwrap().skinning = skinning;
+            let mut pose = rest.clone();
+            RigMap::new(&puppet, puppet.rig.as_ref().unwrap()).apply(&mut pose);
+            assert!(crate::test_util::largest_distance(&pose, &rest) < 1e-3, "{skinning:?}");
+        }
     }
 
     #[test]

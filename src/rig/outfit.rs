@@ -84,6 +84,7 @@ pub fn undress(puppet: &Puppet, names: &[String], progress: &dyn Progress) -> Re
             version: rig.version,
             edges: rig.edges.iter().filter(|e| !dropped[e.child]).cloned().collect(),
             accessories: rig.accessories.iter().filter(|a| !dropped[a.layer]).cloned().collect(),
+            skinning: rig.skinning,
         };
         for e in &mut out.edges {
             (e.parent, e.child) = (at(e.parent), at(e.child));
