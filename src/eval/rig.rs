@@ -516,17 +516,13 @@ struct Motion<'a> {
 
 impl<'a> Motion<'a> {
     fn new(puppet: &'a Puppet, rig: &'a RigData, truth: &'a Truth) -> Self {
-        let offsets = puppet.vertex_offsets();
         Motion {
             puppet,
             rig,
             truth,
             sticker: Sticker::new(puppet),
             rest: puppet.rest_vertices(),
-            accessory_vertices: (0..puppet.layers.len())
-                .filter(|&l| puppet.layers[l].kind == LayerKind::Accessory)
-                .flat_map(|l| offsets[l]..offsets[l + 1])
-                .collect(),
+            accessory_vertices: puppet.accessory_vertices(),
         }
     }
 
@@ -1384,12 +1380,8 @@ pub fn edit_sheet(puppet: &Puppet, edits: &[NamedEdit], rows: usize) -> Result<c
         .ok_or_else(|| Error::setting("edit sheet", "a puppet without a rig", "a rigged puppet"))?;
     let sticker = Sticker::new(puppet);
     let scene = Scene::new(puppet, &rig.edges);
-    let offsets = puppet.vertex_offsets();
     let rest = puppet.rest_vertices();
-    let accessory_vertices: Vec<usize> = (0..puppet.layers.len())
-        .filter(|&l| puppet.layers[l].kind == LayerKind::Accessory)
-        .flat_map(|l| offsets[l]..offsets[l + 1])
-        .collect();
+    let accessory_vertices = puppet.accessory_vertices();
     let scale = (256 / puppet.width.max(puppet.height)).clamp(1, 4);
     let mut cells = Vec::new();
     for edit in edits.iter().take(rows) {

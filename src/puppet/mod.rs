@@ -187,6 +187,15 @@ impl Puppet {
             .collect()
     }
 
+    /// Global indices of the accessory layers' vertices.
+    pub fn accessory_vertices(&self) -> Vec<usize> {
+        let offsets = self.vertex_offsets();
+        (0..self.layers.len())
+            .filter(|&l| self.layers[l].kind == LayerKind::Accessory)
+            .flat_map(|l| offsets[l]..offsets[l + 1])
+            .collect()
+    }
+
     /// Global index of a layer vertex.
     pub fn global_index(&self, v: VertexRef) -> usize {
         self.layers[..v.layer].iter().map(|l| l.mesh.vertices.len()).sum::<usize>() + v.vertex as usize

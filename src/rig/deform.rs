@@ -324,12 +324,8 @@ mod tests {
     #[test]
     fn affine_skinning_carries_an_affine_motion_of_the_body_exactly_and_translations_do_not() {
         let mut puppet = crate::test_util::dressed_puppet();
-        let offsets = puppet.vertex_offsets();
         let rest = puppet.rest_vertices();
-        let accessories: Vec<usize> = (0..puppet.layers.len())
-            .filter(|&l| puppet.layers[l].kind == LayerKind::Accessory)
-            .flat_map(|l| offsets[l]..offsets[l + 1])
-            .collect();
+        let accessories = puppet.accessory_vertices();
         // A turn of 0.3 rad with a stretch and a shear, about a point off the character.
         let motion = |p: [f32; 2]| {
             let (s, c) = 0.3f32.sin_cos();
