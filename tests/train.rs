@@ -358,3 +358,19 @@ fn augmented_frames_are_what_the_first_step_sees() {
         "moved frames give another loss: {moved} vs {plain}"
     );
 }
+
+/// A rig that skins by affine maps trains, with a warning that networks learn badly through it.
+#[test]
+fn training_through_an_affine_rig_warns() {
+    let tmp = tempfile::tempdir().unwrap();
+    let seq = tmp.path().join("dressed");
+    let args = ["synth", "--accessories", "--seed", "5", "--frames", "4", "--size", "64x64", "-o"];
+    puppet(tmp.path(), &[&args[..], &[seq.to_str().unwrap()]].concat()).assert_ok();
+    let toml = seq.join("template/character.toml");
+    let text = std::fs::read_to_string(&toml).unwrap();
+    std::fs::write(&toml, format!("{text}\n[rig]\nskinning = \"affine\"\n")).unwrap();
+    let cfg = config(tmp.path(), "affine", &seq, "steps = 1\n");
+    let run = puppet(tmp.path(), &["train", cfg.to_str().unwrap()]);
+    run.assert_ok();
+    assert!(run.stderr.contains("skinning = \"affine\""), "{}", run.stderr);
+}
