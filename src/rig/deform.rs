@@ -128,25 +128,28 @@ impl RigMap {
                     Skinning::Affine => [0.0; 2],
                 };
                 for &(j, w) in row {
-                    match rig.skinning {
-                        Skinning::Translation => {
-                            let ((t, c), pin_rest) = &targets[j as usize];
-                            terms.extend(t.iter().map(|&(k, m)| (k, m * w)));
-                            constant = [constant[0] + w * (c[0] - pin_rest[0]), constant[1] + w * (c[1] - pin_rest[1])];
+                    let pin = &acc.pins[j as usize];
+                    let parent = &puppet.layers[pin.parent].mesh;
+                    let tri = parent.triangles[pin.triangle as usize];
+                    // The vertex in the pin's parent triangle; a degenerate triangle has no
+                    // affine map, and its pin then translates the vertex.
+                    let affine = (rig.skinning == Skinning::Affine)
+                        .then(|| barycentric(tri.map(|i| parent.vertices[i as usize]), rest))
+                        .flatten();
+                    if let Some(at) = affine {
+                        for (corner, &b) in tri.iter().zip(&at) {
+                            let (t, c) = expressions[offsets_of[pin.parent] + *corner as usize]
+                                .as_ref()
+                                .expect("parents come before their children");
+                            terms.extend(t.iter().map(|&(k, m)| (k, m * w * b)));
+                            constant = [constant[0] + w * b * c[0], constant[1] + w * b * c[1]];
                         }
-                        Skinning::Affine => {
-                            let pin = &acc.pins[j as usize];
-                            let parent = &puppet.layers[pin.parent].mesh;
-                            let tri = parent.triangles[pin.triangle as usize];
-                            // A degenerate parent triangle has no affine map: its pin's point.
-                            let at = barycentric(tri.map(|i| parent.vertices[i as usize]), rest).unwrap_or(pin.weights);
-                            for (corner, &b) in tri.iter().zip(&at) {
-                                let (t, c) = expressions[offsets_of[pin.parent] + *corner as usize]
-                                    .as_ref()
-                                    .expect("parents come before their children");
-                                terms.extend(t.iter().map(|&(k, m)| (k, m * w * b)));
-                                constant = [constant[0] + w * b * c[0], constant[1] + w * b * c[1]];
-                            }
+                    } else {
+                        let ((t, c), pin_rest) = &targets[j as usize];
+                        terms.extend(t.iter().map(|&(k, m)| (k, m * w)));
+                        constant = [constant[0] + w * (c[0] - pin_rest[0]), constant[1] + w * (c[1] - pin_rest[1])];
+                        if rig.skinning == Skinning::Affine {
+                            constant = [constant[0] + w * rest[0], constant[1] + w * rest[1]];
                         }
                     }
                 }
