@@ -425,4 +425,8 @@ fn a_dicebear_character_rigs_with_pins_every_three_pixels() {
         (rig.accessories.len(), rig.skinning),
         (4, puppet::puppet::rig_data::Skinning::Affine)
     );
+    // A skinning the rig does not know is refused, naming the file and the value; nothing written.
+    std::fs::write(&toml, format!("{text}\n[rig]\nskinning = \"sideways\"\n")).unwrap();
+    puppet(tmp.path(), &["build", art.to_str().unwrap(), "-o", "refused"]).assert_error(&["character.toml", "sideways"]);
+    assert!(!tmp.path().join("refused").exists());
 }

@@ -25,9 +25,10 @@
 //!   retention, median over accessories), and the drift of 16 fixed anchors of the overlap
 //!   bound to both layers (mean pixels between the two places an anchor goes);
 //! - **no tearing**: accessory triangles that turn over, enclosed holes in an accessory's
-//!   coverage (rasterised at 4× the canvas resolution) that were not there at rest, the change of distance between coincident
-//!   boundaries (95th percentile, pixels), and the largest stretch of an accessory triangle
-//!   (95th percentile of the deformation gradient's larger singular value).
+//!   coverage (rasterised at 4× the canvas resolution) that were not there at rest, the change
+//!   of distance between coincident boundaries (95th percentile, pixels), and the largest
+//!   stretch of an accessory triangle (95th percentile of the deformation gradient's larger
+//!   singular value).
 //!
 //! DAG correctness against `rig_truth.json` (`{"attach_to": {"<layer>": "<parent>"}}`): strict
 //! (the parent is the truth) and lenient (the parent is the truth or hangs from it).
@@ -693,21 +694,9 @@ fn role(puppet: &Puppet, role: Role) -> usize {
         Role::Torso if puppet.root != head => puppet.root,
         Role::Torso => body_layers(puppet)
             .filter(|&l| l != head)
-            .max_by(|&a, &b| area(puppet, a).total_cmp(&area(puppet, b)))
+            .max_by(|&a, &b| puppet.layers[a].mesh.area().total_cmp(&puppet.layers[b].mesh.area()))
             .unwrap_or(head),
     }
-}
-
-/// The area of a layer's rest mesh.
-fn area(puppet: &Puppet, l: usize) -> f32 {
-    let mesh = &puppet.layers[l].mesh;
-    mesh.triangles
-        .iter()
-        .map(|t| {
-            let [a, b, c] = t.map(|i| mesh.vertices[i as usize]);
-            0.5 * ((b[0] - a[0]) * (c[1] - a[1]) - (c[0] - a[0]) * (b[1] - a[1])).abs()
-        })
-        .sum()
 }
 
 /// The mean y of a layer's rest vertices.

@@ -93,9 +93,7 @@ pub fn twins(puppet: &Puppet, limbs: &[Limb]) -> Vec<Option<usize>> {
         let pivot = rest[l.pivot];
         let own = &rest[offsets[l.layer]..offsets[l.layer + 1]];
         let length = own.iter().map(|p| (p[0] - pivot[0]).hypot(p[1] - pivot[1])).fold(0.0, f32::max);
-        let mesh = &puppet.layers[l.layer].mesh;
-        let area = mesh.triangles.iter().map(|&t| mesh.signed_area(t).abs()).sum();
-        (length, area)
+        (length, puppet.layers[l.layer].mesh.area())
     };
     let sizes: Vec<(f32, f32)> = limbs.iter().map(size).collect();
     let mut twin = vec![None; limbs.len()];

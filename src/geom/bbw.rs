@@ -100,9 +100,9 @@ pub struct BbwOptions {
     /// 2.5e-3 and 1e-9 was needed.
     pub tolerance: f64,
     /// Most iterations (active set, then projected Newton if it cycles) for one handle before
-    /// [`BbwError::NotConverged`]. Default 1000: at most 29 were needed on the benches/data
-    /// meshes and 49 on 300 random distorted grids, but a DiceBear hair with a pin every 3.2 px
-    /// needed 208 and a 7-piece layer 341, and 200 refused to rig them.
+    /// [`BbwError::NotConverged`]. Default 1000: a few dozen suffice on the benches/data meshes
+    /// and random distorted grids, but dense pins on real art need a few hundred (README
+    /// "Accessory rigs").
     pub max_iterations: usize,
     /// ADMM iterations (on one factorisation shared by all handles) that estimate each handle's
     /// active set before the exact active-set method; 0 starts that method from the

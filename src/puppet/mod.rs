@@ -48,6 +48,11 @@ impl Mesh {
         0.5 * ((b[0] - a[0]) * (c[1] - a[1]) - (c[0] - a[0]) * (b[1] - a[1]))
     }
 
+    /// The area the triangles cover (each counted once, whatever its winding).
+    pub fn area(&self) -> f32 {
+        self.triangles.iter().map(|&t| self.signed_area(t).abs()).sum()
+    }
+
     /// The smallest interior angle over all triangles, in degrees (180 for an empty mesh).
     pub fn min_angle_degrees(&self) -> f32 {
         self.triangles

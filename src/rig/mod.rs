@@ -61,9 +61,9 @@ impl Default for RigOptions {
             pins: None,
             alpha_threshold: 0.5,
             weight_floor: 1e-3,
-            // The paper's. Affine skinning follows a body that moves on its own far better
-            // (README "Accessory rigs"), but trained through it the network learned ten times
-            // worse: a small turn of a body triangle under a pin swings the whole accessory.
+            // The paper's. Affine skinning follows a body that moves on its own far better, but
+            // a network trained through it learns far worse (README "Accessory rigs"): a small
+            // turn of a body triangle under a pin swings the whole accessory.
             skinning: Skinning::Translation,
         }
     }
