@@ -374,3 +374,31 @@ fn training_through_an_affine_rig_warns() {
     run.assert_ok();
     assert!(run.stderr.contains("skinning = \"affine\""), "{}", run.stderr);
 }
+
+/// `split_seed` holds out the same frames for runs of other seeds (whose weights differ); without
+/// it the seed picks the split too.
+#[test]
+fn a_split_seed_keeps_the_held_out_frames_of_another_seed() {
+    let tmp = tempfile::tempdir().unwrap();
+    let seq = synth(tmp.path(), 8, "64x64");
+    let run = |name: &str, seeds: &str| {
+        let text = format!(
+            "puppet = \"{seq}/template\"\nframes = \"{seq}\"\noutput = \"{out}\"\n{seeds}\ntest_fraction = 0.5\n\
+             [model]\ninput_size = 32\nlatent = 32\n[train]\nsteps = 1\nbatch = 4\n",
+            seq = seq.display(),
+            out = tmp.path().join(name).display()
+        );
+        let cfg = tmp.path().join(format!("{name}.toml"));
+        std::fs::write(&cfg, text).unwrap();
+        puppet(tmp.path(), &["train", cfg.to_str().unwrap()]).assert_ok();
+        let split: serde_json::Value = serde_json::from_slice(&std::fs::read(tmp.path().join(name).join("split.json")).unwrap()).unwrap();
+        let weights = std::fs::read(tmp.path().join(name).join("weights.bpk")).unwrap();
+        (split["test"].clone(), weights)
+    };
+    let (one, one_weights) = run("one", "seed = 1");
+    let (two, two_weights) = run("two", "seed = 2\nsplit_seed = 1");
+    let (three, _) = run("three", "seed = 3");
+    assert_eq!(one, two, "the same held-out frames");
+    assert_ne!(one_weights, two_weights, "other weights");
+    assert_ne!(one, three, "seed 3 alone splits otherwise");
+}

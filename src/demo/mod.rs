@@ -494,6 +494,7 @@ fn short_run(options: &DemoOptions, model_dir: &Path) -> TrainConfig {
         frames: canonical(&options.character.join("frames")),
         output: canonical(model_dir),
         seed: 1,
+        split_seed: None,
         test_fraction: 0.3,
         model: Default::default(),
         train: Default::default(),

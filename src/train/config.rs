@@ -7,6 +7,8 @@
 //! output = "../runs/robot"          # the model folder written by training
 //! seed = 1
 //! test_fraction = 0.3               # held-out share of the frames (paper: 70/30)
+//! split_seed = 1                    # optional: seeds the split alone (default: `seed`), so runs
+//!                                   #   of other seeds hold out the same frames
 //!
 //! [model]                           # the network (DeformationNetConfig); all optional
 //! input_size = 128
@@ -81,9 +83,13 @@ pub struct TrainConfig {
     pub frames: PathBuf,
     /// The model folder to write (checkpoints, logs, the final model).
     pub output: PathBuf,
-    /// Seeds the weights, the split and the batch order.
+    /// Seeds the weights, the batch order and, without `split_seed`, the split.
     #[serde(default = "default_seed")]
     pub seed: u64,
+    /// Seeds the train / test split alone, if set: runs that differ only in `seed` then hold out
+    /// the same frames, and their spread is the run-to-run noise of a measurement.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub split_seed: Option<u64>,
     /// Share of frames held out for testing, in [0, 1).
     #[serde(default = "default_test_fraction")]
     pub test_fraction: f64,

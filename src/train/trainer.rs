@@ -161,7 +161,8 @@ pub fn train(config: &TrainConfig, options: &TrainOptions, progress: &dyn Progre
         progress.warn("the rig skins accessories by affine maps ([rig] skinning = \"affine\"): networks trained through it learn far worse than through the default translations");
     }
     let frames = Frames::load(&config.frames, &config.frame_check(puppet.width, puppet.height))?;
-    let (train_idx, test_idx) = split(frames.frames.len(), config.test_fraction, config.seed).at_path(&config.frames)?;
+    let (train_idx, test_idx) =
+        split(frames.frames.len(), config.test_fraction, config.split_seed.unwrap_or(config.seed)).at_path(&config.frames)?;
     if config.test_fraction > 0.0 && test_idx.is_empty() {
         return Err(Error::setting("test_fraction", config.test_fraction, "one that leaves a test frame").with_path(&config.frames));
     }
