@@ -123,10 +123,9 @@ impl RigMap {
             for (v, row) in acc.weights.iter().enumerate() {
                 let rest = layer.mesh.vertices[v];
                 let mut terms = Vec::new();
-                let mut constant = match rig.skinning {
-                    Skinning::Translation => rest,
-                    Skinning::Affine => [0.0; 2],
-                };
+                // Translations: rest + Σ w_j d_j. Affine: Σ w_j A_j(rest), written as rest plus
+                // each pin's w_j (A_j(rest) − rest), since the weights sum to one.
+                let mut constant = rest;
                 for &(j, w) in row {
                     let pin = &acc.pins[j as usize];
                     let parent = &puppet.layers[pin.parent].mesh;
@@ -137,6 +136,7 @@ impl RigMap {
                         .then(|| barycentric(tri.map(|i| parent.vertices[i as usize]), rest))
                         .flatten();
                     if let Some(at) = affine {
+                        constant = [constant[0] - w * rest[0], constant[1] - w * rest[1]];
                         for (corner, &b) in tri.iter().zip(&at) {
                             let (t, c) = expressions[offsets_of[pin.parent] + *corner as usize]
                                 .as_ref()
@@ -148,9 +148,6 @@ impl RigMap {
                         let ((t, c), pin_rest) = &targets[j as usize];
                         terms.extend(t.iter().map(|&(k, m)| (k, m * w)));
                         constant = [constant[0] + w * (c[0] - pin_rest[0]), constant[1] + w * (c[1] - pin_rest[1])];
-                        if rig.skinning == Skinning::Affine {
-                            constant = [constant[0] + w * rest[0], constant[1] + w * rest[1]];
-                        }
                     }
                 }
                 let terms = merge(terms);
