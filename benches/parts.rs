@@ -32,7 +32,7 @@ mod allocator;
 
 fn parts(c: &mut Criterion) {
     allocator::keep_freed_memory();
-    let sheet = GeneratedSheet::new(9000, 10, 128).expect("the generator runs");
+    let sheet = GeneratedSheet::new(9000, 10, 128, false).expect("the generator runs");
     let (poses, labels, truth) = (&sheet.poses, &sheet.labels, &sheet.sequence.truth);
     let options = PartsOptions::default();
     c.bench_function("parts/slic/128", |b| {
@@ -57,6 +57,7 @@ fn parts(c: &mut Criterion) {
     let source = SyntheticPairs {
         first_seed: 1_000_000,
         size: 128,
+        varied: config.varied,
     };
     let pairs: Vec<_> = (0..config.batch as u64).map(|k| source.pair(k).expect("a pair")).collect();
     let mut trainer = Trainer::new(&config, &puppet::backend::train_device());

@@ -10,6 +10,11 @@ pub trait Progress: Sync {
     fn stage(&self, name: &str, total: u64);
     /// `n` more steps of the current stage are done.
     fn advance(&self, n: u64);
+    /// The first `n` steps of the current stage were done by an earlier run (a resumed
+    /// training): counted as done, but not in the pace the time left is estimated from.
+    fn resume(&self, n: u64) {
+        self.advance(n);
+    }
     /// A free-form status line for the current stage (losses, the layer being meshed).
     fn message(&self, _text: &str) {}
     /// Something the user should know that does not stop the job (a layer no joint connects, a

@@ -232,6 +232,8 @@ fn the_correspondence_network_trains_resumes_to_the_same_weights_and_finds_parts
     puppet(d, &["train-parts", "net.toml", "-o", "whole"]).assert_error(&["whole", "--resume"]);
     tiny_net_config(&d.join("other.toml"), "temperature = 0.5\n");
     puppet(d, &["train-parts", "other.toml", "-o", "whole", "--resume"]).assert_error(&["temperature"]);
+    tiny_net_config(&d.join("varied.toml"), "varied = true\n");
+    puppet(d, &["train-parts", "varied.toml", "-o", "whole", "--resume"]).assert_error(&["varied"]);
     tiny_net_config(&d.join("bad.toml"), "depth = 9\n");
     puppet(d, &["train-parts", "bad.toml", "-o", "bad"]).assert_error(&["bad.toml", "depth"]);
     assert!(!d.join("bad").exists());

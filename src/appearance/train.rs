@@ -216,7 +216,7 @@ pub fn train_appearance(
     let mut log = TrainLog::<AppearanceRow>::open(&folder.log(), step)?;
     let stop = options.pause_at.map_or(total, |p| p.min(total));
     progress.stage("appearance", total);
-    progress.advance(step);
+    progress.resume(step);
     let (started, first) = (Instant::now(), step);
     while step < stop {
         let t0 = Instant::now();

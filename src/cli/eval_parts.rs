@@ -56,6 +56,11 @@ pub struct EvalPartsArgs {
     /// With --synthetic: how parts are chosen.
     #[arg(long, value_enum, default_value_t = SelectArg::Synchronised, conflicts_with_all = ["truth", "predicted"])]
     pub select: SelectArg,
+    /// With --synthetic: characters of wider variety (`puppet synth --varied`: half bodies,
+    /// robots, front views, held objects, some dressed; an accessory counts as the body part it
+    /// is fixed to) instead of the one humanoid.
+    #[arg(long, requires = "synthetic")]
+    pub varied: bool,
     /// Pose size of the synthetic sheets (square).
     #[arg(long, default_value_t = 128, value_name = "PX", value_parser = clap::value_parser!(u32).range(64..=1024))]
     pub size: u32,
@@ -100,7 +105,7 @@ pub fn run(args: EvalPartsArgs, s: &Session) -> anyhow::Result<()> {
         options.rigid_check = args
             .rigid_check
             .unwrap_or(if trained.is_some() { ESTIMATED_RIGID_CHECK } else { 0.0 });
-        return synthetic(first, end, args.size, &options, source, s);
+        return synthetic(first, end, args.size, args.varied, &options, source, s);
     }
     let (Some(truth_path), Some(predicted_path)) = (&args.truth, &args.predicted) else {
         anyhow::bail!("give --truth LABELS and the predicted label maps, or --synthetic FIRST..END");
@@ -168,13 +173,13 @@ pub fn run(args: EvalPartsArgs, s: &Session) -> anyhow::Result<()> {
 }
 
 /// The synthetic evaluation: one row per seed, then the means.
-fn synthetic(first: u64, end: u64, size: u32, options: &PartsOptions, source: Source, s: &Session) -> anyhow::Result<()> {
+fn synthetic(first: u64, end: u64, size: u32, varied: bool, options: &PartsOptions, source: Source, s: &Session) -> anyhow::Result<()> {
     s.ui.stage("sheets", end - first);
     let mut rows = Vec::new();
     for seed in first..end {
         // 6 to 10 poses, the range of the paper's sheets.
         let poses = 6 + (seed % 5) as usize;
-        rows.push((poses, score_synthetic_sheet(seed, poses, size, options, source)?));
+        rows.push((poses, score_synthetic_sheet(seed, poses, size, varied, options, source)?));
         s.ui.advance(1);
     }
     s.ui.finish();
@@ -250,6 +255,7 @@ mod tests {
         parses(&["eval-parts", "--truth", "sheet_labels.png", "out/pose_labels.png", "--grid", "4x2"]);
         parses(&["eval-parts", "--synthetic", "9000..9024", "--size", "256"]);
         parses(&["eval-parts", "--synthetic", "9000..9024", "--net"]);
+        parses(&["eval-parts", "--synthetic", "9000..9024", "--varied"]);
         parses(&["eval-parts", "--synthetic", "9000..9024", "--net", "--select", "cover"]);
         parses(&["eval-parts", "--synthetic", "9000..9024", "--net", "runs/net", "--flow-check", "0"]);
         for bad in [

@@ -58,6 +58,12 @@ pub struct SynthArgs {
     /// constraint has something to keep. Everything else is drawn as with --accessories alone.
     #[arg(long, requires = "accessories")]
     pub trim: bool,
+    /// A character of wider variety than the one three-quarter-view humanoid: the seed also
+    /// picks a body plan (half bodies without legs, robots, front views, an object held in the
+    /// front hand) and, for three in ten, the accessories of --accessories. The correspondence
+    /// network of `puppet parts` trains on such characters (`varied` in its config).
+    #[arg(long, conflicts_with = "accessories")]
+    pub varied: bool,
 }
 
 /// `--motion` values.
@@ -99,6 +105,7 @@ impl SynthArgs {
             wobble: self.wobble,
             accessories: self.accessories,
             trim: self.trim,
+            varied: self.varied,
         };
         opts.validate()?;
         if self.sprite_sheet && self.columns == 0 {

@@ -49,10 +49,12 @@ pub fn run(args: TrainPartsArgs, s: &Session) -> anyhow::Result<()> {
     let train = SyntheticPairs {
         first_seed: TRAINING_SEEDS,
         size,
+        varied: config.varied,
     };
     let held_out = SyntheticPairs {
         first_seed: HELD_OUT_SEEDS,
         size,
+        varied: config.varied,
     };
     let summary = train_correspondence(&args.output, &config, &train, &held_out, &options, &s.ui)?;
     s.ui.finish();

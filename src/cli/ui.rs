@@ -32,6 +32,8 @@ struct Plain {
     name: String,
     total: u64,
     done: u64,
+    /// Steps an earlier run did ([`Progress::resume`]): not in the pace.
+    resumed: u64,
     started: Instant,
     printed: Instant,
     message: String,
@@ -41,7 +43,8 @@ impl Plain {
     fn line(&self) -> String {
         let elapsed = self.started.elapsed().as_secs_f64();
         let mut line = if self.total > 0 {
-            let left = (self.total.saturating_sub(self.done)) as f64 * elapsed / self.done.max(1) as f64;
+            let paced = self.done.saturating_sub(self.resumed).max(1);
+            let left = (self.total.saturating_sub(self.done)) as f64 * elapsed / paced as f64;
             format!(
                 "{}: {}/{} ({:.0} %), {elapsed:.0} s, about {left:.0} s left",
                 self.name,
@@ -129,6 +132,7 @@ impl Progress for Ui {
                 name: name.to_string(),
                 total,
                 done: 0,
+                resumed: 0,
                 started: now,
                 printed: now,
                 message: String::new(),
@@ -170,6 +174,18 @@ impl Progress for Ui {
         }
     }
 
+    fn resume(&self, n: u64) {
+        let mut state = self.state();
+        if let Some(bar) = &state.bar {
+            bar.inc(n);
+            bar.reset_eta();
+        }
+        if let Some(plain) = &mut state.plain {
+            plain.done += n;
+            plain.resumed += n;
+        }
+    }
+
     fn message(&self, text: &str) {
         let mut state = self.state();
         if let Some(bar) = &state.bar {
@@ -187,5 +203,29 @@ impl Progress for Ui {
             Some(bar) => bar.suspend(|| eprint_quietly(&line)),
             None => eprint_quietly(&line),
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A resumed stage estimates the time left from this run's pace, not from steps an earlier
+    /// run did before the clock started.
+    #[test]
+    fn time_left_after_a_resume_counts_this_runs_steps_only() {
+        let ten_seconds_ago = Instant::now() - Duration::from_secs(10);
+        let plain = |resumed| Plain {
+            name: "training".into(),
+            total: 5000,
+            done: 3100,
+            resumed,
+            started: ten_seconds_ago,
+            printed: ten_seconds_ago,
+            message: String::new(),
+        };
+        // 100 steps in 10 s, 1,900 to go: about 190 s.
+        assert!(plain(3000).line().contains("about 190 s left"), "{}", plain(3000).line());
+        assert!(plain(0).line().contains("about 6 s left"), "{}", plain(0).line());
     }
 }

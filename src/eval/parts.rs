@@ -18,6 +18,7 @@ use crate::parts::superpixels::{Superpixels, NONE};
 use crate::parts::{find_parts, PartsOptions};
 use crate::progress::Silent;
 use crate::synth;
+use crate::synth::character::Role;
 use crate::synth::sheet_flow::GeneratedSheet;
 
 /// One synthetic sheet scored.
@@ -78,13 +79,22 @@ pub struct MatchQuality {
 }
 
 /// Generates the sprite sheet of `seed` (`poses` random poses at `size`², the generator's
-/// default deformation and wobble) and scores the part finder on it, its correspondences from
-/// `source`.
+/// default deformation and wobble; with `varied`, of [`crate::synth::character::Character::varied`])
+/// and scores the part finder on it, its correspondences from `source`. The true parts are the
+/// articulated ones: an accessory counts as the body part it is fixed to (nothing tells the
+/// two apart by how they move).
 ///
 /// # Errors
 /// As [`GeneratedSheet::new`] and [`find_parts`].
-pub fn score_synthetic_sheet(seed: u64, poses: usize, size: u32, options: &PartsOptions, source: Source) -> Result<SheetScores> {
-    let generated = GeneratedSheet::new(seed, poses, size)?;
+pub fn score_synthetic_sheet(
+    seed: u64,
+    poses: usize,
+    size: u32,
+    varied: bool,
+    options: &PartsOptions,
+    source: Source,
+) -> Result<SheetScores> {
+    let mut generated = GeneratedSheet::new(seed, poses, size, varied)?;
     let truth = generated.correspondences()?;
     let start = Instant::now();
     let estimated = match source {
@@ -100,6 +110,7 @@ pub fn score_synthetic_sheet(seed: u64, poses: usize, size: u32, options: &Parts
     };
     let flows = estimated.as_ref().unwrap_or(&truth);
     let matching = match_quality(flows, &truth, &generated.labels, size as usize);
+    label_accessories_as_their_body_part(&mut generated);
     let GeneratedSheet {
         sequence: seq,
         poses: sheet,
@@ -136,6 +147,22 @@ pub fn score_synthetic_sheet(seed: u64, poses: usize, size: u32, options: &Parts
         unchanged_l2,
         matching,
     })
+}
+
+/// Relabels every pixel of an accessory with the body part it hangs from.
+fn label_accessories_as_their_body_part(sheet: &mut GeneratedSheet) {
+    let parts = &sheet.sequence.character.parts;
+    let body: Vec<u32> = (0..parts.len())
+        .map(|mut i| {
+            while let (Role::Accessory, Some(parent)) = (parts[i].role, parts[i].parent) {
+                i = parent;
+            }
+            i as u32
+        })
+        .collect();
+    for label in sheet.labels.iter_mut().flatten().filter(|l| **l != NONE) {
+        *label = body[*label as usize];
+    }
 }
 
 /// `flows` against the exact correspondences `truth` of poses labelled `labels` (`width` wide).
@@ -335,7 +362,7 @@ mod tests {
             ..PartsOptions::default()
         };
         for (seed, strict, paper) in [(71, 0.70, 0.88), (72, 0.35, 0.69)] {
-            let s = score_synthetic_sheet(seed, 6, 128, &options, Source::Truth).expect("scores");
+            let s = score_synthetic_sheet(seed, 6, 128, false, &options, Source::Truth).expect("scores");
             assert!(s.found.strict >= strict && s.found.paper >= paper, "seed {seed}: {:?}", s.found);
             assert!(
                 s.found.paper > s.components.paper && s.found.strict > s.components.strict,
@@ -350,7 +377,7 @@ mod tests {
     #[test]
     fn exact_correspondences_find_parts_above_the_floor_and_beat_the_references() {
         for (seed, floor) in [(71, 0.80), (72, 0.70)] {
-            let s = score_synthetic_sheet(seed, 6, 128, &PartsOptions::default(), Source::Truth).expect("scores");
+            let s = score_synthetic_sheet(seed, 6, 128, false, &PartsOptions::default(), Source::Truth).expect("scores");
             assert!(s.found.strict >= floor && s.found.paper >= 0.85, "seed {seed}: {:?}", s.found);
             assert!(
                 s.found.strict > s.components.strict && s.found.paper > s.components.paper,

@@ -75,6 +75,7 @@ pub trait PairSource: Sync {
 /// max_channels = 64
 /// depth = 5
 /// input_size = 128
+/// varied = false          # train on characters of wider variety (`puppet synth --varied`)
 ///
 /// [adam]
 /// beta_1 = 0.9
@@ -112,6 +113,9 @@ pub struct LearnConfig {
     pub depth: usize,
     /// Working size S.
     pub input_size: usize,
+    /// Pairs of characters of wider variety (half bodies, robots, front views, held objects,
+    /// accessories) instead of the one humanoid, for training and held-out pairs alike.
+    pub varied: bool,
     /// The optimiser.
     pub adam: AdamSettings,
 }
@@ -135,6 +139,7 @@ impl Default for LearnConfig {
             max_channels: net.max_channels,
             depth: net.depth,
             input_size: net.input_size,
+            varied: false,
             adam: AdamSettings::default(),
         }
     }
@@ -418,7 +423,7 @@ pub fn train_correspondence(
     let mut log = TrainLog::<LearnRow>::open(&folder.log(), step)?;
     let stop = options.pause_at.map_or(config.steps, |p| p.min(config.steps));
     progress.stage("correspondence network", config.steps);
-    progress.advance(step);
+    progress.resume(step);
     let (started, first) = (Instant::now(), step);
     let mut score = MatchScore {
         within_2px: f64::NAN,

@@ -185,6 +185,15 @@ impl Palette {
             outline,
         }
     }
+
+    /// Metal instead of skin and cloth: greys with a faint tint, a brighter accent.
+    fn metallic(&mut self, rng: &mut Rng) {
+        let tint = rng.unit();
+        self.skin = hsv(tint, rng.range(0.03, 0.2), rng.range(0.6, 0.85));
+        self.shirt = hsv(tint + rng.range(-0.1, 0.1), rng.range(0.05, 0.35), rng.range(0.45, 0.75));
+        self.pants = scale_rgb(self.shirt, 0.8);
+        self.shoes = hsv(tint, 0.1, rng.range(0.2, 0.4));
+    }
 }
 
 /// Random proportions of one character, in character units.
@@ -201,27 +210,46 @@ struct Build {
 impl Character {
     /// Generates the character for `seed`, scaled to stand in a `width × height` frame.
     pub fn generate(seed: u64, width: u32, height: u32) -> Self {
-        Self::build(seed, width, height, Dress::Bare)
+        Self::build(seed, width, height, Dress::Bare, Plan::HUMANOID)
+    }
+
+    /// A character of wider variety than [`Character::generate`]'s one three-quarter-view
+    /// humanoid, for training what must not learn one skeleton (the correspondence network of
+    /// `puppet parts`): seed `seed` also draws a body plan — half bodies without legs, robots
+    /// (boxy torso and head, straight limbs, metal colours, an antenna), front views (head,
+    /// face and limbs symmetric), an object in the front hand — and dresses three in ten in the
+    /// accessories of [`Character::dressed`] (back hair among them).
+    pub fn varied(seed: u64, width: u32, height: u32) -> Self {
+        let mut rng = Rng::new(seed).fork(11);
+        let plan = Plan::random(&mut rng);
+        let dress = if rng.chance(0.3) { Dress::Dressed } else { Dress::Bare };
+        Self::build(seed, width, height, dress, plan)
     }
 
     /// The character of [`Character::generate`] wearing seven accessory layers (a vest, back hair,
     /// freckles, sunglasses, a hat, a bracelet and a sleeve, each fixed in its parent part's frame):
     /// the same body, scaled anew so that the hat fits in the frame too.
     pub fn dressed(seed: u64, width: u32, height: u32) -> Self {
-        Self::build(seed, width, height, Dress::Dressed)
+        Self::build(seed, width, height, Dress::Dressed, Plan::HUMANOID)
     }
 
     /// The character of [`Character::dressed`] with an eighth accessory on an accessory: a trim
     /// along the vest's hem, inside the vest, its lower edge the vest's (its true parent is the
     /// vest, and the two share that boundary). Everything else is as dressed.
     pub fn trimmed(seed: u64, width: u32, height: u32) -> Self {
-        Self::build(seed, width, height, Dress::Trimmed)
+        Self::build(seed, width, height, Dress::Trimmed, Plan::HUMANOID)
     }
 
-    fn build(seed: u64, width: u32, height: u32, dress: Dress) -> Self {
+    fn build(seed: u64, width: u32, height: u32, dress: Dress, plan: Plan) -> Self {
         let root = Rng::new(seed);
         let mut rng = root.fork(1);
-        let pal = Palette::random(&mut rng);
+        let mut pal = Palette::random(&mut rng);
+        // Draws that only other plans make come from their own stream, so the humanoid of each
+        // seed stays the same.
+        let mut plan_rng = root.fork(12);
+        if plan.robot {
+            pal.metallic(&mut plan_rng);
+        }
         let chibi = rng.chance(0.35);
         let head_k = if chibi { 1.3 } else { 1.0 };
         let b = Build {
@@ -243,7 +271,10 @@ impl Character {
             parts.push(p);
             parts.len() - 1
         };
-        let torso_shape = torso_shape(&mut rng, b.torso);
+        let mut torso_shape = torso_shape(&mut rng, b.torso);
+        if plan.robot {
+            torso_shape = boxy(b.torso, [0.0, 0.0], plan_rng.range(0.05, 0.15));
+        }
         let torso_look = torso_look(&mut rng, &pal, &b, &torso_shape);
         let shirt_pattern = torso_look.pattern.clone();
         let torso = add(Part {
@@ -258,8 +289,12 @@ impl Character {
         });
         let [tw, th] = b.torso;
         // Head: pivot at the neck, inside the torso's top.
-        let neck = inset(&torso_shape, [0.1 * tw, -0.5 * th + 3.0], 3.0);
-        let (head_shape, head_look, head_center) = head(&mut rng, &pal, &b);
+        let neck_x = if plan.front { 0.0 } else { 0.1 * tw };
+        let neck = inset(&torso_shape, [neck_x, -0.5 * th + 3.0], 3.0);
+        let (mut head_shape, mut head_look, head_center) = head(&mut rng, &pal, &b, plan.front);
+        if plan.robot {
+            robot_head(&mut head_shape, &mut head_look, head_center, &b, &pal, &mut plan_rng);
+        }
         let head = add(Part {
             name: "head".into(),
             role: Role::Head,
@@ -275,11 +310,13 @@ impl Character {
         for side in [Side::Back, Side::Front] {
             let sign = if side == Side::Back { -1.0 } else { 1.0 };
             let tag = if side == Side::Back { "back" } else { "front" };
-            // Back limbs are a little darker, as if in the shade of the body.
-            let shade = if side == Side::Back { 0.85 } else { 1.0 };
+            // Back limbs are a little darker, as if in the shade of the body; seen from the
+            // front, the limbs hang at the sides, neither behind the other.
+            let shade = if side == Side::Back && !plan.front { 0.85 } else { 1.0 };
+            let spread = if plan.front { [0.42, 0.22] } else { [0.25, 0.16] };
             let shoulder = inset(
                 &torso_shape,
-                [sign * 0.25 * tw, -0.5 * th + 0.22 * th.max(4.0 * b.arm[2])],
+                [sign * spread[0] * tw, -0.5 * th + 0.22 * th.max(4.0 * b.arm[2])],
                 1.2 * b.arm[2],
             );
             let upper = add(limb_upper(
@@ -294,7 +331,7 @@ impl Character {
             ));
             let lower_fill = if long_sleeves { pal.shirt } else { pal.skin };
             let hand_color = if rng.chance(0.3) { lighten(pal.accent, 0.6) } else { pal.skin };
-            add(arm_lower(
+            let mut forearm = arm_lower(
                 &format!("arm_{tag}_lower"),
                 side,
                 upper,
@@ -304,8 +341,15 @@ impl Character {
                 hand_color,
                 shade,
                 &pal,
-            ));
-            let hip = inset(&torso_shape, [sign * 0.16 * tw, 0.5 * th - 1.2 * b.leg[2]], 1.2 * b.leg[2]);
+            );
+            if plan.held && side == Side::Front {
+                hold(&mut forearm, &b, &mut plan_rng);
+            }
+            add(forearm);
+            if !plan.legs {
+                continue;
+            }
+            let hip = inset(&torso_shape, [sign * spread[1] * tw, 0.5 * th - 1.2 * b.leg[2]], 1.2 * b.leg[2]);
             let thigh = add(limb_upper(
                 &format!("leg_{tag}_upper"),
                 Role::UpperLeg,
@@ -369,7 +413,12 @@ impl Character {
         if rng.chance(0.45) {
             let [hw, hh] = b.head;
             let (len, wid, n) = (rng.range(8.0, 14.0), rng.range(3.5, 6.0), rng.range(1.5, 2.5));
-            for (side, tag, dx, tilt) in [(Side::Back, "back", -0.4, 0.35), (Side::Front, "front", 0.15, -0.25)] {
+            let ears = if plan.front {
+                [(Side::Back, "back", -0.75, 0.45), (Side::Front, "front", 0.75, -0.45)]
+            } else {
+                [(Side::Back, "back", -0.4, 0.35), (Side::Front, "front", 0.15, -0.25)]
+            };
+            for (side, tag, dx, tilt) in ears {
                 let base = [head_center[0] + dx * hw, head_center[1] - 0.7 * hh];
                 let ear = Primitive::Superellipse {
                     center: [0.0, 0.45 * len],
@@ -404,6 +453,9 @@ impl Character {
         if dress != Dress::Bare {
             let extra = accessories(&parts, &mut root.fork(7), b.outline_px, dress == Dress::Trimmed);
             parts.extend(extra);
+        }
+        if plan.robot {
+            straighten_limbs(&mut parts);
         }
         let parts = reorder(parts);
         let mut c = Character {
@@ -724,9 +776,18 @@ fn leg_lower(
 }
 
 /// The head's shape, look and centre (in its local frame, origin at the neck).
-fn head(rng: &mut Rng, pal: &Palette, b: &Build) -> (Shape, Look, [f32; 2]) {
+/// Seen from the `front`, the head sits on the neck and its face is symmetric.
+fn head(rng: &mut Rng, pal: &Palette, b: &Build, front: bool) -> (Shape, Look, [f32; 2]) {
     let [hw, hh] = b.head;
-    let c = [rng.range(0.0, 0.2) * hw, -0.8 * hh];
+    let offset = rng.range(0.0, 0.2) * hw;
+    let c = [if front { 0.0 } else { offset }, -0.8 * hh];
+    // Feature places across the face, as fractions of the half-width from the centre: hair,
+    // far eye, near eye, pupils' glance, mouth, nose.
+    let [hair_x, far_eye, near_eye, glance, mouth, nose] = if front {
+        [0.0, -0.38, 0.38, 0.0, 0.0, 0.0]
+    } else {
+        [-0.35, 0.12, 0.55, 0.35, 0.42, 0.9]
+    };
     let prim = match rng.below(3) {
         0 => Primitive::Superellipse {
             center: c,
@@ -753,7 +814,7 @@ fn head(rng: &mut Rng, pal: &Palette, b: &Build) -> (Shape, Look, [f32; 2]) {
         // Hair over the top and back of the head.
         look.features.push(Feature {
             shape: FeatureShape::Fill(Primitive::Superellipse {
-                center: [c[0] - 0.35 * hw, c[1] - 0.75 * hh],
+                center: [c[0] + hair_x * hw, c[1] - 0.75 * hh],
                 radii: [1.15 * hw, 0.6 * hh],
                 exponent: 2.0,
                 angle: rng.range(-0.15, 0.3),
@@ -766,9 +827,9 @@ fn head(rng: &mut Rng, pal: &Palette, b: &Build) -> (Shape, Look, [f32; 2]) {
     let eye_y = c[1] - rng.range(-0.05, 0.15) * hh;
     let white = [1.0, 1.0, 1.0];
     let dark = [0.08, 0.06, 0.1];
-    for (k, dx) in [(0, 0.12f32), (1, 0.55)] {
+    for (k, dx) in [(0, far_eye), (1, near_eye)] {
         // The far eye is narrower (three-quarter view).
-        let r = if k == 0 { [0.8 * eye_r[0], eye_r[1]] } else { eye_r };
+        let r = if k == 0 && !front { [0.8 * eye_r[0], eye_r[1]] } else { eye_r };
         let e = [c[0] + dx * hw, eye_y];
         look.features.push(Feature {
             shape: FeatureShape::Fill(Primitive::Superellipse {
@@ -780,7 +841,7 @@ fn head(rng: &mut Rng, pal: &Palette, b: &Build) -> (Shape, Look, [f32; 2]) {
             color: white,
             ink: 0.7 * b.outline_px,
         });
-        let pupil = [e[0] + 0.35 * r[0], e[1] + 0.1 * r[1]];
+        let pupil = [e[0] + glance * r[0], e[1] + 0.1 * r[1]];
         look.features.push(Feature {
             shape: FeatureShape::Fill(circle(pupil, 0.5 * r[0].min(r[1]))),
             color: dark,
@@ -794,7 +855,7 @@ fn head(rng: &mut Rng, pal: &Palette, b: &Build) -> (Shape, Look, [f32; 2]) {
     }
     look.features.push(Feature {
         shape: FeatureShape::Smile {
-            center: [c[0] + 0.42 * hw, c[1] + 0.3 * hh],
+            center: [c[0] + mouth * hw, c[1] + 0.3 * hh],
             radius: rng.range(0.15, 0.25) * hw,
             thickness: 0.06 * hw + 0.6,
         },
@@ -811,7 +872,7 @@ fn head(rng: &mut Rng, pal: &Palette, b: &Build) -> (Shape, Look, [f32; 2]) {
     if rng.chance(0.5) {
         look.features.push(Feature {
             shape: FeatureShape::Fill(Primitive::Superellipse {
-                center: [c[0] + 0.9 * hw, c[1] + 0.05 * hh],
+                center: [c[0] + nose * hw, c[1] + 0.05 * hh],
                 radii: [0.14 * hw, 0.1 * hh],
                 exponent: 2.0,
                 angle: 0.0,
@@ -821,6 +882,132 @@ fn head(rng: &mut Rng, pal: &Palette, b: &Build) -> (Shape, Look, [f32; 2]) {
         });
     }
     (Shape { primitives: vec![prim] }, look, c)
+}
+
+/// A box `size` wide and tall around `center`, its corners rounded by `round` of its smaller
+/// side: a robot's torso or head.
+fn boxy(size: [f32; 2], center: [f32; 2], round: f32) -> Shape {
+    Shape {
+        primitives: vec![Primitive::RoundedBox {
+            center,
+            half: [0.5 * size[0], 0.5 * size[1]],
+            radius: round * size[0].min(size[1]),
+            angle: 0.0,
+        }],
+    }
+}
+
+/// Makes a head a robot's: a box around its centre `c`, with a visor band across the eyes and
+/// an antenna on top (part of the head's silhouette, so it moves with it).
+fn robot_head(shape: &mut Shape, look: &mut Look, c: [f32; 2], b: &Build, pal: &Palette, rng: &mut Rng) {
+    let [hw, hh] = b.head;
+    *shape = boxy([2.0 * hw, 2.0 * hh], c, rng.range(0.08, 0.2));
+    let tall = rng.range(0.5, 0.9) * hh;
+    let top = [c[0] + rng.range(-0.3, 0.3) * hw, c[1] - hh - tall];
+    let stalk = Primitive::Capsule {
+        a: [top[0], c[1] - hh + 1.0],
+        b: top,
+        ra: 0.9,
+        rb: 0.9,
+    };
+    let bulb = circle(top, rng.range(1.8, 2.8));
+    shape.primitives.extend([stalk.clone(), bulb.clone()]);
+    // The head's features (hair, cheeks) are replaced by a visor behind the eyes and the antenna.
+    look.features
+        .retain(|f| !matches!(f.shape, FeatureShape::Fill(Primitive::Superellipse { radii, .. }) if radii[0] > 0.5 * hw));
+    look.features.insert(
+        0,
+        Feature {
+            shape: FeatureShape::Fill(Primitive::RoundedBox {
+                center: [c[0], c[1] - 0.05 * hh],
+                half: [0.85 * hw, 0.32 * hh],
+                radius: 0.1 * hh,
+                angle: 0.0,
+            }),
+            color: scale_rgb(pal.shirt, 0.45),
+            ink: b.outline_px,
+        },
+    );
+    look.features.push(Feature {
+        shape: FeatureShape::Fill(stalk),
+        color: scale_rgb(pal.skin, 0.7),
+        ink: 0.0,
+    });
+    look.features.push(Feature {
+        shape: FeatureShape::Fill(bulb),
+        color: pal.accent,
+        ink: b.outline_px,
+    });
+}
+
+/// Puts an object in a forearm's hand — a stick, a sword or a staff with a knob — as part of
+/// the forearm's silhouette (it moves as the hand does: one articulated part with it).
+fn hold(forearm: &mut Part, b: &Build, rng: &mut Rng) {
+    let [_, len, _] = b.arm;
+    let hand = [0.0, len + 0.5 * b.hand];
+    let angle = rng.range(-0.9, 0.9) + PI / 2.0;
+    let (reach, back) = (rng.range(14.0, 26.0), rng.range(2.0, 6.0));
+    let dir = [libm::cosf(angle), libm::sinf(angle)];
+    let a = [hand[0] - back * dir[0], hand[1] - back * dir[1]];
+    let tip = [hand[0] + reach * dir[0], hand[1] + reach * dir[1]];
+    let r = rng.range(0.9, 1.8);
+    let mut pieces = vec![Primitive::Capsule { a, b: tip, ra: r, rb: r }];
+    if rng.chance(0.5) {
+        pieces.push(circle(tip, rng.range(2.0, 3.5)));
+    }
+    let colour = hsv(rng.unit(), rng.range(0.2, 0.8), rng.range(0.35, 0.9));
+    for piece in pieces {
+        forearm.shape.primitives.push(piece.clone());
+        forearm.look.features.push(Feature {
+            shape: FeatureShape::Fill(piece),
+            color: colour,
+            ink: b.outline_px,
+        });
+    }
+}
+
+/// A robot's limbs are straight tubes: each capsule as wide at both ends.
+fn straighten_limbs(parts: &mut [Part]) {
+    let limbs = parts
+        .iter_mut()
+        .filter(|p| matches!(p.role, Role::UpperArm | Role::LowerArm | Role::UpperLeg | Role::LowerLeg));
+    for part in limbs {
+        if let Some(Primitive::Capsule { ra, rb, .. }) = part.shape.primitives.first_mut() {
+            *rb = *ra;
+        }
+    }
+}
+
+/// The kind of body [`Character::build`] makes.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+struct Plan {
+    /// With legs (else a half body).
+    legs: bool,
+    /// Seen from the front (else in three-quarter view, facing right).
+    front: bool,
+    /// A robot.
+    robot: bool,
+    /// An object in the front hand.
+    held: bool,
+}
+
+impl Plan {
+    /// The generator's one humanoid.
+    const HUMANOID: Plan = Plan {
+        legs: true,
+        front: false,
+        robot: false,
+        held: false,
+    };
+
+    fn random(rng: &mut Rng) -> Plan {
+        Plan {
+            legs: !rng.chance(0.25),
+            front: rng.chance(0.3),
+            robot: rng.chance(0.25),
+            held: rng.chance(0.3),
+        }
+    }
 }
 
 /// The accessory set of issue 13's synthetic data, each in its parent's local frame (pivot at
@@ -1039,4 +1226,49 @@ fn fit(c: &Character, width: u32, height: u32) -> Similarity {
     let k = (0.78 * h / (hi[1] - lo[1])).min(0.8 * w / (hi[0] - lo[0]));
     let centre = [0.5 * (lo[0] + hi[0]), 0.5 * (lo[1] + hi[1])];
     Similarity::new(0.0, k, [0.5 * w - k * centre[0], 0.54 * h - k * centre[1]])
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn with(seed: u64, change: fn(&mut Plan)) -> Character {
+        let mut plan = Plan::HUMANOID;
+        change(&mut plan);
+        Character::build(seed, 128, 128, Dress::Bare, plan)
+    }
+
+    fn forearm_pieces(c: &Character, name: &str) -> usize {
+        c.parts[c.part(name).unwrap()].shape.primitives.len()
+    }
+
+    /// Each body plan changes what it names and nothing the humanoid draws from its own stream.
+    #[test]
+    fn body_plans_change_what_they_name() {
+        for seed in [3, 17, 40] {
+            let base = with(seed, |_| {});
+            assert_eq!(base, Character::generate(seed, 128, 128));
+            let half = with(seed, |p| p.legs = false);
+            assert!(half.parts.iter().all(|p| !matches!(p.role, Role::UpperLeg | Role::LowerLeg)));
+            let arms = |c: &Character| c.parts.iter().filter(|p| matches!(p.role, Role::UpperArm | Role::LowerArm)).count();
+            assert_eq!((arms(&half), arms(&base)), (4, 4));
+            let robot = with(seed, |p| p.robot = true);
+            let torso = robot.part("torso").unwrap();
+            assert!(matches!(robot.parts[torso].shape.primitives[0], Primitive::RoundedBox { .. }));
+            for part in robot.parts.iter().filter(|p| matches!(p.role, Role::UpperArm | Role::LowerLeg)) {
+                let Primitive::Capsule { ra, rb, .. } = part.shape.primitives[0] else {
+                    panic!("{} is not a tube", part.name)
+                };
+                assert_eq!(ra, rb, "{}", part.name);
+            }
+            // Seen from the front the head sits on the torso's axis; in three-quarter view it
+            // sits forward of it.
+            let front = with(seed, |p| p.front = true);
+            assert_eq!(front.parts[front.part("head").unwrap()].pivot[0], 0.0);
+            assert!(base.parts[base.part("head").unwrap()].pivot[0] > 0.0);
+            let held = with(seed, |p| p.held = true);
+            assert!(forearm_pieces(&held, "arm_front_lower") > forearm_pieces(&base, "arm_front_lower"));
+            assert_eq!(forearm_pieces(&held, "arm_back_lower"), forearm_pieces(&base, "arm_back_lower"));
+        }
+    }
 }

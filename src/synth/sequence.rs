@@ -49,6 +49,9 @@ pub struct SynthOptions {
     /// With `accessories`, also a trim on the vest, an accessory on an accessory
     /// ([`Character::trimmed`]).
     pub trim: bool,
+    /// A character of wider variety ([`Character::varied`]: half bodies, robots, front views,
+    /// held objects, some dressed) instead of the one humanoid.
+    pub varied: bool,
 }
 
 impl Default for SynthOptions {
@@ -63,6 +66,7 @@ impl Default for SynthOptions {
             wobble: 0.35,
             accessories: false,
             trim: false,
+            varied: false,
         }
     }
 }
@@ -102,6 +106,13 @@ impl SynthOptions {
         if !(0.0..=2.0).contains(&self.wobble) {
             problems.push(Error::setting("wobble", format!("{} px", self.wobble), "0 to 2"));
         }
+        if self.varied && self.accessories {
+            problems.push(Error::setting(
+                "varied",
+                "with accessories",
+                "alone (a varied character is dressed or not by its seed)",
+            ));
+        }
         if self.trim && !self.accessories {
             problems.push(Error::setting(
                 "trim",
@@ -140,7 +151,9 @@ pub fn frame_name(prefix: &str, t: usize, n: usize) -> String {
 pub fn generate(opts: &SynthOptions, progress: &dyn Progress) -> Result<Sequence> {
     opts.validate()?;
     let (w, h) = (opts.width, opts.height);
-    let character = if opts.trim {
+    let character = if opts.varied {
+        Character::varied(opts.seed, w, h)
+    } else if opts.trim {
         Character::trimmed(opts.seed, w, h)
     } else if opts.accessories {
         Character::dressed(opts.seed, w, h)

@@ -124,7 +124,8 @@ pub fn true_correspondences(truth: &Truth, labels: &[Vec<u32>]) -> Result<Corres
 
 /// A generated sprite sheet in memory: `poses` random poses of seed `seed`'s character at
 /// `size`² (the generator's default deformation and wobble, as `puppet synth --sprite-sheet`
-/// draws them), with the true part of each pixel of each pose.
+/// draws them; with `varied`, the character of [`super::character::Character::varied`]), with
+/// the true part of each pixel of each pose.
 #[derive(Clone, Debug)]
 pub struct GeneratedSheet {
     /// The generated sequence (character, frames, truth).
@@ -140,13 +141,14 @@ impl GeneratedSheet {
     ///
     /// # Errors
     /// As [`super::generate`].
-    pub fn new(seed: u64, poses: usize, size: u32) -> Result<Self> {
+    pub fn new(seed: u64, poses: usize, size: u32, varied: bool) -> Result<Self> {
         let options = super::SynthOptions {
             seed,
             frames: poses,
             width: size,
             height: size,
             motion: super::Motion::Random,
+            varied,
             ..super::SynthOptions::default()
         };
         let sequence = super::generate(&options, &crate::progress::Silent)?;
@@ -187,6 +189,8 @@ pub struct SyntheticPairs {
     pub first_seed: u64,
     /// Pose side, pixels (the network's working size).
     pub size: u32,
+    /// Characters of wider variety ([`super::character::Character::varied`]).
+    pub varied: bool,
 }
 
 impl PairSource for SyntheticPairs {
@@ -195,7 +199,7 @@ impl PairSource for SyntheticPairs {
     }
 
     fn pair(&self, index: u64) -> Result<TrainingPair> {
-        let sheet = GeneratedSheet::new(self.first_seed.wrapping_add(index), 2, self.size)?;
+        let sheet = GeneratedSheet::new(self.first_seed.wrapping_add(index), 2, self.size, self.varied)?;
         let flows = sheet.correspondences()?;
         let flow = flows.get(0, 1).expect("the truth holds every pair");
         let w = self.size as usize;

@@ -226,7 +226,7 @@ pub fn train(config: &TrainConfig, options: &TrainOptions, progress: &dyn Progre
 
     let stop = options.pause_at.map_or(config.train.steps, |p| p.min(config.train.steps));
     progress.stage("training", config.train.steps);
-    progress.advance(step);
+    progress.resume(step);
     let started = Instant::now();
     let first_step = step;
     let mut last = None;
