@@ -573,8 +573,9 @@ fn cli_writes_a_sequence_and_rejects_bad_input() {
     }
 }
 
-/// The figure in docs/: three characters (seeds 3, 14, 27) × 8 walk frames. Run by hand:
-/// `cargo test --release --test synth -- --ignored docs_contact_sheet`.
+/// The figures in docs/: three characters (seeds 3, 14, 27) × 8 walk frames, and eight varied
+/// characters × 4 random poses. Run by hand:
+/// `cargo test --release --test main -- --ignored docs_contact_sheet`.
 #[test]
 #[ignore]
 fn docs_contact_sheet() {
@@ -584,6 +585,17 @@ fn docs_contact_sheet() {
         frames.extend(seq.frames.into_iter().map(|f| f.image));
     }
     let refs: Vec<&Picture> = frames.iter().collect();
-    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("docs/synth_contact_sheet.png");
-    puppet::picture::contact_sheet(&refs, 8).save_png(&path).unwrap();
+    let docs = Path::new(env!("CARGO_MANIFEST_DIR")).join("docs");
+    puppet::picture::contact_sheet(&refs, 8).save_png(&docs.join("synth_contact_sheet.png")).unwrap();
+    // Eight characters of wider variety (`puppet synth --varied`), four random poses each.
+    let mut varied = Vec::new();
+    for seed in 2000..2008 {
+        let o = SynthOptions {
+            varied: true,
+            ..opts(seed, 4, 128, Motion::Random)
+        };
+        varied.extend(generate(&o, &Silent).unwrap().frames.into_iter().map(|f| f.image));
+    }
+    let refs: Vec<&Picture> = varied.iter().collect();
+    puppet::picture::contact_sheet(&refs, 8).save_png(&docs.join("synth_varied_sheet.png")).unwrap();
 }
