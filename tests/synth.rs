@@ -586,7 +586,9 @@ fn docs_contact_sheet() {
     }
     let refs: Vec<&Picture> = frames.iter().collect();
     let docs = Path::new(env!("CARGO_MANIFEST_DIR")).join("docs");
-    puppet::picture::contact_sheet(&refs, 8).save_png(&docs.join("synth_contact_sheet.png")).unwrap();
+    puppet::picture::contact_sheet(&refs, 8)
+        .save_png(&docs.join("synth_contact_sheet.png"))
+        .unwrap();
     // Eight characters of wider variety (`puppet synth --varied`), four random poses each.
     let mut varied = Vec::new();
     for seed in 2000..2008 {
@@ -597,5 +599,7 @@ fn docs_contact_sheet() {
         varied.extend(generate(&o, &Silent).unwrap().frames.into_iter().map(|f| f.image));
     }
     let refs: Vec<&Picture> = varied.iter().collect();
-    puppet::picture::contact_sheet(&refs, 8).save_png(&docs.join("synth_varied_sheet.png")).unwrap();
+    puppet::picture::contact_sheet(&refs, 8)
+        .save_png(&docs.join("synth_varied_sheet.png"))
+        .unwrap();
 }

@@ -1242,6 +1242,13 @@ mod tests {
         c.parts[c.part(name).unwrap()].shape.primitives.len()
     }
 
+    #[test]
+    fn every_part_the_generator_makes_has_a_label_colour_of_its_own() {
+        for name in Z_ORDER {
+            assert_ne!(super::super::labels::label_rgb(name), [128, 128, 128], "{name}");
+        }
+    }
+
     /// Each body plan changes what it names and nothing the humanoid draws from its own stream.
     #[test]
     fn body_plans_change_what_they_name() {

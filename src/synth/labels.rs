@@ -5,8 +5,9 @@ use super::character::Character;
 use super::draw::{Drawing, BACKGROUND};
 use crate::picture::Picture;
 
-/// Label colours by part name; unknown names get grey.
-const COLORS: [(&str, [u8; 3]); 13] = [
+/// Label colours by part name, every part the generator makes a colour of its own (so a label
+/// map read back names each accessory, not just "an accessory"); unknown names get grey.
+const COLORS: [(&str, [u8; 3]); 21] = [
     ("torso", [230, 25, 75]),
     ("head", [60, 180, 75]),
     ("arm_back_upper", [255, 225, 25]),
@@ -20,6 +21,14 @@ const COLORS: [(&str, [u8; 3]); 13] = [
     ("tail", [0, 128, 128]),
     ("ear_back", [170, 110, 40]),
     ("ear_front", [128, 0, 0]),
+    ("vest", [230, 190, 255]),
+    ("trim", [255, 250, 200]),
+    ("hair_back", [0, 0, 128]),
+    ("freckles", [255, 215, 180]),
+    ("glasses", [128, 128, 0]),
+    ("hat", [170, 255, 195]),
+    ("bracelet", [255, 255, 255]),
+    ("sleeve", [64, 64, 64]),
 ];
 
 /// The label colour of part `name`.
@@ -63,8 +72,12 @@ mod tests {
 
     #[test]
     fn label_colours_are_distinct() {
-        let set: HashSet<[u8; 3]> = COLORS.iter().map(|c| c.1).collect();
-        assert_eq!(set.len(), COLORS.len());
+        let set: HashSet<[u8; 3]> = COLORS.iter().map(|c| c.1).chain([[128, 128, 128]]).collect();
+        assert_eq!(
+            set.len(),
+            COLORS.len() + 1,
+            "a part shares a colour with another or with unknown parts"
+        );
         assert_eq!(label_hex("torso"), "#e6194b");
     }
 }

@@ -310,3 +310,38 @@ impl TruthSheet {
         true_correspondences(&self.truth, &self.labels)
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::progress::Silent;
+
+    /// A dressed character's sprite sheet written to disk reads back with every pixel's part, each
+    /// accessory its own: the label sheet's colours tell them apart.
+    #[test]
+    fn a_dressed_sheet_reads_back_with_the_labels_it_was_drawn_with() {
+        let options = super::super::SynthOptions {
+            seed: 31,
+            frames: 3,
+            width: 96,
+            height: 96,
+            motion: super::super::Motion::Random,
+            accessories: true,
+            ..super::super::SynthOptions::default()
+        };
+        let sequence = super::super::generate(&options, &Silent).unwrap();
+        let dir = tempfile::tempdir().unwrap();
+        super::super::write_sprite_sheet(&sequence, dir.path(), 3).unwrap();
+        let read = TruthSheet::load(dir.path()).unwrap();
+        for (frame, labels) in sequence.frames.iter().zip(&read.labels) {
+            let drawn: Vec<u32> = frame
+                .labels
+                .iter()
+                .map(|&l| if l == super::super::draw::BACKGROUND { NONE } else { u32::from(l) })
+                .collect();
+            assert_eq!(&drawn, labels);
+        }
+        let hat = sequence.character.part("hat").unwrap() as u32;
+        assert!(read.labels.iter().flatten().any(|&l| l == hat), "no hat pixel read back");
+    }
+}
