@@ -912,7 +912,7 @@ fn robot_head(shape: &mut Shape, look: &mut Look, c: [f32; 2], b: &Build, pal: &
     };
     let bulb = circle(top, rng.range(1.8, 2.8));
     shape.primitives.extend([stalk.clone(), bulb.clone()]);
-    // The head's features (hair, cheeks) are replaced by a visor behind the eyes and the antenna.
+    // No hair (the one feature wider than half the head); a visor behind the eyes instead.
     look.features
         .retain(|f| !matches!(f.shape, FeatureShape::Fill(Primitive::Superellipse { radii, .. }) if radii[0] > 0.5 * hw));
     look.features.insert(
