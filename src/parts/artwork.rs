@@ -7,11 +7,14 @@ use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 
 use super::reconstruct::reconstruct;
+use super::skeleton::Hinge;
 use super::superpixels::NONE;
 use super::Parts;
 use crate::atomic_file::Outputs;
 use crate::error::Result;
 use crate::picture::{contact_sheet, draw, Picture};
+use crate::puppet::artwork::{label_cut_overlap, ImportOptions};
+use crate::puppet::joints::JointOptions;
 
 /// Well-separated colours for the first parts (Trubetskoy's list of 20 distinct colours).
 const PALETTE: [[u8; 3]; 20] = [
@@ -157,9 +160,28 @@ fn character_toml(parts: &Parts, name: &str) -> String {
     );
     let _ = writeln!(text, "name = {:?}", name);
     let _ = writeln!(text, "root = {:?}", part_name(sk.root));
+    // `puppet build` cuts the layers from labels.png and joins two only where they overlap
+    // enough: a hinge between parts that touch along a pixel or two would make it refuse the
+    // artwork, so such a hinge is left out (its child joins nothing, which build allows).
+    let reference = &parts.poses[parts.segmentation.reference].image;
+    let layer_of: Vec<Option<usize>> = parts.segmentation.labels[parts.segmentation.reference]
+        .iter()
+        .map(|&l| (l != NONE).then(|| sk.order.iter().position(|&k| k == l as usize)).flatten())
+        .collect();
+    let position = |part: usize| sk.order.iter().position(|&k| k == part).unwrap_or(part);
+    let joinable = |h: &Hinge| {
+        let overlap = label_cut_overlap(
+            reference,
+            &layer_of,
+            [position(h.parent), position(h.child)],
+            ImportOptions::default().label_overlap,
+        );
+        (overlap >= JointOptions::default().min_overlap, overlap)
+    };
     let joints: Vec<String> = sk
         .hinges
         .iter()
+        .filter(|h| joinable(h).0)
         .map(|h| format!("[{:?}, {:?}]", part_name(h.parent), part_name(h.child)))
         .collect();
     let _ = writeln!(
@@ -167,14 +189,20 @@ fn character_toml(parts: &Parts, name: &str) -> String {
         "# Hinges, parent first: the pivot each pair's motions share best (RMS miss in pixels)."
     );
     for h in &sk.hinges {
+        let (joined, overlap) = joinable(h);
         let _ = writeln!(
             text,
-            "#   {} – {} at ({:.1}, {:.1}), {:.2} px",
+            "#   {} – {} at ({:.1}, {:.1}), {:.2} px{}",
             part_name(h.parent),
             part_name(h.child),
             h.pivot[0],
             h.pivot[1],
-            h.residual
+            h.residual,
+            if joined {
+                String::new()
+            } else {
+                format!(" — not joined: the cut layers overlap in {overlap} px")
+            }
         );
     }
     let _ = writeln!(text, "joints = [{}]", joints.join(", "));

@@ -424,8 +424,7 @@ fn cut_label_map(
     }
     let mut layers = Vec::new();
     for (k, spec) in character.layers.iter().enumerate() {
-        let own: Vec<bool> = labels.iter().map(|&l| l == Some(k)).collect();
-        if !own.iter().any(|&o| o) {
+        if !labels.contains(&Some(k)) {
             problems.push(Error::layer(
                 map_path,
                 &spec.name,
@@ -436,9 +435,7 @@ fn cut_label_map(
             ));
             continue;
         }
-        // Where this part may extend: under parts drawn in front of it.
-        let under_front: Vec<bool> = labels.iter().map(|&l| l.is_some_and(|o| o > k)).collect();
-        let picture = extend_part(image, &own, &under_front, opts.label_overlap);
+        let picture = cut_part(image, &labels, k, opts.label_overlap);
         layers.push(ArtLayer {
             name: spec.name.clone(),
             kind: spec.kind,
@@ -502,6 +499,23 @@ fn label_pixels(map: &Picture, map_path: &Path, legend: &[[u8; 3]]) -> Result<Ve
             listed.join(", ")
         ),
     ))
+}
+
+/// Label-map part `k` (`labels` give each pixel's part, parts in back-to-front order) cut from
+/// `image` and extended `overlap` pixels under the parts in front of it.
+fn cut_part(image: &Picture, labels: &[Option<usize>], k: usize, overlap: u32) -> Picture {
+    let own: Vec<bool> = labels.iter().map(|&l| l == Some(k)).collect();
+    let under_front: Vec<bool> = labels.iter().map(|&l| l.is_some_and(|o| o > k)).collect();
+    extend_part(image, &own, &under_front, overlap)
+}
+
+/// How many opaque pixels label-map parts `a` and `b` share once cut as `puppet build` cuts them
+/// ([`ImportOptions::label_overlap`] = `overlap`): a joint between them needs
+/// [`crate::puppet::joints::JointOptions::min_overlap`] of them. `labels` give each pixel's part,
+/// parts in back-to-front order.
+pub fn label_cut_overlap(image: &Picture, labels: &[Option<usize>], [a, b]: [usize; 2], overlap: u32) -> usize {
+    let (pa, pb) = (cut_part(image, labels, a, overlap), cut_part(image, labels, b, overlap));
+    pa.pixels.iter().zip(&pb.pixels).filter(|(p, q)| p[3] > 0.5 && q[3] > 0.5).count()
 }
 
 /// The part's own pixels, grown by up to `overlap` pixels into `allowed` (and filling holes made
@@ -578,4 +592,29 @@ fn enclosed_holes(own: &[bool], allowed: &[bool], w: usize, h: usize) -> Vec<boo
         fillable.push(ok);
     }
     component.iter().map(|&c| c != usize::MAX && fillable[c]).collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Two label-map parts on a 12 × 6 opaque image: part 0 the left square, part 1 in front of
+    /// it either the right square (a 6-pixel seam) or a one-pixel line leaving the square's side.
+    /// Cut as `puppet build` cuts them, part 0 grows 2 px under part 1: 6 × 2 pixels shared along
+    /// the seam, 2 along the line — too few for a joint.
+    #[test]
+    fn cut_parts_overlap_where_the_back_one_grows_under_the_front_one() {
+        let image = Picture::filled(12, 6, [0.5, 0.5, 0.5, 1.0]);
+        let square: Vec<Option<usize>> = (0..72).map(|i| Some(usize::from(i % 12 >= 6))).collect();
+        assert_eq!(label_cut_overlap(&image, &square, [0, 1], 2), 12);
+        let line: Vec<Option<usize>> = (0..72)
+            .map(|i| match (i % 12, i / 12) {
+                (x, _) if x < 6 => Some(0),
+                (_, 3) => Some(1),
+                _ => None,
+            })
+            .collect();
+        assert_eq!(label_cut_overlap(&image, &line, [0, 1], 2), 2);
+        assert!(2 < crate::puppet::joints::JointOptions::default().min_overlap);
+    }
 }
