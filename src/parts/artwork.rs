@@ -7,7 +7,6 @@ use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 
 use super::reconstruct::reconstruct;
-use super::skeleton::Hinge;
 use super::superpixels::NONE;
 use super::Parts;
 use crate::atomic_file::Outputs;
@@ -163,33 +162,40 @@ fn character_toml(parts: &Parts, name: &str) -> String {
     // `puppet build` cuts the layers from labels.png and joins two only where they overlap
     // enough: a hinge between parts that touch along a pixel or two would make it refuse the
     // artwork, so such a hinge is left out (its child joins nothing, which build allows).
+    let mut layer = vec![0; sk.order.len()];
+    for (position, &part) in sk.order.iter().enumerate() {
+        layer[part] = position;
+    }
     let reference = &parts.poses[parts.segmentation.reference].image;
     let layer_of: Vec<Option<usize>> = parts.segmentation.labels[parts.segmentation.reference]
         .iter()
-        .map(|&l| (l != NONE).then(|| sk.order.iter().position(|&k| k == l as usize)).flatten())
+        .map(|&l| (l != NONE).then(|| layer[l as usize]))
         .collect();
-    let position = |part: usize| sk.order.iter().position(|&k| k == part).unwrap_or(part);
-    let joinable = |h: &Hinge| {
-        let overlap = label_cut_overlap(
-            reference,
-            &layer_of,
-            [position(h.parent), position(h.child)],
-            ImportOptions::default().label_overlap,
-        );
-        (overlap >= JointOptions::default().min_overlap, overlap)
-    };
+    let overlaps: Vec<usize> = sk
+        .hinges
+        .iter()
+        .map(|h| {
+            label_cut_overlap(
+                reference,
+                &layer_of,
+                [layer[h.parent], layer[h.child]],
+                ImportOptions::default().label_overlap,
+            )
+        })
+        .collect();
+    let joined = |overlap: usize| overlap >= JointOptions::default().min_overlap;
     let joints: Vec<String> = sk
         .hinges
         .iter()
-        .filter(|h| joinable(h).0)
-        .map(|h| format!("[{:?}, {:?}]", part_name(h.parent), part_name(h.child)))
+        .zip(&overlaps)
+        .filter(|&(_, &overlap)| joined(overlap))
+        .map(|(h, _)| format!("[{:?}, {:?}]", part_name(h.parent), part_name(h.child)))
         .collect();
     let _ = writeln!(
         text,
         "# Hinges, parent first: the pivot each pair's motions share best (RMS miss in pixels)."
     );
-    for h in &sk.hinges {
-        let (joined, overlap) = joinable(h);
+    for (h, &overlap) in sk.hinges.iter().zip(&overlaps) {
         let _ = writeln!(
             text,
             "#   {} – {} at ({:.1}, {:.1}), {:.2} px{}",
@@ -198,7 +204,7 @@ fn character_toml(parts: &Parts, name: &str) -> String {
             h.pivot[0],
             h.pivot[1],
             h.residual,
-            if joined {
+            if joined(overlap) {
                 String::new()
             } else {
                 format!(" — not joined: the cut layers overlap in {overlap} px")
