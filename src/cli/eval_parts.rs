@@ -11,7 +11,7 @@ use puppet::picture::Picture;
 use puppet::progress::Progress;
 
 use super::args::parse_size;
-use super::parts::SelectArg;
+use super::parts::{RebuildArg, SelectArg};
 use super::Session;
 
 /// Score predicted parts against true parts: both are label maps drawn one flat colour per part
@@ -56,6 +56,12 @@ pub struct EvalPartsArgs {
     /// With --synthetic: how parts are chosen.
     #[arg(long, value_enum, default_value_t = SelectArg::Synchronised, conflicts_with_all = ["truth", "predicted"])]
     pub select: SelectArg,
+    /// With --synthetic: how the poses are rebuilt from the parts found (the rebuilt L2).
+    #[arg(long, value_enum, default_value_t = RebuildArg::Arap, conflicts_with_all = ["truth", "predicted"])]
+    pub rebuild: RebuildArg,
+    /// With --synthetic --select cover: how the poses are rebuilt to score each selection.
+    #[arg(long, value_enum, default_value_t = RebuildArg::Rigid, conflicts_with_all = ["truth", "predicted"])]
+    pub cover_score: RebuildArg,
     /// With --synthetic: characters of wider variety (`puppet synth --varied`: half bodies,
     /// robots, front views, held objects, some dressed; an accessory counts as the body part it
     /// is fixed to) instead of the one humanoid.
@@ -101,7 +107,8 @@ pub fn run(args: EvalPartsArgs, s: &Session) -> anyhow::Result<()> {
         };
         let mut options = PartsOptions::default();
         options.segment.merge_residual = args.merge_residual;
-        options.select = args.select.selection();
+        options.select = args.select.selection(args.cover_score);
+        options.rebuild = args.rebuild.rebuild();
         options.rigid_check = args
             .rigid_check
             .unwrap_or(if trained.is_some() { ESTIMATED_RIGID_CHECK } else { 0.0 });

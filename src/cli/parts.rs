@@ -7,11 +7,12 @@ use anyhow::Context;
 use puppet::atomic_file::record;
 use puppet::parts::artwork::write_artwork;
 use puppet::parts::cover::CoverOptions;
+use puppet::parts::deform::DeformOptions;
 use puppet::parts::flow::read_flows;
 use puppet::parts::learn::TrainedNet;
 use puppet::parts::matching::network_correspondences;
 use puppet::parts::pose::{check_one_character, load_poses, Layout};
-use puppet::parts::{find_parts, PartsOptions, Selection, ESTIMATED_RIGID_CHECK};
+use puppet::parts::{find_parts, PartsOptions, Rebuild, Selection, ESTIMATED_RIGID_CHECK};
 use puppet::synth::sheet_flow::TruthSheet;
 
 use super::args::parse_size;
@@ -80,6 +81,12 @@ pub struct PartsArgs {
     /// How parts are chosen.
     #[arg(long, value_enum, default_value_t = SelectArg::Synchronised)]
     pub select: SelectArg,
+    /// How the poses are rebuilt from the parts found (parts.png's bottom row).
+    #[arg(long, value_enum, default_value_t = RebuildArg::Arap)]
+    pub rebuild: RebuildArg,
+    /// With --select cover: how the poses are rebuilt to score each selection.
+    #[arg(long, value_enum, default_value_t = RebuildArg::Rigid)]
+    pub cover_score: RebuildArg,
     /// The character's name in character.toml (default: the input's file name).
     #[arg(long)]
     pub name: Option<String>,
@@ -95,7 +102,8 @@ impl PartsArgs {
         options.segment.merge_residual = self.merge_residual;
         options.segment.reference = self.reference;
         options.rigid_check = self.rigid_check.unwrap_or(if self.truth { 0.0 } else { ESTIMATED_RIGID_CHECK });
-        options.select = self.select.selection();
+        options.select = self.select.selection(self.cover_score);
+        options.rebuild = self.rebuild.rebuild();
         options
     }
 }
@@ -112,11 +120,34 @@ pub enum SelectArg {
 }
 
 impl SelectArg {
-    /// The part finder's setting.
-    pub fn selection(self) -> Selection {
+    /// The part finder's setting, a set cover scoring its selections as `score` says.
+    pub fn selection(self, score: RebuildArg) -> Selection {
         match self {
             SelectArg::Synchronised => Selection::Synchronised,
-            SelectArg::Cover => Selection::Cover(CoverOptions::default()),
+            SelectArg::Cover => Selection::Cover(CoverOptions {
+                score: score.rebuild(),
+                ..CoverOptions::default()
+            }),
+        }
+    }
+}
+
+/// How `--rebuild` rebuilds the poses from the parts.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
+pub enum RebuildArg {
+    /// Each part's control mesh bent as rigidly as possible towards its correspondences (the
+    /// paper's).
+    Arap,
+    /// Each part moved by its similarity.
+    Rigid,
+}
+
+impl RebuildArg {
+    /// The part finder's setting.
+    pub fn rebuild(self) -> Rebuild {
+        match self {
+            RebuildArg::Arap => Rebuild::Arap(DeformOptions::default()),
+            RebuildArg::Rigid => Rebuild::Rigid,
         }
     }
 }
@@ -230,6 +261,18 @@ mod tests {
         parses(&["parts", "sheet.png", "-o", "out", "--grid", "4x3", "--flows", "f"]);
         parses(&["parts", "sheet.png", "-o", "out", "--cut-only"]);
         parses(&["parts", "sheet.png", "-o", "out", "--net", "runs/net", "--flow-check", "1"]);
+        parses(&[
+            "parts",
+            "poses",
+            "-o",
+            "out",
+            "--select",
+            "cover",
+            "--rebuild",
+            "rigid",
+            "--cover-score",
+            "arap",
+        ]);
         parses(&["parts", "poses", "-o", "out"]);
         parses(&["parts", "poses", "-o", "out", "--select", "cover"]);
         assert!(

@@ -45,6 +45,7 @@ use rayon::prelude::*;
 use super::cotan_laplacian::{cotan_weights, laplacian_from_edges, positions_f64};
 use super::min_quad_with_fixed::MinQuadWithFixed;
 use crate::error::{Error, Result};
+use faer::sparse::{SparseColMat, Triplet};
 
 /// One undirected edge of the ARAP energy, with its rest vector.
 #[derive(Clone, Copy, Debug)]
@@ -192,6 +193,21 @@ impl<T: Float + Send + Sync> ArapEnergy<T> {
         }
     }
 
+    /// The global step's right-hand side for rotations `rot`: `rhs[i]` ← Σ_j ½ w_ij (R_i + R_j)
+    /// (v_i − v_j).
+    fn rotated_rest_edges(&self, rot: &[[T; 2]], rhs: &mut [[T; 2]]) {
+        rhs.fill([T::zero(); 2]);
+        let half = T::one() / (T::one() + T::one());
+        for e in &self.edges {
+            let (i, j) = (e.i as usize, e.j as usize);
+            let ([ci, si], [cj, sj]) = (rot[i], rot[j]);
+            let (c, s) = (half * e.w * (ci + cj), half * e.w * (si + sj));
+            let v = [c * e.e[0] - s * e.e[1], s * e.e[0] + c * e.e[1]];
+            rhs[i] = [rhs[i][0] + v[0], rhs[i][1] + v[1]];
+            rhs[j] = [rhs[j][0] - v[0], rhs[j][1] - v[1]];
+        }
+    }
+
     /// Energy of flat positions `x`; adds nothing to, but overwrites, `grad` when given.
     fn energy_one(&self, x: &[T], rot: &mut [[T; 2]], grad: Option<&mut [T]>) -> T {
         self.fit_rotations(x, rot);
@@ -302,7 +318,7 @@ impl ArapSolver {
                 format!("is vertex {h}, past the {} vertices", rest.len()),
             ));
         }
-        check_every_component_has_a_handle(rest.len(), triangles, handles)?;
+        check_every_component_has(rest.len(), triangles, handles, "handle")?;
         let mut q = laplacian_from_edges(rest.len(), &edges)?;
         // −L is the quadratic form's matrix (half the Hessian of F); negate in place.
         q.val_mut().iter_mut().for_each(|v| *v = -*v);
@@ -362,24 +378,184 @@ impl ArapSolver {
         }
         for _ in 0..iterations {
             self.energy.fit_rotations(x.as_flattened(), &mut self.rot);
-            self.rhs.fill([0.0; 2]);
-            for e in &self.energy.edges {
-                let (i, j) = (e.i as usize, e.j as usize);
-                let ([ci, si], [cj, sj]) = (self.rot[i], self.rot[j]);
-                // ½ w (R_i + R_j) e_ij
-                let (c, s) = (0.5 * e.w * (ci + cj), 0.5 * e.w * (si + sj));
-                let v = [c * e.e[0] - s * e.e[1], s * e.e[0] + c * e.e[1]];
-                self.rhs[i] = [self.rhs[i][0] + v[0], self.rhs[i][1] + v[1]];
-                self.rhs[j] = [self.rhs[j][0] - v[0], self.rhs[j][1] - v[1]];
-            }
+            self.energy.rotated_rest_edges(&self.rot, &mut self.rhs);
             self.system.solve(&self.rhs, targets, &mut x);
         }
         x
     }
 }
 
-/// Union-find over triangles: every connected component must contain a handle.
-fn check_every_component_has_a_handle(n: usize, triangles: &[[u32; 3]], handles: &[u32]) -> Result<()> {
+/// A point of the mesh given by barycentric weights on one triangle's corners, which
+/// [`ArapFit`] pulls towards a target.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct MeshPoint {
+    /// The triangle's corners.
+    pub corners: [u32; 3],
+    /// Their barycentric weights (summing to one for a point inside the triangle).
+    pub weights: [f64; 3],
+}
+
+impl MeshPoint {
+    /// Where the point lies among `positions`.
+    pub fn locate(&self, positions: &[[f64; 2]]) -> [f64; 2] {
+        let mut p = [0.0; 2];
+        for (&c, &b) in self.corners.iter().zip(&self.weights) {
+            p[0] += b * positions[c as usize][0];
+            p[1] += b * positions[c as usize][1];
+        }
+        p
+    }
+}
+
+/// ARAP deformation pulled by soft targets (apes-part-extraction.md appendix B, with
+/// correspondences in place of the paper's image term): minimises
+/// `stiffness · E(v̂) + Σ_k ‖p_k(v̂) − y_k‖²` over the deformed positions v̂, where E is the ARAP
+/// energy of [`ArapEnergy`] and p_k a [`MeshPoint`] — so noisy targets are averaged, not met, and
+/// the mesh bends only as far as they agree. Local/global iterations as [`ArapSolver`]; the
+/// global step's matrix, 2·stiffness·(−L) + Σ_k b_k b_kᵀ (half the Hessian of the objective for
+/// fixed rotations), is factorised once in [`new`](Self::new), so a fit costs two sparse
+/// triangular solves per iteration.
+#[derive(Debug)]
+pub struct ArapFit {
+    energy: ArapEnergy<f64>,
+    system: MinQuadWithFixed,
+    points: Vec<MeshPoint>,
+    stiffness: f64,
+    /// Scratch: rotations, the ARAP part of the right-hand side and the whole of it, `#V` each.
+    rot: Vec<[f64; 2]>,
+    arap_rhs: Vec<[f64; 2]>,
+    rhs: Vec<[f64; 2]>,
+}
+
+impl ArapFit {
+    /// Precomputes cotangent weights and factorises the global step's matrix for pulling the
+    /// `points` of the mesh (`rest`, `triangles`) with weight 1 each against the ARAP energy's
+    /// `stiffness`.
+    ///
+    /// # Errors
+    /// [`Error::Geometry`] for a bad mesh (as [`ArapEnergy::new`]), a point naming a vertex out
+    /// of range or with a weight that is not finite, a stiffness that is not positive and finite,
+    /// or a connected component without any point of non-zero weight (its position would be
+    /// undetermined).
+    pub fn new(rest: &[[f64; 2]], triangles: &[[u32; 3]], points: &[MeshPoint], stiffness: f64) -> Result<Self> {
+        if rest.is_empty() {
+            return Err(Error::geometry("arap mesh", "has no vertex"));
+        }
+        if !(stiffness > 0.0 && stiffness.is_finite()) {
+            return Err(Error::geometry(
+                "arap fit",
+                format!("stiffness {stiffness} is not a positive number"),
+            ));
+        }
+        let n = rest.len();
+        if let Some((k, point)) = points
+            .iter()
+            .enumerate()
+            .find(|(_, q)| q.corners.iter().any(|&c| c as usize >= n) || q.weights.iter().any(|w| !w.is_finite()))
+        {
+            return Err(Error::geometry(
+                format!("arap fit point {k}"),
+                format!("{point:?} names a vertex past the {n} vertices or has a weight that is not finite"),
+            ));
+        }
+        let p = positions_f64(rest)?;
+        let edges = cotan_weights(&p, triangles)?;
+        let energy = ArapEnergy::from_weights(&p, &edges);
+        let pulled: Vec<u32> = points
+            .iter()
+            .flat_map(|q| q.corners.iter().zip(&q.weights).filter(|(_, w)| **w != 0.0).map(|(&c, _)| c))
+            .collect();
+        check_every_component_has(n, triangles, &pulled, "point pulling it")?;
+        let mut entries = std::collections::BTreeMap::<(usize, usize), f64>::new();
+        let mut add = |i: usize, j: usize, v: f64| *entries.entry((i, j)).or_insert(0.0) += v;
+        for e in &edges {
+            let (i, j, w) = (e.i as usize, e.j as usize, 2.0 * stiffness * e.w);
+            add(i, i, w);
+            add(j, j, w);
+            add(i, j, -w);
+            add(j, i, -w);
+        }
+        for q in points {
+            for (&a, &wa) in q.corners.iter().zip(&q.weights) {
+                for (&b, &wb) in q.corners.iter().zip(&q.weights) {
+                    add(a as usize, b as usize, wa * wb);
+                }
+            }
+        }
+        let triplets: Vec<Triplet<usize, usize, f64>> = entries.into_iter().map(|((i, j), v)| Triplet::new(i, j, v)).collect();
+        let q = SparseColMat::try_new_from_triplets(n, n, &triplets)
+            .map_err(|e| Error::geometry("arap fit", format!("cannot assemble the {n}×{n} sparse matrix: {e:?}")))?;
+        let system = MinQuadWithFixed::new(q.as_ref(), &[])?;
+        Ok(Self {
+            energy,
+            system,
+            points: points.to_vec(),
+            stiffness,
+            rot: vec![[1.0, 0.0]; n],
+            arap_rhs: vec![[0.0; 2]; n],
+            rhs: vec![[0.0; 2]; n],
+        })
+    }
+
+    /// The ARAP energy of the fit, at `#V` positions.
+    pub fn energy(&self) -> &ArapEnergy<f64> {
+        &self.energy
+    }
+
+    /// The objective `stiffness · E(v̂) + Σ_k ‖p_k(v̂) − y_k‖²` at `deformed`.
+    ///
+    /// # Panics
+    /// As [`solve`](Self::solve).
+    pub fn objective(&self, targets: &[[f64; 2]], deformed: &[[f64; 2]]) -> f64 {
+        self.check_targets(targets.len());
+        let pull: f64 = self
+            .points
+            .iter()
+            .zip(targets)
+            .map(|(q, y)| {
+                let p = q.locate(deformed);
+                (p[0] - y[0]).powi(2) + (p[1] - y[1]).powi(2)
+            })
+            .sum();
+        self.stiffness * self.energy.energy(deformed) + pull
+    }
+
+    /// Pulls point `k` towards `targets[k]`: starting from `initial`, runs `iterations` ×
+    /// (local rotation fit, global solve) and returns the `#V` positions. The objective never
+    /// increases from one iteration to the next.
+    ///
+    /// # Panics
+    /// If `targets.len()` differs from the number of points or `initial.len()` from `#V` (caller
+    /// bugs).
+    pub fn solve(&mut self, targets: &[[f64; 2]], iterations: usize, initial: &[[f64; 2]]) -> Vec<[f64; 2]> {
+        self.check_targets(targets.len());
+        self.energy.check_len(initial.len());
+        let mut x = initial.to_vec();
+        for _ in 0..iterations {
+            self.energy.fit_rotations(x.as_flattened(), &mut self.rot);
+            self.energy.rotated_rest_edges(&self.rot, &mut self.arap_rhs);
+            for (r, a) in self.rhs.iter_mut().zip(&self.arap_rhs) {
+                *r = [2.0 * self.stiffness * a[0], 2.0 * self.stiffness * a[1]];
+            }
+            for (q, y) in self.points.iter().zip(targets) {
+                for (&c, &w) in q.corners.iter().zip(&q.weights) {
+                    let r = &mut self.rhs[c as usize];
+                    *r = [r[0] + w * y[0], r[1] + w * y[1]];
+                }
+            }
+            self.system.solve(&self.rhs, &[], &mut x);
+        }
+        x
+    }
+
+    fn check_targets(&self, len: usize) {
+        assert_eq!(len, self.points.len(), "arap fit: {len} targets for {} points", self.points.len());
+    }
+}
+
+/// Union-find over triangles: every connected component must contain one of `handles` (a
+/// `what`, for the message).
+fn check_every_component_has(n: usize, triangles: &[[u32; 3]], handles: &[u32], what: &str) -> Result<()> {
     let mut parent: Vec<u32> = (0..n as u32).collect();
     fn find(parent: &mut [u32], mut v: u32) -> u32 {
         while parent[v as usize] != v {
@@ -414,8 +590,8 @@ fn check_every_component_has_a_handle(n: usize, triangles: &[[u32; 3]], handles:
             Err(Error::geometry(
                 "arap mesh",
                 format!(
-                    "{count} connected component(s) have no handle, so their position is undetermined \
-                     (expected at least one handle per component); they contain vertices {}{}",
+                    "{count} connected component(s) have no {what}, so their position is undetermined \
+                     (expected at least one {what} per component); they contain vertices {}{}",
                     shown.join(", "),
                     if count > 8 { ", …" } else { "" }
                 ),
@@ -734,6 +910,85 @@ mod tests {
         let x = solver.solve(&targets, 200, &rest);
         let expected: Vec<[f64; 2]> = rest.iter().map(|&v| motion(v)).collect();
         assert!(max_diff(&x, &expected) < 1e-6, "max diff {}", max_diff(&x, &expected));
+    }
+
+    /// Points at the centres of every `step`-th triangle of a mesh.
+    fn centre_points(tris: &[[u32; 3]], step: usize) -> Vec<MeshPoint> {
+        tris.iter()
+            .step_by(step)
+            .map(|&corners| MeshPoint {
+                corners,
+                weights: [1.0 / 3.0; 3],
+            })
+            .collect()
+    }
+
+    #[test]
+    fn fit_to_rigidly_moved_points_gives_the_rigid_motion() {
+        let (rest, tris) = grid(6, 4, 10.0, 21);
+        let (c, s) = (0.8f64, -0.6f64);
+        let motion = |v: [f64; 2]| [c * v[0] - s * v[1] - 4.0, s * v[0] + c * v[1] + 9.0];
+        let points = centre_points(&tris, 5);
+        let targets: Vec<[f64; 2]> = points.iter().map(|q| motion(q.locate(&rest))).collect();
+        let mut fit = ArapFit::new(&rest, &tris, &points, 0.5).unwrap();
+        let x = fit.solve(&targets, 300, &rest);
+        let expected: Vec<[f64; 2]> = rest.iter().map(|&v| motion(v)).collect();
+        assert!(max_diff(&x, &expected) < 1e-5, "max diff {}", max_diff(&x, &expected));
+    }
+
+    #[test]
+    fn fit_never_raises_its_objective_and_ends_where_its_gradient_vanishes() {
+        let (rest, tris) = grid(5, 5, 12.0, 22);
+        let points = centre_points(&tris, 3);
+        // Targets that no rigid motion meets: every point pulled its own way.
+        let targets: Vec<[f64; 2]> = jitter(&points.iter().map(|q| q.locate(&rest)).collect::<Vec<_>>(), 6.0, 23);
+        let mut fit = ArapFit::new(&rest, &tris, &points, 0.3).unwrap();
+        let mut previous = f64::INFINITY;
+        let mut x = rest.clone();
+        for _ in 0..40 {
+            x = fit.solve(&targets, 1, &x);
+            let f = fit.objective(&targets, &x);
+            assert!(f <= previous * (1.0 + 1e-12), "objective rose from {previous} to {f}");
+            previous = f;
+        }
+        let x = fit.solve(&targets, 2000, &x);
+        // At the minimum the objective's central differences vanish (E is differentiable there:
+        // every cell is deformed, none collapsed); a wrong factor between the ARAP and the pull
+        // terms of the global step would leave a gradient of the size of the pulls.
+        let h = 1e-5;
+        let mut largest = 0.0f64;
+        for i in 0..x.len() {
+            for d in 0..2 {
+                let (mut xp, mut xm) = (x.clone(), x.clone());
+                xp[i][d] += h;
+                xm[i][d] -= h;
+                let g = (fit.objective(&targets, &xp) - fit.objective(&targets, &xm)) / (2.0 * h);
+                largest = largest.max(g.abs());
+            }
+        }
+        let pull = fit.objective(&targets, &rest);
+        assert!(
+            largest < 1e-4 * pull.sqrt(),
+            "gradient {largest} at the fit (objective at rest {pull})"
+        );
+    }
+
+    #[test]
+    fn fit_reports_a_component_no_point_pulls() {
+        let (mut rest, mut tris) = grid(2, 2, 10.0, 24);
+        let offset = rest.len() as u32;
+        rest.extend([[100.0, 0.0], [110.0, 0.0], [100.0, 10.0]]);
+        tris.push([offset, offset + 1, offset + 2]);
+        let points = centre_points(&tris[..2], 1);
+        let err = ArapFit::new(&rest, &tris, &points, 1.0).unwrap_err().to_string();
+        assert!(err.contains("1 connected component(s) have no point pulling it"), "{err}");
+        let bad = [MeshPoint {
+            corners: [0, 1, 99],
+            weights: [0.5, 0.5, 0.0],
+        }];
+        let err = ArapFit::new(&rest, &tris, &bad, 1.0).unwrap_err().to_string();
+        assert!(err.contains("point 0") && err.contains("past the 12 vertices"), "{err}");
+        assert!(ArapFit::new(&rest, &tris, &points, 0.0).is_err());
     }
 
     #[test]

@@ -17,6 +17,7 @@
 //!   Q factorised once (sparse Cholesky, faer).
 //! - [`arap::ArapEnergy`]: energy (eq. 2) and its gradient, batched, f32 or f64.
 //! - [`arap::ArapSolver`]: local/global ARAP deformation with positional handles.
+//! - [`arap::ArapFit`]: the same pulled by soft point targets (noisy correspondences).
 //! - [`bbw::bbw`]: bounded biharmonic skinning weights of point handles, rows summing to one.
 //! - [`rigid_interpolation::RigidInterpolation`]: as-rigid-as-possible shape interpolation
 //!   between two poses (Alexa et al. 2000), the classical in-between.
@@ -34,7 +35,7 @@ pub mod similarity;
 pub mod triangle;
 pub mod triangle_grid;
 
-pub use arap::{arap_energy, best_fit_rotations, ArapEnergy, ArapSolver};
+pub use arap::{arap_energy, best_fit_rotations, ArapEnergy, ArapFit, ArapSolver, MeshPoint};
 pub use bbw::{bbw, lumped_mass, BbwError, BbwOptions, BbwWeights, MassMatrix, MeshComponent};
 pub use components::{component_labels, triangle_edges};
 pub use cotan_laplacian::{cotan_laplacian, cotan_weights, CotanEdge};

@@ -4,7 +4,8 @@
 //! candidates covering every superpixel of every pose, by LP relaxation (clarabel's interior
 //! point method) and randomised rounding (Raghavan & Thompson 1987); each rounded selection
 //! turned into parts of the reference pose, settled as [`segment`] settles its own, and scored
-//! by how well those parts rebuild every pose ([`rebuild`]); the best kept.
+//! by how well those parts rebuild every pose (moved rigidly, or bent by ARAP as the paper
+//! does, [`CoverOptions::score`]); the best kept.
 //!
 //! Where the paper is silent, ours: a candidate covers a superpixel of another pose when at
 //! least [`CoverOptions::coverage`] of its pixels correspond to the candidate's pixels and sit
@@ -15,12 +16,14 @@ use std::collections::BTreeSet;
 
 use rayon::prelude::*;
 
+use super::deform::deform_parts;
 use super::flow::Correspondences;
 use super::pose::Pose;
-use super::reconstruct::rebuild;
+use super::reconstruct::redraw;
 use super::segment::{reference_pose, segment, settle, SegmentOptions, Segmentation};
 use super::skeleton::skeleton;
 use super::superpixels::{Superpixels, NONE};
+use super::Rebuild;
 use crate::error::{Error, Result};
 use crate::geom::similarity::{Moments, Similarity};
 use crate::rng::Rng;
@@ -37,6 +40,10 @@ pub struct CoverOptions {
     /// How far, in pixels, a pixel may sit from where the candidate's similarity puts it and
     /// still be carried by it.
     pub tolerance: f32,
+    /// How the poses are rebuilt to score a selection. Rigid by default, not the paper's ARAP:
+    /// bent parts rebuild a pose well even when a selection merges parts that move apart, so
+    /// ARAP tells selections apart less well (README "Parts from a sprite sheet").
+    pub score: Rebuild,
 }
 
 impl Default for CoverOptions {
@@ -46,6 +53,7 @@ impl Default for CoverOptions {
             seed: 0,
             coverage: 0.5,
             tolerance: 3.0,
+            score: Rebuild::Rigid,
         }
     }
 }
@@ -147,10 +155,10 @@ pub fn cover(
         .par_iter()
         .map(|selection| {
             let seg = selected_parts(poses, superpixels, flows, options, reference, &candidates, selection);
-            let error = rebuild_error(poses, &seg);
-            (error, seg, selection.len())
+            let error = rebuild_error(poses, &seg, flows, &cover.score)?;
+            Ok((error, seg, selection.len()))
         })
-        .collect::<Vec<_>>();
+        .collect::<Result<Vec<_>>>()?;
     let (_, best, selected) = scored
         .into_iter()
         .min_by(|a, b| a.0.total_cmp(&b.0))
@@ -443,12 +451,16 @@ fn selected_parts(
 
 /// Mean squared error, over the poses' pixels and premultiplied channels, of every pose
 /// rebuilt from the parts.
-fn rebuild_error(poses: &[Pose], seg: &Segmentation) -> f64 {
+fn rebuild_error(poses: &[Pose], seg: &Segmentation, flows: &Correspondences, how: &Rebuild) -> Result<f64> {
     let order = skeleton(seg, poses[seg.reference].width()).order;
+    let meshes = match how {
+        Rebuild::Rigid => None,
+        Rebuild::Arap(options) => Some(deform_parts(poses, seg, flows, options)?),
+    };
     let mut total = 0.0;
     let mut count = 0usize;
     for (t, pose) in poses.iter().enumerate() {
-        let rebuilt = rebuild(poses, seg, &order, t);
+        let rebuilt = redraw(poses, seg, meshes.as_deref(), &order, t);
         for (a, b) in rebuilt.pixels.iter().zip(&pose.image.pixels) {
             for ch in 0..4 {
                 let (x, y) = if ch < 3 { (a[ch] * a[3], b[ch] * b[3]) } else { (a[3], b[3]) };
@@ -457,7 +469,7 @@ fn rebuild_error(poses: &[Pose], seg: &Segmentation) -> f64 {
         }
         count += pose.image.pixels.len();
     }
-    total / count.max(1) as f64
+    Ok(total / count.max(1) as f64)
 }
 
 #[cfg(test)]

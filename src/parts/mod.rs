@@ -2,8 +2,8 @@
 //! puppet needs no hand-painted label map: the poses ([`pose`]), their superpixels
 //! ([`superpixels`]), correspondences between every pair ([`flow`]), parts from how superpixels
 //! move ([`segment`], or the paper's set cover over candidates from every pair, [`cover`]),
-//! hinges, joint tree and layer order ([`skeleton`]), the poses rebuilt from
-//! the parts ([`reconstruct`]), the artwork `puppet build` reads ([`artwork`]), and part IoU
+//! hinges, joint tree and layer order ([`skeleton`]), the parts bent into every pose by ARAP
+//! ([`deform`]) and the poses rebuilt from them ([`reconstruct`]), the artwork `puppet build` reads ([`artwork`]), and part IoU
 //! against a truth ([`score`]).
 //!
 //! Correspondences come from outside this module: today from the generator's truth (the oracle,
@@ -11,6 +11,7 @@
 
 pub mod artwork;
 pub mod cover;
+pub mod deform;
 pub mod flow;
 pub mod hungarian;
 mod labelling;
@@ -25,6 +26,7 @@ pub mod superpixels;
 
 use crate::error::{Error, Result};
 use cover::{CoverOptions, CoverReport};
+use deform::{DeformOptions, PartMesh};
 use flow::Correspondences;
 use pose::Pose;
 use segment::{SegmentOptions, Segmentation};
@@ -45,6 +47,18 @@ pub struct PartsOptions {
     pub segment: SegmentOptions,
     /// How parts are chosen.
     pub select: Selection,
+    /// How the poses are rebuilt from the parts found, to show and measure them (the set cover
+    /// scores its selections as [`CoverOptions::score`] says).
+    pub rebuild: Rebuild,
+}
+
+/// How the poses are rebuilt from the parts.
+#[derive(Clone, Debug, PartialEq)]
+pub enum Rebuild {
+    /// Each part moved by its similarity.
+    Rigid,
+    /// Each part's control mesh bent by ARAP towards its correspondences (the paper's).
+    Arap(DeformOptions),
 }
 
 /// How parts are chosen from the correspondences.
@@ -65,6 +79,7 @@ impl Default for PartsOptions {
             rigid_check: 0.0,
             segment: SegmentOptions::default(),
             select: Selection::Synchronised,
+            rebuild: Rebuild::Arap(DeformOptions::default()),
         }
     }
 }
@@ -91,6 +106,8 @@ pub struct Parts {
     pub skeleton: Skeleton,
     /// What the set cover did, when it chose the parts.
     pub cover: Option<CoverReport>,
+    /// Each part's control mesh and its place in every pose, when poses are rebuilt by ARAP.
+    pub meshes: Option<Vec<PartMesh>>,
 }
 
 /// Finds the parts of `poses` given correspondences between every pair.
@@ -135,11 +152,16 @@ pub fn find_parts(poses: Vec<Pose>, flows: &Correspondences, options: &PartsOpti
         }
     };
     let skeleton = skeleton::skeleton(&segmentation, poses[0].width());
+    let meshes = match &options.rebuild {
+        Rebuild::Rigid => None,
+        Rebuild::Arap(deform) => Some(deform::deform_parts(&poses, &segmentation, flows, deform)?),
+    };
     Ok(Parts {
         poses,
         superpixels,
         segmentation,
         skeleton,
         cover,
+        meshes,
     })
 }

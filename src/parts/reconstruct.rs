@@ -1,22 +1,79 @@
 //! Poses rebuilt from the parts (apes-part-extraction.md §3.3 scores part sets by how well they
 //! reconstruct the poses): each part cut from the reference pose, moved into a pose by its
-//! similarity, the parts stacked back to front in the found order. Rigid per part — the paper
-//! deforms parts by ARAP, which this does not — so it shows what the parts and their order
-//! explain, and its L2 against the pose is an upper bound of the paper's reconstruction error.
+//! similarity or bent there by its ARAP control mesh ([`super::deform`], the paper's appendix
+//! B), the parts stacked back to front in the found order.
 
+use super::deform::PartMesh;
 use super::pose::Pose;
 use super::segment::Segmentation;
 use super::superpixels::NONE;
 use super::Parts;
+use crate::geom::triangle::barycentric;
 use crate::picture::Picture;
 
-/// Pose `t` redrawn from the reference's parts; straight alpha, the pose's size.
+/// Pose `t` redrawn from the reference's parts (bent by their meshes when the parts have them);
+/// straight alpha, the pose's size.
 pub fn reconstruct(parts: &Parts, t: usize) -> Picture {
-    rebuild(&parts.poses, &parts.segmentation, &parts.skeleton.order, t)
+    redraw(&parts.poses, &parts.segmentation, parts.meshes.as_deref(), &parts.skeleton.order, t)
 }
 
-/// Pose `t` redrawn from the reference's parts of `seg`, stacked back to front in `order`.
-pub fn rebuild(poses: &[Pose], seg: &Segmentation, order: &[usize], t: usize) -> Picture {
+/// Pose `t` redrawn from the reference's parts of `seg`, stacked back to front in `order`: each
+/// part bent by its mesh (`meshes`, one per part), or moved by its similarity without meshes.
+pub fn redraw(poses: &[Pose], seg: &Segmentation, meshes: Option<&[PartMesh]>, order: &[usize], t: usize) -> Picture {
+    match meshes {
+        Some(meshes) => draw_meshes(poses, seg, meshes, order, t),
+        None => rebuild(poses, seg, order, t),
+    }
+}
+
+/// [`redraw`] with meshes: every pixel a part's posed triangle covers takes the reference pixel
+/// its rest triangle holds there, if that pixel is the part's.
+fn draw_meshes(poses: &[Pose], seg: &Segmentation, meshes: &[PartMesh], order: &[usize], t: usize) -> Picture {
+    let reference = &poses[seg.reference];
+    let (w, h) = (reference.width(), reference.height());
+    let labels = &seg.labels[seg.reference];
+    let mut out = Picture::filled(w as u32, h as u32, [0.0; 4]);
+    for &p in order {
+        let mesh = &meshes[p];
+        let Some(posed) = &mesh.posed[t] else { continue };
+        for tri in &mesh.triangles {
+            let at = tri.map(|k| posed[k as usize]);
+            let rest = tri.map(|k| mesh.rest[k as usize]);
+            // The pixels whose centres the triangle's bounding box holds, half-open.
+            let span = |a: usize, n: usize| {
+                let (lo, hi) = at
+                    .iter()
+                    .fold((f32::INFINITY, f32::NEG_INFINITY), |(lo, hi), v| (lo.min(v[a]), hi.max(v[a])));
+                (
+                    lo.ceil().clamp(0.0, n as f32) as usize,
+                    (hi.floor() + 1.0).clamp(0.0, n as f32) as usize,
+                )
+            };
+            let ((x0, x1), (y0, y1)) = (span(0, w), span(1, h));
+            for y in y0..y1 {
+                for x in x0..x1 {
+                    let Some(b) = barycentric(at, [x as f32, y as f32]) else { continue };
+                    if b.iter().any(|&c| c < -1e-4) {
+                        continue;
+                    }
+                    let z = [0, 1].map(|a| b[0] * rest[0][a] + b[1] * rest[1][a] + b[2] * rest[2][a]);
+                    let (zx, zy) = (z[0].round(), z[1].round());
+                    if zx < 0.0 || zy < 0.0 || zx as usize >= w || zy as usize >= h {
+                        continue;
+                    }
+                    let j = zy as usize * w + zx as usize;
+                    if labels[j] != NONE && labels[j] as usize == p {
+                        out.pixels[y * w + x] = reference.image.pixels[j];
+                    }
+                }
+            }
+        }
+    }
+    out
+}
+
+/// [`redraw`] without meshes: each part moved by its similarity.
+fn rebuild(poses: &[Pose], seg: &Segmentation, order: &[usize], t: usize) -> Picture {
     let reference = &poses[seg.reference];
     let (w, h) = (reference.width(), reference.height());
     let labels = &seg.labels[seg.reference];
@@ -77,6 +134,7 @@ mod tests {
                 order: vec![0],
             },
             cover: None,
+            meshes: None,
         };
         let moved = reconstruct(&parts, 1);
         let drawn: Vec<usize> = (0..36).filter(|&k| moved.pixels[k][3] > 0.0).collect();
