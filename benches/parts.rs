@@ -2,8 +2,9 @@
 //! (`parts/slic/128`, the kernel `bench/slic_skimage.py` compares with scikit-image's SLIC on
 //! the same poses), the generator's exact correspondences between every ordered pair of a
 //! 10-pose sheet (`parts/true_flows/10x128`), and the whole finder on that sheet — superpixels
-//! of every pose, merging, refinement, labelling every pose, hinges and order
-//! (`parts/find/10x128`); and the built-in correspondence network's correspondences between
+//! of every pose, merging, refinement, labelling every pose, hinges and order, the parts bent
+//! into every pose by ARAP (`parts/find/10x128`), and that bending alone (`parts/deform/10x128`);
+//! and the built-in correspondence network's correspondences between
 //! every ordered pair of that sheet (`parts/network_flows/10x128`: features of the 10 poses,
 //! then the nearest feature of every foreground pixel in each other pose). The sheet is
 //! synthetic seed 9000's generator at 10 poses. And one training step of the network
@@ -18,6 +19,7 @@
 #![allow(missing_docs)]
 
 use criterion::{criterion_group, criterion_main, Criterion};
+use puppet::parts::deform::{deform_parts, DeformOptions};
 use puppet::parts::learn::{LearnConfig, PairSource, TrainedNet, Trainer};
 use puppet::parts::matching::network_correspondences;
 use puppet::parts::superpixels::slic;
@@ -44,6 +46,10 @@ fn parts(c: &mut Criterion) {
     let flows = true_correspondences(truth, labels).expect("flows");
     c.bench_function("parts/find/10x128", |b| {
         b.iter(|| find_parts(poses.clone(), &flows, &options).expect("parts"))
+    });
+    let found = find_parts(poses.clone(), &flows, &options).expect("parts");
+    c.bench_function("parts/deform/10x128", |b| {
+        b.iter(|| deform_parts(poses, &found.segmentation, &flows, &DeformOptions::default()).expect("meshes"))
     });
     let device = puppet::backend::device();
     let net = TrainedNet::shipped(&device).expect("the built-in network");
