@@ -47,6 +47,15 @@ fn parts_of_a_synthetic_sheet_score_well_and_build_into_a_puppet() {
     }
     let toml = std::fs::read_to_string(d.join("parts/character.toml")).unwrap();
     assert!(toml.contains("joints = [[") && toml.contains("root = \"part_"), "{toml}");
+    // The report says how well the parts rebuild the poses: better than no parts at all.
+    let said = format!("{}{}", run.stdout, run.stderr);
+    let rebuilt = said
+        .lines()
+        .find_map(|l| l.split_once("bent by ARAP): mean L2 ").map(|(_, rest)| rest.to_owned()))
+        .unwrap_or_else(|| panic!("no rebuild report:\n{said}"));
+    let (l2, rest) = rebuilt.split_once(" against the poses (the reference pose unchanged: ").unwrap();
+    let (l2, unchanged): (f64, f64) = (l2.parse().unwrap(), rest.trim_end_matches(')').parse().unwrap());
+    assert!(l2 < 0.6 * unchanged, "rebuilt L2 {l2}, unchanged {unchanged}");
     let eval = puppet(
         d,
         &[

@@ -7,12 +7,11 @@ use std::time::Instant;
 
 use crate::error::Result;
 use crate::geom::component_labels;
-use crate::metrics::l2;
 use crate::parts::flow::Correspondences;
 use crate::parts::learn::TrainedNet;
 use crate::parts::matching::network_correspondences;
 use crate::parts::pose::Pose;
-use crate::parts::reconstruct::reconstruct;
+use crate::parts::reconstruct::rebuild_l2;
 use crate::parts::score::{part_iou, PartScores};
 use crate::parts::superpixels::{Superpixels, NONE};
 use crate::parts::{find_parts, PartsOptions};
@@ -125,13 +124,7 @@ pub fn score_synthetic_sheet(
     let ceiling = superpixel_majority(&parts.superpixels, &truth_labels, true_parts);
     let ceiling = part_iou(&ceiling, &truth_labels, true_parts, true_parts);
     let joints = score_joints(&parts, &seq.truth, &seq.character, &truth_labels);
-    let n = parts.poses.len() as f64;
-    let reference = &parts.poses[parts.segmentation.reference].image;
-    let reconstruction_l2 = (0..parts.poses.len())
-        .map(|t| l2(&reconstruct(&parts, t), &parts.poses[t].image))
-        .sum::<f64>()
-        / n;
-    let unchanged_l2 = parts.poses.iter().map(|p| l2(reference, &p.image)).sum::<f64>() / n;
+    let (reconstruction_l2, unchanged_l2) = rebuild_l2(&parts);
     Ok(SheetScores {
         seed,
         found,

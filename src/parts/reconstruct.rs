@@ -9,12 +9,26 @@ use super::segment::Segmentation;
 use super::superpixels::NONE;
 use super::Parts;
 use crate::geom::triangle::barycentric;
+use crate::metrics::l2;
 use crate::picture::Picture;
 
 /// Pose `t` redrawn from the reference's parts (bent by their meshes when the parts have them);
 /// straight alpha, the pose's size.
 pub fn reconstruct(parts: &Parts, t: usize) -> Picture {
     redraw(&parts.poses, &parts.segmentation, parts.meshes.as_deref(), &parts.skeleton.order, t)
+}
+
+/// How well the parts rebuild the poses: the mean over the poses of the L2 (DESIGN.md) between
+/// each pose and [`reconstruct`], and beside it the same with the reference pose standing in for
+/// every pose (no parts at all).
+pub fn rebuild_l2(parts: &Parts) -> (f64, f64) {
+    let n = parts.poses.len().max(1) as f64;
+    let reference = &parts.poses[parts.segmentation.reference].image;
+    let rebuilt = (0..parts.poses.len())
+        .map(|t| l2(&reconstruct(parts, t), &parts.poses[t].image))
+        .sum::<f64>();
+    let unchanged = parts.poses.iter().map(|p| l2(reference, &p.image)).sum::<f64>();
+    (rebuilt / n, unchanged / n)
 }
 
 /// Pose `t` redrawn from the reference's parts of `seg`, stacked back to front in `order`: each
