@@ -8,11 +8,12 @@
 
 use rayon::prelude::*;
 
-use super::flow::Correspondences;
+use super::flow::{Correspondences, Flow};
 use super::pose::Pose;
 use super::segment::Segmentation;
 use super::superpixels::NONE;
 use crate::error::{Error, Result};
+use crate::geom::similarity::Similarity;
 use crate::geom::{ArapFit, MeshPoint};
 
 /// How parts are bent into the poses.
@@ -181,57 +182,87 @@ pub fn deform_parts(poses: &[Pose], seg: &Segmentation, flows: &Correspondences,
             let pixels: Vec<usize> = (0..labels.len())
                 .filter(|&i| labels[i] != NONE && labels[i] as usize == p)
                 .collect();
+            if pixels.is_empty() {
+                return PartMesh {
+                    rest: Vec::new(),
+                    triangles: Vec::new(),
+                    posed: vec![None; poses.len()],
+                };
+            }
             let points: Vec<[f32; 2]> = pixels.iter().map(|&i| [(i % w) as f32, (i / w) as f32]).collect();
             let grid = Grid::around(&points, (options.spacing * side).max(1.0));
-            let rest = grid.vertices();
-            let triangles = grid.triangles();
-            let rest64: Vec<[f64; 2]> = rest.iter().map(|v| v.map(f64::from)).collect();
+            let part = Part {
+                pixels: &pixels,
+                points: &points,
+                grid: &grid,
+                rest: grid.vertices(),
+                triangles: grid.triangles(),
+            };
             let posed = (0..poses.len())
                 .map(|t| {
                     let motion = seg.motions[p][t];
                     if t == seg.reference {
-                        return Some(rest.clone());
+                        Some(part.rest.clone())
+                    } else if motion.scale() <= 1e-6 {
+                        None
+                    } else {
+                        Some(part.bend(motion, flows.get(seg.reference, t), options, options.outlier * side))
                     }
-                    if motion.scale() <= 1e-6 {
-                        return None;
-                    }
-                    let placed: Vec<[f32; 2]> = rest.iter().map(|&v| motion.apply(v)).collect();
-                    let Some(flow) = flows.get(seg.reference, t) else {
-                        return Some(placed);
-                    };
-                    let outlier = options.outlier * side;
-                    let (pulled, targets): (Vec<MeshPoint>, Vec<[f64; 2]>) = pixels
-                        .iter()
-                        .zip(&points)
-                        .filter_map(|(&i, &x)| {
-                            let q = flow.at(i)?;
-                            let m = motion.apply(x);
-                            ((q[0] - m[0]).hypot(q[1] - m[1]) <= outlier).then(|| (grid.locate(x), q.map(f64::from)))
-                        })
-                        .unzip();
-                    if pulled.len() < 3 {
-                        return Some(placed);
-                    }
-                    // A grid with points in it always has a point pulling it; a failure here
-                    // would be a degenerate grid, and the similarity's placement stands.
-                    let Ok(mut fit) = ArapFit::new(&rest64, &triangles, &pulled, options.stiffness) else {
-                        return Some(placed);
-                    };
-                    let initial: Vec<[f64; 2]> = placed.iter().map(|v| v.map(f64::from)).collect();
-                    let bent = fit.solve(&targets, options.iterations, &initial);
-                    Some(bent.iter().map(|v| v.map(|c| c as f32)).collect())
                 })
                 .collect();
-            PartMesh { rest, triangles, posed }
+            PartMesh {
+                rest: part.rest,
+                triangles: part.triangles,
+                posed,
+            }
         })
         .collect())
+}
+
+/// One part of the reference pose with its control mesh.
+struct Part<'a> {
+    /// Its pixels (row-major indices) and their positions.
+    pixels: &'a [usize],
+    points: &'a [[f32; 2]],
+    grid: &'a Grid,
+    rest: Vec<[f32; 2]>,
+    triangles: Vec<[u32; 3]>,
+}
+
+impl Part<'_> {
+    /// The mesh placed by `motion`, then pulled towards the correspondences of `flow` that lie
+    /// within `outlier` pixels of that placement; the placement alone with fewer than three.
+    fn bend(&self, motion: Similarity, flow: Option<&Flow>, options: &DeformOptions, outlier: f32) -> Vec<[f32; 2]> {
+        let placed: Vec<[f32; 2]> = self.rest.iter().map(|&v| motion.apply(v)).collect();
+        let Some(flow) = flow else { return placed };
+        let (pulled, targets): (Vec<MeshPoint>, Vec<[f64; 2]>) = self
+            .pixels
+            .iter()
+            .zip(self.points)
+            .filter_map(|(&i, &x)| {
+                let q = flow.at(i)?;
+                let m = motion.apply(x);
+                ((q[0] - m[0]).hypot(q[1] - m[1]) <= outlier).then(|| (self.grid.locate(x), q.map(f64::from)))
+            })
+            .unzip();
+        if pulled.len() < 3 {
+            return placed;
+        }
+        let rest: Vec<[f64; 2]> = self.rest.iter().map(|v| v.map(f64::from)).collect();
+        // A grid with points in it always has a point pulling it; a failure here would be a
+        // degenerate grid, and the similarity's placement stands.
+        let Ok(mut fit) = ArapFit::new(&rest, &self.triangles, &pulled, options.stiffness) else {
+            return placed;
+        };
+        let initial: Vec<[f64; 2]> = placed.iter().map(|v| v.map(f64::from)).collect();
+        let bent = fit.solve(&targets, options.iterations, &initial);
+        bent.iter().map(|v| v.map(|c| c as f32)).collect()
+    }
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::geom::similarity::Similarity;
-    use crate::parts::flow::Flow;
     use crate::picture::Picture;
 
     /// Two 32 × 32 poses of one 12 × 5 bar at (8, 12); the second's correspondences from the

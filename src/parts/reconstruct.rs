@@ -121,6 +121,8 @@ fn rebuild(poses: &[Pose], seg: &Segmentation, order: &[usize], t: usize) -> Pic
 mod tests {
     use super::*;
     use crate::geom::similarity::Similarity;
+    use crate::parts::deform::{deform_parts, DeformOptions};
+    use crate::parts::flow::{Correspondences, Flow};
     use crate::parts::skeleton::Skeleton;
 
     #[test]
@@ -139,7 +141,7 @@ mod tests {
             segmentation: Segmentation {
                 reference: 0,
                 parts: 1,
-                labels: vec![labels.clone(), labels],
+                labels: vec![labels.clone(), labels.clone()],
                 motions: vec![vec![Similarity::IDENTITY, Similarity::new(0.0, 1.0, [3.0, 0.0])]],
             },
             skeleton: Skeleton {
@@ -154,5 +156,22 @@ mod tests {
         let drawn: Vec<usize> = (0..36).filter(|&k| moved.pixels[k][3] > 0.0).collect();
         assert_eq!(drawn, [10, 11, 16, 17]);
         assert_eq!(reconstruct(&parts, 0).pixels, parts.poses[0].image.pixels);
+
+        // Bent by a mesh pulled by correspondences that say the same: the same pixels.
+        let mut flows = Correspondences::new(2, 36);
+        let to = (0..36).map(|k| {
+            if labels[k] == 0 {
+                [(k % 6) as f32 + 3.0, (k / 6) as f32]
+            } else {
+                [f32::NAN; 2]
+            }
+        });
+        flows.set(0, 1, Flow { to: to.collect() }).unwrap();
+        let bent = Parts {
+            meshes: Some(deform_parts(&parts.poses, &parts.segmentation, &flows, &DeformOptions::default()).unwrap()),
+            ..parts
+        };
+        assert_eq!(reconstruct(&bent, 1).pixels, moved.pixels);
+        assert_eq!(reconstruct(&bent, 0).pixels, bent.poses[0].image.pixels);
     }
 }
