@@ -22,8 +22,9 @@ use super::Session;
 
 /// Find a character's articulated parts from a sprite sheet of its poses, and write them as a
 /// label map + reference frame + character.toml (root, joints, back-to-front layers) that
-/// `puppet build` accepts, with parts.png (the poses above their parts) and the label map of
-/// every pose (pose_labels.png laid out like the sheet, for `puppet eval-parts`).
+/// `puppet build` accepts, with parts.png (the poses, their parts, and the poses rebuilt from
+/// the parts) and the label map of every pose (pose_labels.png laid out like the sheet, for
+/// `puppet eval-parts`).
 ///
 /// Parts are superpixels of the reference pose merged while one similarity per pose explains
 /// their motion in every pose; every pixel of every pose then takes the part whose motion
