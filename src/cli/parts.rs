@@ -7,13 +7,12 @@ use anyhow::Context;
 use puppet::atomic_file::record;
 use puppet::parts::artwork::write_artwork;
 use puppet::parts::cover::CoverOptions;
-use puppet::parts::deform::DeformOptions;
+use puppet::parts::deform::{DeformOptions, Rebuild};
 use puppet::parts::flow::read_flows;
 use puppet::parts::learn::TrainedNet;
 use puppet::parts::matching::network_correspondences;
 use puppet::parts::pose::{check_one_character, load_poses, Layout};
-use puppet::parts::reconstruct::rebuild_l2;
-use puppet::parts::{find_parts, PartsOptions, Rebuild, Selection, ESTIMATED_RIGID_CHECK};
+use puppet::parts::{find_parts, PartsOptions, Selection, ESTIMATED_RIGID_CHECK};
 use puppet::synth::sheet_flow::TruthSheet;
 
 use super::args::parse_size;
@@ -210,7 +209,7 @@ pub fn run(args: PartsArgs, s: &Session) -> anyhow::Result<()> {
         written.preview.display(),
         written.pose_labels.display()
     ))?;
-    let (rebuilt, unchanged) = rebuild_l2(&parts);
+    let (rebuilt, unchanged) = parts.rebuild_l2();
     s.ui.say(format!(
         "the poses rebuilt from the parts ({}): mean L2 {rebuilt:.0} against the poses (the reference pose unchanged: {unchanged:.0})",
         if parts.meshes.is_some() { "bent by ARAP" } else { "moved rigidly" }

@@ -11,7 +11,6 @@ use crate::parts::flow::Correspondences;
 use crate::parts::learn::TrainedNet;
 use crate::parts::matching::network_correspondences;
 use crate::parts::pose::Pose;
-use crate::parts::reconstruct::rebuild_l2;
 use crate::parts::score::{part_iou, PartScores};
 use crate::parts::superpixels::{Superpixels, NONE};
 use crate::parts::{find_parts, PartsOptions};
@@ -45,7 +44,7 @@ pub struct SheetScores {
     /// Of the matched joints, how many the found layer order stacks like the generator.
     pub joints_ordered: usize,
     /// Mean over poses of the L2 (DESIGN.md) between each pose and its reconstruction from the
-    /// parts ([`crate::parts::reconstruct`]).
+    /// parts ([`crate::parts::Parts::rebuilt_pose`]).
     pub reconstruction_l2: f64,
     /// The same for the reference pose itself standing in for every pose (no parts at all).
     pub unchanged_l2: f64,
@@ -124,7 +123,7 @@ pub fn score_synthetic_sheet(
     let ceiling = superpixel_majority(&parts.superpixels, &truth_labels, true_parts);
     let ceiling = part_iou(&ceiling, &truth_labels, true_parts, true_parts);
     let joints = score_joints(&parts, &seq.truth, &seq.character, &truth_labels);
-    let (reconstruction_l2, unchanged_l2) = rebuild_l2(&parts);
+    let (reconstruction_l2, unchanged_l2) = parts.rebuild_l2();
     Ok(SheetScores {
         seed,
         found,
@@ -376,8 +375,8 @@ mod tests {
                 };
                 score_synthetic_sheet(seed, 6, 128, false, &options, Source::Truth).expect("scores")
             };
-            let rigid = score(crate::parts::Rebuild::Rigid);
-            let bent = score(crate::parts::Rebuild::Arap(Default::default()));
+            let rigid = score(crate::parts::deform::Rebuild::Rigid);
+            let bent = score(crate::parts::deform::Rebuild::Arap(Default::default()));
             assert_eq!(rigid.found, bent.found, "seed {seed}: the rebuild changes no part");
             assert!(
                 bent.reconstruction_l2 < 0.95 * rigid.reconstruction_l2 && rigid.reconstruction_l2 < rigid.unchanged_l2,

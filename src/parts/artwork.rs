@@ -6,7 +6,6 @@
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 
-use super::reconstruct::reconstruct;
 use super::superpixels::NONE;
 use super::Parts;
 use crate::atomic_file::Outputs;
@@ -224,7 +223,7 @@ fn character_toml(parts: &Parts, name: &str) -> String {
 }
 
 /// Every pose on white (top row) above its parts (middle row, hinges of the reference marked)
-/// and the pose rebuilt from the parts (bottom row, [`super::reconstruct`]).
+/// and the pose rebuilt from the parts (bottom row, [`Parts::rebuilt_pose`]).
 fn preview_sheet(parts: &Parts) -> Picture {
     let seg = &parts.segmentation;
     let width = parts.poses[0].image.width;
@@ -246,7 +245,7 @@ fn preview_sheet(parts: &Parts) -> Picture {
         }
         cells.push(coloured);
     }
-    cells.extend((0..parts.poses.len()).map(|t| reconstruct(parts, t)));
+    cells.extend((0..parts.poses.len()).map(|t| parts.rebuilt_pose(t)));
     let refs: Vec<&Picture> = cells.iter().collect();
     let sheet = contact_sheet(&refs, parts.poses.len());
     if sheet.width < 600 {

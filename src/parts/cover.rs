@@ -16,14 +16,13 @@ use std::collections::BTreeSet;
 
 use rayon::prelude::*;
 
-use super::deform::deform_parts;
+use super::deform::{deform_parts, Rebuild};
 use super::flow::Correspondences;
 use super::pose::Pose;
 use super::reconstruct::redraw;
 use super::segment::{reference_pose, segment, settle, SegmentOptions, Segmentation};
 use super::skeleton::skeleton;
 use super::superpixels::{Superpixels, NONE};
-use super::Rebuild;
 use crate::error::{Error, Result};
 use crate::geom::similarity::{Moments, Similarity};
 use crate::rng::Rng;

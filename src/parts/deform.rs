@@ -41,6 +41,15 @@ impl Default for DeformOptions {
     }
 }
 
+/// How the poses are rebuilt from the parts.
+#[derive(Clone, Debug, PartialEq)]
+pub enum Rebuild {
+    /// Each part moved by its similarity.
+    Rigid,
+    /// Each part's control mesh bent by ARAP towards its correspondences (the paper's).
+    Arap(DeformOptions),
+}
+
 /// One part's control mesh on the reference pose and where it lies in every pose.
 #[derive(Clone, Debug, PartialEq)]
 pub struct PartMesh {

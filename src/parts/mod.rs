@@ -3,8 +3,8 @@
 //! ([`superpixels`]), correspondences between every pair ([`flow`]), parts from how superpixels
 //! move ([`segment`], or the paper's set cover over candidates from every pair, [`cover`]),
 //! hinges, joint tree and layer order ([`skeleton`]), the parts bent into every pose by ARAP
-//! ([`deform`]) and the poses rebuilt from them ([`reconstruct`]), the artwork `puppet build` reads ([`artwork`]), and part IoU
-//! against a truth ([`score`]).
+//! ([`deform`]) and the poses rebuilt from them ([`reconstruct`]), the artwork `puppet build`
+//! reads ([`artwork`]), and part IoU against a truth ([`score`]).
 //!
 //! Correspondences come from outside this module: today from the generator's truth (the oracle,
 //! `crate::synth::sheet_flow`), which measures the back end alone.
@@ -25,8 +25,10 @@ pub mod skeleton;
 pub mod superpixels;
 
 use crate::error::{Error, Result};
+use crate::metrics::l2;
+use crate::picture::Picture;
 use cover::{CoverOptions, CoverReport};
-use deform::{DeformOptions, PartMesh};
+use deform::{DeformOptions, PartMesh, Rebuild};
 use flow::Correspondences;
 use pose::Pose;
 use segment::{SegmentOptions, Segmentation};
@@ -50,15 +52,6 @@ pub struct PartsOptions {
     /// How the poses are rebuilt from the parts found, to show and measure them (the set cover
     /// scores its selections as [`CoverOptions::score`] says).
     pub rebuild: Rebuild,
-}
-
-/// How the poses are rebuilt from the parts.
-#[derive(Clone, Debug, PartialEq)]
-pub enum Rebuild {
-    /// Each part moved by its similarity.
-    Rigid,
-    /// Each part's control mesh bent by ARAP towards its correspondences (the paper's).
-    Arap(DeformOptions),
 }
 
 /// How parts are chosen from the correspondences.
@@ -108,6 +101,28 @@ pub struct Parts {
     pub cover: Option<CoverReport>,
     /// Each part's control mesh and its place in every pose, when poses are rebuilt by ARAP.
     pub meshes: Option<Vec<PartMesh>>,
+}
+
+impl Parts {
+    /// Pose `t` redrawn from the reference's parts, stacked back to front in the found order
+    /// (bent by their meshes when the parts have them; [`reconstruct::redraw`]); straight alpha,
+    /// the pose's size.
+    pub fn rebuilt_pose(&self, t: usize) -> Picture {
+        reconstruct::redraw(&self.poses, &self.segmentation, self.meshes.as_deref(), &self.skeleton.order, t)
+    }
+
+    /// How well the parts rebuild the poses: the mean over the poses of the L2 (DESIGN.md)
+    /// between each pose and [`rebuilt_pose`](Self::rebuilt_pose), and beside it the same with
+    /// the reference pose standing in for every pose (no parts at all).
+    pub fn rebuild_l2(&self) -> (f64, f64) {
+        let n = self.poses.len().max(1) as f64;
+        let reference = &self.poses[self.segmentation.reference].image;
+        let rebuilt = (0..self.poses.len())
+            .map(|t| l2(&self.rebuilt_pose(t), &self.poses[t].image))
+            .sum::<f64>();
+        let unchanged = self.poses.iter().map(|p| l2(reference, &p.image)).sum::<f64>();
+        (rebuilt / n, unchanged / n)
+    }
 }
 
 /// Finds the parts of `poses` given correspondences between every pair.

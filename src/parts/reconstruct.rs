@@ -7,29 +7,8 @@ use super::deform::PartMesh;
 use super::pose::Pose;
 use super::segment::Segmentation;
 use super::superpixels::NONE;
-use super::Parts;
 use crate::geom::triangle::barycentric;
-use crate::metrics::l2;
 use crate::picture::Picture;
-
-/// Pose `t` redrawn from the reference's parts (bent by their meshes when the parts have them);
-/// straight alpha, the pose's size.
-pub fn reconstruct(parts: &Parts, t: usize) -> Picture {
-    redraw(&parts.poses, &parts.segmentation, parts.meshes.as_deref(), &parts.skeleton.order, t)
-}
-
-/// How well the parts rebuild the poses: the mean over the poses of the L2 (DESIGN.md) between
-/// each pose and [`reconstruct`], and beside it the same with the reference pose standing in for
-/// every pose (no parts at all).
-pub fn rebuild_l2(parts: &Parts) -> (f64, f64) {
-    let n = parts.poses.len().max(1) as f64;
-    let reference = &parts.poses[parts.segmentation.reference].image;
-    let rebuilt = (0..parts.poses.len())
-        .map(|t| l2(&reconstruct(parts, t), &parts.poses[t].image))
-        .sum::<f64>();
-    let unchanged = parts.poses.iter().map(|p| l2(reference, &p.image)).sum::<f64>();
-    (rebuilt / n, unchanged / n)
-}
 
 /// Pose `t` redrawn from the reference's parts of `seg`, stacked back to front in `order`: each
 /// part bent by its mesh (`meshes`, one per part), or moved by its similarity without meshes.
@@ -123,7 +102,6 @@ mod tests {
     use crate::geom::similarity::Similarity;
     use crate::parts::deform::{deform_parts, DeformOptions};
     use crate::parts::flow::{Correspondences, Flow};
-    use crate::parts::skeleton::Skeleton;
 
     #[test]
     fn a_part_moved_by_its_motion_lands_where_the_motion_says() {
@@ -135,27 +113,17 @@ mod tests {
             labels[k] = 0;
         }
         let pose = Pose::new("p", image);
-        let parts = Parts {
-            poses: vec![pose.clone(), pose],
-            superpixels: Vec::new(),
-            segmentation: Segmentation {
-                reference: 0,
-                parts: 1,
-                labels: vec![labels.clone(), labels.clone()],
-                motions: vec![vec![Similarity::IDENTITY, Similarity::new(0.0, 1.0, [3.0, 0.0])]],
-            },
-            skeleton: Skeleton {
-                root: 0,
-                hinges: Vec::new(),
-                order: vec![0],
-            },
-            cover: None,
-            meshes: None,
+        let poses = vec![pose.clone(), pose];
+        let seg = Segmentation {
+            reference: 0,
+            parts: 1,
+            labels: vec![labels.clone(), labels.clone()],
+            motions: vec![vec![Similarity::IDENTITY, Similarity::new(0.0, 1.0, [3.0, 0.0])]],
         };
-        let moved = reconstruct(&parts, 1);
+        let moved = redraw(&poses, &seg, None, &[0], 1);
         let drawn: Vec<usize> = (0..36).filter(|&k| moved.pixels[k][3] > 0.0).collect();
         assert_eq!(drawn, [10, 11, 16, 17]);
-        assert_eq!(reconstruct(&parts, 0).pixels, parts.poses[0].image.pixels);
+        assert_eq!(redraw(&poses, &seg, None, &[0], 0).pixels, poses[0].image.pixels);
 
         // Bent by a mesh pulled by correspondences that say the same: the same pixels.
         let mut flows = Correspondences::new(2, 36);
@@ -167,11 +135,8 @@ mod tests {
             }
         });
         flows.set(0, 1, Flow { to: to.collect() }).unwrap();
-        let bent = Parts {
-            meshes: Some(deform_parts(&parts.poses, &parts.segmentation, &flows, &DeformOptions::default()).unwrap()),
-            ..parts
-        };
-        assert_eq!(reconstruct(&bent, 1).pixels, moved.pixels);
-        assert_eq!(reconstruct(&bent, 0).pixels, bent.poses[0].image.pixels);
+        let meshes = deform_parts(&poses, &seg, &flows, &DeformOptions::default()).unwrap();
+        assert_eq!(redraw(&poses, &seg, Some(&meshes), &[0], 1).pixels, moved.pixels);
+        assert_eq!(redraw(&poses, &seg, Some(&meshes), &[0], 0).pixels, poses[0].image.pixels);
     }
 }
