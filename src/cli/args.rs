@@ -4,7 +4,7 @@
 use std::path::{Path, PathBuf};
 
 use anyhow::Context as _;
-use puppet::edit::pose::Pin;
+use puppet::edit::pin::Pin;
 use puppet::model::Model;
 use puppet::puppet::{artwork, build::BuildOptions, LayerKind};
 use puppet::render::animation::AnimationFiles;

@@ -7,8 +7,8 @@ use std::path::{Path, PathBuf};
 
 use anyhow::Context;
 use puppet::edit::correspond::{correspond, grid_points, load_points};
+use puppet::edit::pin::Pin;
 use puppet::edit::pin_overlay::pin_overlay;
-use puppet::edit::pose::Pin;
 use puppet::eval::pck_pairs::{ordered_pairs, pck_pairs};
 use puppet::fit::fit;
 use puppet::fit::frame::{frame_check, load_frame};

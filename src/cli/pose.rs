@@ -8,8 +8,9 @@ use anyhow::Context as _;
 
 use puppet::appearance::AppearanceStage;
 use puppet::edit::arap_drag::arap_drag;
+use puppet::edit::pin::Pin;
 use puppet::edit::pin_overlay::pin_overlay;
-use puppet::edit::pose::{Pin, PoseEditor, PoseOptions, DEFAULT_ETA};
+use puppet::edit::pose::{PoseEditor, PoseOptions, DEFAULT_ETA};
 use puppet::error::Context;
 use puppet::fit::frame::load_frame;
 use puppet::model::Model;

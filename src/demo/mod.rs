@@ -20,8 +20,9 @@ use crate::edit::inbetween::{
     comparison_sheet, inbetween, steps_t, write_inbetweens, InbetweenFiles, InbetweenPath, Inbetweens, MAX_STEPS,
 };
 use crate::edit::manifold_path::Waypoints;
+use crate::edit::pin::Pin;
 use crate::edit::pin_overlay::pin_overlay;
-use crate::edit::pose::{Pin, PoseEditor, PoseOptions};
+use crate::edit::pose::{PoseEditor, PoseOptions};
 use crate::error::{Error, FolderKind, Result};
 use crate::export::spine::{self, OutfitSkin, PoseAnimation};
 use crate::fit::{fit, fit_latents, hidden_limbs, FitOptions, DEFAULT_LATENT_STEPS, DEFAULT_VERTEX_STEPS};

@@ -4,7 +4,7 @@
 use std::fmt::Write as _;
 
 use crate::appearance::AppearanceSummary;
-use crate::edit::pose::Pin;
+use crate::edit::pin::Pin;
 use crate::fit::FitOptions;
 
 /// One in-between of the demo: its files' stem and its two end frames.

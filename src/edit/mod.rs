@@ -13,6 +13,7 @@ pub mod correspond;
 pub mod directions;
 pub mod inbetween;
 pub mod manifold_path;
+pub mod pin;
 pub mod pin_overlay;
 pub mod pose;
 pub mod timing;
@@ -22,7 +23,8 @@ pub use bind::{bind, Binding};
 pub use correspond::{correspond, Correspondence};
 pub use directions::LatentDirections;
 pub use inbetween::{inbetween, nearest_frame, InbetweenPath, Inbetweens, Interpolator};
-pub use pose::{Pin, PoseEditor, PoseOptions};
+pub use pin::Pin;
+pub use pose::{PoseEditor, PoseOptions};
 pub use timing::{eased_t, spacing_t, Easing};
 
 /// Helpers shared by this module's unit tests (and the web editor's).

@@ -1,7 +1,7 @@
 //! Pins drawn over a picture — what a person checks after `puppet pose`: a line from each grabbed
 //! point (white ring) to its target (red dot).
 
-use super::pose::Pin;
+use super::pin::Pin;
 use crate::geom::triangle::closest_on_segment;
 use crate::picture::Picture;
 

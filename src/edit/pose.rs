@@ -34,6 +34,7 @@ use std::sync::Arc;
 use burn::tensor::{Device, Int, Tensor, TensorData};
 
 use super::bind::{bind, Binding};
+use super::pin::Pin;
 use super::pin_overlay::draw_pins;
 use crate::error::{Error, Result};
 use crate::fit::{fit_latents, FitOptions};
@@ -45,16 +46,6 @@ use crate::objective::{joint_loss, regularised_triangles};
 use crate::picture::Picture;
 use crate::progress::Progress;
 use crate::render::animation::{write_poses, AnimationWriter};
-
-/// One pin: the point the user grabbed (`from`, on the character in the input frame) and where
-/// it should go (`to`), both in frame pixels.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct Pin {
-    /// The grabbed point, frame pixels.
-    pub from: [f32; 2],
-    /// Its target, frame pixels.
-    pub to: [f32; 2],
-}
 
 /// Settings of the latent optimisation (eq. 8–9).
 #[derive(Clone, Copy, Debug, PartialEq)]

@@ -5,7 +5,8 @@
 use burn::tensor::{Device, Tensor};
 
 use crate::edit::inbetween::Interpolator;
-use crate::edit::pose::{Pin, PoseEditor, PoseOptions};
+use crate::edit::pin::Pin;
+use crate::edit::pose::{PoseEditor, PoseOptions};
 use crate::error::Result;
 use crate::fit::FitOptions;
 use crate::model::Model;

@@ -153,7 +153,7 @@ pub fn check_run(dir: &Path, previous: Option<&Checkpoint>, resume: bool) -> Res
 /// # Errors
 /// [`Error::Resume`] naming the keys that differ.
 pub fn check_same_config(dir: &Path, checkpoint: &Checkpoint, config: &serde_json::Value, may_change: &[&str]) -> Result<()> {
-    let changed = crate::train::trainer::changed_keys(&checkpoint.state.config, config, may_change);
+    let changed = changed_keys(&checkpoint.state.config, config, may_change);
     if changed.is_empty() {
         return Ok(());
     }
@@ -165,6 +165,26 @@ pub fn check_same_config(dir: &Path, checkpoint: &Checkpoint, config: &serde_jso
             may_change.join(", ")
         ),
     })
+}
+
+/// The dotted keys whose values differ between two configs, but those `ignored` (for training:
+/// `output`, as a moved run folder is the same run, and `train.steps`, as a resume may extend
+/// the run).
+pub fn changed_keys(a: &serde_json::Value, b: &serde_json::Value, ignored: &[&str]) -> Vec<String> {
+    fn walk(prefix: &str, a: Option<&serde_json::Value>, b: Option<&serde_json::Value>, ignored: &[&str], out: &mut Vec<String>) {
+        if let (Some(serde_json::Value::Object(x)), Some(serde_json::Value::Object(y))) = (a, b) {
+            let keys: std::collections::BTreeSet<&String> = x.keys().chain(y.keys()).collect();
+            for k in keys {
+                let key = if prefix.is_empty() { k.clone() } else { format!("{prefix}.{k}") };
+                walk(&key, x.get(k), y.get(k), ignored, out);
+            }
+        } else if a != b && !ignored.contains(&prefix) {
+            out.push(prefix.to_string());
+        }
+    }
+    let mut out = Vec::new();
+    walk("", Some(a), Some(b), ignored, &mut out);
+    out
 }
 
 #[cfg(test)]
@@ -204,5 +224,14 @@ mod tests {
         std::fs::write(dir.path().join(CHECKPOINT_DIR).join(LATEST), "step-000005").unwrap();
         let err = latest(dir.path()).unwrap_err().to_string();
         assert!(err.contains("latest") && err.contains("step-000005"), "{err}");
+    }
+
+    #[test]
+    fn changed_keys_ignore_the_output_and_the_step_count() {
+        let a = serde_json::json!({"output": "/a", "seed": 1, "train": {"steps": 10, "batch": 4}, "loss": {"arap": 1.0}});
+        let b = serde_json::json!({"output": "/b", "seed": 1, "train": {"steps": 20, "batch": 8}, "loss": {"arap": 2.0}});
+        let ignored = ["output", "train.steps"];
+        assert_eq!(changed_keys(&a, &b, &ignored), ["loss.arap", "train.batch"]);
+        assert!(changed_keys(&a, &a, &ignored).is_empty());
     }
 }

@@ -16,7 +16,7 @@ use burn::optim::{GradientsParams, ModuleOptimizer};
 use burn::tensor::{Device, Tensor, TensorData};
 use serde::{Deserialize, Serialize};
 
-use super::checkpoint::{self, Checkpoint, CheckpointState};
+use super::checkpoint::{self, changed_keys, Checkpoint, CheckpointState};
 use super::config::{canonical, TrainConfig};
 use super::log::{plot, LogRow, TrainLog};
 use super::optim::{adam, optimizer_bytes, optimizer_from_bytes};
@@ -331,26 +331,6 @@ fn check_resume(
         )));
     }
     Ok(())
-}
-
-/// The dotted keys whose values differ between two configs, but those `ignored` (for training:
-/// `output`, as a moved run folder is the same run, and `train.steps`, as a resume may extend
-/// the run).
-pub fn changed_keys(a: &serde_json::Value, b: &serde_json::Value, ignored: &[&str]) -> Vec<String> {
-    fn walk(prefix: &str, a: Option<&serde_json::Value>, b: Option<&serde_json::Value>, ignored: &[&str], out: &mut Vec<String>) {
-        if let (Some(serde_json::Value::Object(x)), Some(serde_json::Value::Object(y))) = (a, b) {
-            let keys: std::collections::BTreeSet<&String> = x.keys().chain(y.keys()).collect();
-            for k in keys {
-                let key = if prefix.is_empty() { k.clone() } else { format!("{prefix}.{k}") };
-                walk(&key, x.get(k), y.get(k), ignored, out);
-            }
-        } else if a != b && !ignored.contains(&prefix) {
-            out.push(prefix.to_string());
-        }
-    }
-    let mut out = Vec::new();
-    walk("", Some(a), Some(b), ignored, &mut out);
-    out
 }
 
 /// The first difference between two puppets' templates (layers, meshes, joints), if any.
@@ -676,14 +656,5 @@ mod tests {
         assert_eq!(pass, [0, 1, 2, 3, 4]);
         assert_eq!(BatchOrder::new(5, 3, 9).batch(1), order.batch(1));
         assert_ne!(BatchOrder::new(5, 3, 10).batch(0), order.batch(0));
-    }
-
-    #[test]
-    fn changed_keys_ignore_the_output_and_the_step_count() {
-        let a = serde_json::json!({"output": "/a", "seed": 1, "train": {"steps": 10, "batch": 4}, "loss": {"arap": 1.0}});
-        let b = serde_json::json!({"output": "/b", "seed": 1, "train": {"steps": 20, "batch": 8}, "loss": {"arap": 2.0}});
-        let ignored = ["output", "train.steps"];
-        assert_eq!(changed_keys(&a, &b, &ignored), ["loss.arap", "train.batch"]);
-        assert!(changed_keys(&a, &a, &ignored).is_empty());
     }
 }
