@@ -11,6 +11,7 @@ pub mod build;
 pub mod character;
 pub mod format;
 pub mod joints;
+pub mod layers;
 pub mod limbs;
 pub mod mesh;
 pub mod ora;

@@ -18,7 +18,7 @@ use std::path::Path;
 
 use quick_xml::events::Event;
 
-use super::artwork::{assemble, place, ArtLayer, Artwork, ImportOptions};
+use super::layers::{assemble, place, ArtLayer, Artwork, ImportOptions};
 use super::LayerKind;
 use crate::error::{Error, Result};
 use crate::picture::Picture;

@@ -25,7 +25,7 @@
 
 use std::path::Path;
 
-use super::artwork::{assemble, place, ArtLayer, Artwork, ImportOptions};
+use super::layers::{assemble, place, ArtLayer, Artwork, ImportOptions};
 use super::LayerKind;
 use crate::error::{Error, Result};
 use crate::picture::Picture;
