@@ -421,9 +421,8 @@ pub struct ArapFit {
     system: MinQuadWithFixed,
     points: Vec<MeshPoint>,
     stiffness: f64,
-    /// Scratch: rotations, the ARAP part of the right-hand side and the whole of it, `#V` each.
+    /// Scratch: rotations and the right-hand side, `#V` each.
     rot: Vec<[f64; 2]>,
-    arap_rhs: Vec<[f64; 2]>,
     rhs: Vec<[f64; 2]>,
 }
 
@@ -492,7 +491,6 @@ impl ArapFit {
             points: points.to_vec(),
             stiffness,
             rot: vec![[1.0, 0.0]; n],
-            arap_rhs: vec![[0.0; 2]; n],
             rhs: vec![[0.0; 2]; n],
         })
     }
@@ -533,9 +531,9 @@ impl ArapFit {
         let mut x = initial.to_vec();
         for _ in 0..iterations {
             self.energy.fit_rotations(x.as_flattened(), &mut self.rot);
-            self.energy.rotated_rest_edges(&self.rot, &mut self.arap_rhs);
-            for (r, a) in self.rhs.iter_mut().zip(&self.arap_rhs) {
-                *r = [2.0 * self.stiffness * a[0], 2.0 * self.stiffness * a[1]];
+            self.energy.rotated_rest_edges(&self.rot, &mut self.rhs);
+            for r in &mut self.rhs {
+                *r = [2.0 * self.stiffness * r[0], 2.0 * self.stiffness * r[1]];
             }
             for (q, y) in self.points.iter().zip(targets) {
                 for (&c, &w) in q.corners.iter().zip(&q.weights) {

@@ -16,7 +16,7 @@ use std::collections::BTreeSet;
 
 use rayon::prelude::*;
 
-use super::deform::{deform_parts, Rebuild};
+use super::deform::Rebuild;
 use super::flow::Correspondences;
 use super::pose::Pose;
 use super::reconstruct::redraw;
@@ -452,10 +452,7 @@ fn selected_parts(
 /// rebuilt from the parts.
 fn rebuild_error(poses: &[Pose], seg: &Segmentation, flows: &Correspondences, how: &Rebuild) -> Result<f64> {
     let order = skeleton(seg, poses[seg.reference].width()).order;
-    let meshes = match how {
-        Rebuild::Rigid => None,
-        Rebuild::Arap(options) => Some(deform_parts(poses, seg, flows, options)?),
-    };
+    let meshes = how.meshes(poses, seg, flows)?;
     let mut total = 0.0;
     let mut count = 0usize;
     for (t, pose) in poses.iter().enumerate() {

@@ -50,6 +50,19 @@ pub enum Rebuild {
     Arap(DeformOptions),
 }
 
+impl Rebuild {
+    /// The parts' meshes bent into every pose ([`deform_parts`]), or `None` for a rigid rebuild.
+    ///
+    /// # Errors
+    /// As [`deform_parts`].
+    pub fn meshes(&self, poses: &[Pose], seg: &Segmentation, flows: &Correspondences) -> Result<Option<Vec<PartMesh>>> {
+        match self {
+            Rebuild::Rigid => Ok(None),
+            Rebuild::Arap(options) => deform_parts(poses, seg, flows, options).map(Some),
+        }
+    }
+}
+
 /// One part's control mesh on the reference pose and where it lies in every pose.
 #[derive(Clone, Debug, PartialEq)]
 pub struct PartMesh {
@@ -184,13 +197,16 @@ pub fn deform_parts(poses: &[Pose], seg: &Segmentation, flows: &Correspondences,
     let reference = &poses[seg.reference];
     let w = reference.width();
     let side = w.max(reference.height()) as f32;
-    let labels = &seg.labels[seg.reference];
-    Ok((0..seg.parts)
+    let mut pixels_of = vec![Vec::new(); seg.parts];
+    for (i, &l) in seg.labels[seg.reference].iter().enumerate() {
+        if l != NONE && (l as usize) < seg.parts {
+            pixels_of[l as usize].push(i);
+        }
+    }
+    Ok(pixels_of
         .into_par_iter()
-        .map(|p| {
-            let pixels: Vec<usize> = (0..labels.len())
-                .filter(|&i| labels[i] != NONE && labels[i] as usize == p)
-                .collect();
+        .enumerate()
+        .map(|(p, pixels)| {
             if pixels.is_empty() {
                 return PartMesh {
                     rest: Vec::new(),

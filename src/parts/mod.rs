@@ -167,10 +167,7 @@ pub fn find_parts(poses: Vec<Pose>, flows: &Correspondences, options: &PartsOpti
         }
     };
     let skeleton = skeleton::skeleton(&segmentation, poses[0].width());
-    let meshes = match &options.rebuild {
-        Rebuild::Rigid => None,
-        Rebuild::Arap(deform) => Some(deform::deform_parts(&poses, &segmentation, flows, deform)?),
-    };
+    let meshes = options.rebuild.meshes(&poses, &segmentation, flows)?;
     Ok(Parts {
         poses,
         superpixels,

@@ -50,12 +50,7 @@ fn draw_meshes(poses: &[Pose], seg: &Segmentation, meshes: &[PartMesh], order: &
                         continue;
                     }
                     let z = [0, 1].map(|a| b[0] * rest[0][a] + b[1] * rest[1][a] + b[2] * rest[2][a]);
-                    let (zx, zy) = (z[0].round(), z[1].round());
-                    if zx < 0.0 || zy < 0.0 || zx as usize >= w || zy as usize >= h {
-                        continue;
-                    }
-                    let j = zy as usize * w + zx as usize;
-                    if labels[j] != NONE && labels[j] as usize == p {
+                    if let Some(j) = part_pixel_at(z, p, labels, w, h) {
                         out.pixels[y * w + x] = reference.image.pixels[j];
                     }
                 }
@@ -81,19 +76,24 @@ fn rebuild(poses: &[Pose], seg: &Segmentation, order: &[usize], t: usize) -> Pic
         // Front to back: the first part whose reference region holds the pulled-back point.
         for &p in order.iter().rev() {
             let Some(inv) = &inverse[p] else { continue };
-            let z = inv.apply(y);
-            let (zx, zy) = (z[0].round(), z[1].round());
-            if zx < 0.0 || zy < 0.0 || zx as usize >= w || zy as usize >= h {
-                continue;
-            }
-            let j = zy as usize * w + zx as usize;
-            if labels[j] != NONE && labels[j] as usize == p {
+            if let Some(j) = part_pixel_at(inv.apply(y), p, labels, w, h) {
                 *pixel = reference.image.pixels[j];
                 break;
             }
         }
     }
     out
+}
+
+/// The reference pixel nearest the point `z`, if it lies on the `w × h` canvas and belongs to
+/// part `p` by the reference's `labels`.
+fn part_pixel_at(z: [f32; 2], p: usize, labels: &[u32], w: usize, h: usize) -> Option<usize> {
+    let (zx, zy) = (z[0].round(), z[1].round());
+    if zx < 0.0 || zy < 0.0 || zx as usize >= w || zy as usize >= h {
+        return None;
+    }
+    let j = zy as usize * w + zx as usize;
+    (labels[j] != NONE && labels[j] as usize == p).then_some(j)
 }
 
 #[cfg(test)]
