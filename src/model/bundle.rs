@@ -41,8 +41,8 @@ impl Model {
     /// A fresh (untrained) model for `puppet` on `device`.
     ///
     /// # Errors
-    /// [`Error::Mismatch`] if the config's vertex count is not the puppet's, [`Error::Setting`] if
-    /// the input size is not a positive multiple of 8.
+    /// [`Error::Mismatch`] if the config's vertex count is not the puppet's, [`Error::Setting`] for
+    /// a size out of range ([`DeformationNetConfig::validate`]).
     pub fn new(config: DeformationNetConfig, puppet: Puppet, device: &Device) -> Result<Self> {
         check_config(&config, &puppet)?;
         let letterbox = Letterbox::new(puppet.width, puppet.height, config.input_size as u32);
@@ -65,9 +65,7 @@ impl Model {
     pub fn load(dir: &Path, device: &Device) -> Result<Self> {
         let folder = ModelFolder::open(dir)?;
         let net_path = folder.net();
-        let text = user_file::read_bytes(&net_path, user_file::CONFIG)?;
-        let config: DeformationNetConfig =
-            serde_json::from_slice(&text).map_err(|e| Error::format(&net_path, format!("invalid network config: {e}")))?;
+        let config = read_net_config(&user_file::read_bytes(&net_path, user_file::CONFIG)?, &net_path)?;
         let puppet = format::load(&folder.puppet())?;
         check_config(&config, &puppet).at_path(&net_path)?;
         let mut model = Model::new(config, puppet, device)?;
@@ -238,7 +236,22 @@ impl Model {
     }
 }
 
+/// A network config (`net.json`) read from `path`, its sizes checked before any network is built
+/// from it ([`DeformationNetConfig::validate`]).
+///
+/// # Errors
+/// [`Error::Format`] naming `path` if the bytes are not a config or a size is out of range.
+pub fn read_net_config(bytes: &[u8], path: &Path) -> Result<DeformationNetConfig> {
+    let config: DeformationNetConfig =
+        serde_json::from_slice(bytes).map_err(|e| Error::format(path, format!("invalid network config: {e}")))?;
+    config
+        .validate()
+        .map_err(|e| Error::format(path, format!("invalid network config: {e}")))?;
+    Ok(config)
+}
+
 fn check_config(config: &DeformationNetConfig, puppet: &Puppet) -> Result<()> {
+    config.validate()?;
     let free = puppet.free_vertices().len();
     if config.vertices != free {
         let whose = if puppet.rig.is_some() {
@@ -251,9 +264,6 @@ fn check_config(config: &DeformationNetConfig, puppet: &Puppet) -> Result<()> {
             config.vertices,
             format!("{free}, {whose} (a model for a different puppet?)"),
         ));
-    }
-    if config.input_size == 0 || config.input_size % 8 != 0 {
-        return Err(Error::setting("input_size", config.input_size, "a positive multiple of 8"));
     }
     Ok(())
 }

@@ -55,7 +55,68 @@ pub struct DeformationNet {
     vertices: usize,
 }
 
+/// The most weights a deformation network may have (1 GiB as f32), so a config read from a file
+/// cannot ask for more memory than that.
+pub const MAX_PARAMETERS: usize = 1 << 28;
+
 impl DeformationNetConfig {
+    /// How many weights (and biases) the network has; `None` if the count overflows.
+    pub fn parameter_count(&self) -> Option<usize> {
+        let conv = |i: usize, o: usize| i.checked_mul(o)?.checked_mul(KERNEL * KERNEL)?.checked_add(o);
+        let linear = |i: usize, o: usize| i.checked_mul(o)?.checked_add(o);
+        let [c1, c2, c3] = self.channels;
+        let [e1, e2] = self.encoder_hidden;
+        let [d1, d2] = self.decoder_hidden;
+        let flat = c3.checked_mul((self.input_size / 8).checked_pow(2)?)?;
+        let out = self.vertices.checked_mul(2)?.checked_add(2)?;
+        [
+            conv(4, c1),
+            conv(c1, c2),
+            conv(c2, c3),
+            linear(flat, e1),
+            linear(e1, e2),
+            linear(e2, self.latent),
+            linear(self.latent, d1),
+            linear(d1, d2),
+            linear(d2, out),
+        ]
+        .into_iter()
+        .try_fold(0usize, |sum, n| sum.checked_add(n?))
+    }
+
+    /// Checks the sizes before a network is built: every width positive, the input size a
+    /// positive multiple of 8, a finite positive offset scale, at most [`MAX_PARAMETERS`] weights.
+    ///
+    /// # Errors
+    /// [`crate::error::Error::Setting`] naming the first key out of range.
+    pub fn validate(&self) -> crate::error::Result<()> {
+        use crate::error::Error;
+        if self.input_size == 0 || self.input_size % 8 != 0 {
+            return Err(Error::setting("input_size", self.input_size, "a positive multiple of 8"));
+        }
+        let widths = [
+            ("vertices", self.vertices),
+            ("channels", self.channels.into_iter().min().unwrap_or(0)),
+            ("encoder_hidden", self.encoder_hidden.into_iter().min().unwrap_or(0)),
+            ("latent", self.latent),
+            ("decoder_hidden", self.decoder_hidden.into_iter().min().unwrap_or(0)),
+        ];
+        if let Some((key, width)) = widths.into_iter().find(|&(_, w)| w == 0) {
+            return Err(Error::setting(key, width, "positive widths"));
+        }
+        if !(self.offset_scale.is_finite() && self.offset_scale > 0.0) {
+            return Err(Error::setting("offset_scale", self.offset_scale, "a positive number"));
+        }
+        match self.parameter_count() {
+            Some(n) if n <= MAX_PARAMETERS => Ok(()),
+            n => Err(Error::setting(
+                "the network's size",
+                n.map_or("more than usize can count".into(), |n| format!("{n} weights")),
+                format!("at most {MAX_PARAMETERS} (a smaller input_size, fewer channels or narrower layers)"),
+            )),
+        }
+    }
+
     /// Builds the network with fresh weights; the last decoder layer starts at zero so an untrained
     /// network predicts the rest pose.
     ///
@@ -160,6 +221,35 @@ pub fn rest_tensor(rest: &[[f32; 2]], device: &Device) -> Tensor<2> {
 mod tests {
     use super::*;
     use burn::tensor::Distribution;
+
+    #[test]
+    fn the_parameter_count_is_the_built_networks_and_a_config_out_of_range_is_refused() {
+        let device = crate::backend::device();
+        let config = DeformationNetConfig::new(7)
+            .with_input_size(24)
+            .with_channels([3, 5, 6])
+            .with_encoder_hidden([9, 4])
+            .with_latent(5)
+            .with_decoder_hidden([6, 8]);
+        assert_eq!(config.parameter_count(), Some(config.init(&device).num_params()));
+        config.validate().unwrap();
+        // The default network for a puppet of 1,000 vertices at 128² fits; at 1024² it does not.
+        DeformationNetConfig::new(1000).validate().unwrap();
+        let wide = DeformationNetConfig::new(1000).with_input_size(1024);
+        assert!(wide.parameter_count().unwrap() > MAX_PARAMETERS);
+        let refused = |c: DeformationNetConfig, key: &str| {
+            let e = c.validate().unwrap_err();
+            assert!(matches!(&e, crate::error::Error::Setting { name, .. } if name == key), "{key}: {e}");
+        };
+        refused(wide, "the network's size");
+        refused(DeformationNetConfig::new(1000).with_input_size(1 << 40), "the network's size");
+        refused(DeformationNetConfig::new(10).with_input_size(20), "input_size");
+        refused(DeformationNetConfig::new(0), "vertices");
+        refused(DeformationNetConfig::new(10).with_channels([4, 0, 4]), "channels");
+        refused(DeformationNetConfig::new(10).with_latent(0), "latent");
+        refused(DeformationNetConfig::new(10).with_decoder_hidden([0, 3]), "decoder_hidden");
+        refused(DeformationNetConfig::new(10).with_offset_scale(f32::NAN), "offset_scale");
+    }
 
     #[test]
     fn untrained_network_predicts_the_rest_pose_with_the_documented_shapes() {
