@@ -11,7 +11,7 @@
 //!                                   #   of other seeds hold out the same frames
 //!
 //! [model]                           # the network (DeformationNetConfig); all optional
-//! input_size = 128
+//! input_size = 128                  # a multiple of 8; the network grows with its square (256: ~136 M weights)
 //! rig = true                        # false: accessories are free layers, not rigged
 //!
 //! [train]
@@ -70,6 +70,7 @@ use super::augment::Augment;
 use super::optim::AdamSettings;
 use super::sampled::SampledPoses;
 use crate::error::{Context, Error, Result};
+use crate::model::deformation::DeformationNetConfig;
 pub use crate::objective::LossWeights;
 
 /// A whole training config.
@@ -337,6 +338,21 @@ impl TrainConfig {
         if let Some((_, problem)) = checks.into_iter().find(|(bad, _)| *bad) {
             return Err(problem);
         }
+        // The network the run will build, with one vertex: a lower bound on its size, so a config
+        // whose network cannot fit is refused here, naming the file, not when training starts.
+        DeformationNetConfig::new(1)
+            .with_input_size(self.model.input_size)
+            .with_latent(self.model.latent)
+            .with_offset_scale(self.model.offset_scale)
+            .validate()
+            .map_err(|e| match e {
+                Error::Setting { name, value, expected } => Error::Setting {
+                    name: format!("model ({name})"),
+                    value,
+                    expected,
+                },
+                other => other,
+            })?;
         t.adam.validate()?;
         t.sampled.validate()?;
         t.augment.validate()
@@ -423,6 +439,14 @@ mod tests {
             (
                 "puppet = \"p\"\nframes = \"f\"\noutput = \"o\"\n[model]\ninput_size = 100\n",
                 "input_size",
+            ),
+            (
+                "puppet = \"p\"\nframes = \"f\"\noutput = \"o\"\n[model]\ninput_size = 1024\n",
+                "model (the network's size)",
+            ),
+            (
+                "puppet = \"p\"\nframes = \"f\"\noutput = \"o\"\n[model]\noffset_scale = -1.0\n",
+                "model (offset_scale)",
             ),
             (
                 "puppet = \"p\"\nframes = \"f\"\noutput = \"o\"\n[train]\nlearning_rat = 1\n",
