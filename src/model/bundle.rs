@@ -67,8 +67,7 @@ impl Model {
         let net_path = folder.net();
         let config = read_net_config(&user_file::read_bytes(&net_path, user_file::CONFIG)?, &net_path)?;
         let puppet = format::load(&folder.puppet())?;
-        check_config(&config, &puppet).at_path(&net_path)?;
-        let mut model = Model::new(config, puppet, device)?;
+        let mut model = Model::new(config, puppet, device).at_path(&net_path)?;
         let weights_path = folder.weights();
         let bytes = user_file::read_bytes(&weights_path, max_weights_bytes(&model.net))?;
         model.net = load_weights(model.net, bytes, &weights_path)?;

@@ -110,9 +110,9 @@ impl DeformationNetConfig {
         match self.parameter_count() {
             Some(n) if n <= MAX_PARAMETERS => Ok(()),
             n => Err(Error::setting(
-                "the network's size",
-                n.map_or("more than usize can count".into(), |n| format!("{n} weights")),
-                format!("at most {MAX_PARAMETERS} (a smaller input_size, fewer channels or narrower layers)"),
+                "weights",
+                n.map_or("more than usize can count".into(), |n| n.to_string()),
+                format!("at most {MAX_PARAMETERS}: a smaller input_size, fewer channels or narrower layers"),
             )),
         }
     }
@@ -241,8 +241,8 @@ mod tests {
             let e = c.validate().unwrap_err();
             assert!(matches!(&e, crate::error::Error::Setting { name, .. } if name == key), "{key}: {e}");
         };
-        refused(wide, "the network's size");
-        refused(DeformationNetConfig::new(1000).with_input_size(1 << 40), "the network's size");
+        refused(wide, "weights");
+        refused(DeformationNetConfig::new(1000).with_input_size(1 << 40), "weights");
         refused(DeformationNetConfig::new(10).with_input_size(20), "input_size");
         refused(DeformationNetConfig::new(0), "vertices");
         refused(DeformationNetConfig::new(10).with_channels([4, 0, 4]), "channels");
