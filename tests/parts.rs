@@ -205,7 +205,8 @@ fn tiny_net_config(path: &Path, extra: &str) {
 fn the_correspondence_network_trains_resumes_to_the_same_weights_and_finds_parts() {
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();
-    tiny_net_config(&d.join("net.toml"), "");
+    // With a decaying learning rate, which the resume below must also take up where it paused.
+    tiny_net_config(&d.join("net.toml"), "learning_rate_end = 1e-4\n");
     let whole = puppet(d, &["train-parts", "net.toml", "-o", "whole"]);
     whole.assert_ok();
     assert!(
@@ -245,6 +246,9 @@ fn the_correspondence_network_trains_resumes_to_the_same_weights_and_finds_parts
     puppet(d, &["train-parts", "varied.toml", "-o", "whole", "--resume"]).assert_error(&["varied"]);
     tiny_net_config(&d.join("bad.toml"), "depth = 9\n");
     puppet(d, &["train-parts", "bad.toml", "-o", "bad"]).assert_error(&["bad.toml", "depth"]);
+    assert!(!d.join("bad").exists());
+    tiny_net_config(&d.join("bad_rate.toml"), "learning_rate_end = -1\n");
+    puppet(d, &["train-parts", "bad_rate.toml", "-o", "bad"]).assert_error(&["bad_rate.toml", "learning_rate_end"]);
     assert!(!d.join("bad").exists());
     assert!(weights("whole") == trained, "a refused run changed the weights");
     // The trained network drives `puppet parts` on a synthetic sheet (poses letterboxed to 64²).

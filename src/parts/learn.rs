@@ -29,7 +29,7 @@ use crate::progress::Progress;
 use crate::rng::Rng;
 use crate::train::checkpoint::{self, Checkpoint, CheckpointState, OPTIMIZER, WEIGHTS};
 use crate::train::log::{plot_curves, CsvRow, Curve, TrainLog};
-use crate::train::optim::{adam, optimizer_bytes, optimizer_from_bytes, AdamSettings};
+use crate::train::optim::{adam, learning_rate_at, optimizer_bytes, optimizer_from_bytes, AdamSettings};
 use crate::user_file;
 
 /// Two poses of one character in the network's working square, with the pixels of the first
@@ -66,6 +66,7 @@ pub trait PairSource: Sync {
 /// negatives = 1024        # other pixels of the other pose each anchor is told apart from
 /// temperature = 0.07      # InfoNCE's τ (the usual value; APES does not give one)
 /// learning_rate = 1e-3
+/// learning_rate_end = 1e-5 # optional: half-cosine decay to this by the last step
 /// seed = 1
 /// held_out = 16           # pairs scored every eval_every steps
 /// checkpoint_every = 100
@@ -93,8 +94,11 @@ pub struct LearnConfig {
     pub negatives: usize,
     /// InfoNCE temperature.
     pub temperature: f64,
-    /// Adam's learning rate (constant).
+    /// Adam's learning rate (at the first step, when `learning_rate_end` is set).
     pub learning_rate: f64,
+    /// If set, the learning rate falls from `learning_rate` to this along a half cosine over
+    /// the run; constant otherwise.
+    pub learning_rate_end: Option<f64>,
     /// Seeds the weights and the sampling.
     pub seed: u64,
     /// Held-out pairs scored during training.
@@ -130,6 +134,7 @@ impl Default for LearnConfig {
             negatives: 1024,
             temperature: 0.07,
             learning_rate: 1e-3,
+            learning_rate_end: None,
             seed: 1,
             held_out: 16,
             checkpoint_every: 100,
@@ -179,7 +184,11 @@ impl LearnConfig {
     /// # Errors
     /// [`Error::Setting`] naming the key, its value and what it must be.
     pub fn validate(&self) -> Result<()> {
-        for (key, value) in [("temperature", self.temperature), ("learning_rate", self.learning_rate)] {
+        let end = ("learning_rate_end", self.learning_rate_end);
+        for (key, value) in [("temperature", self.temperature), ("learning_rate", self.learning_rate)]
+            .into_iter()
+            .chain(end.1.map(|v| (end.0, v)))
+        {
             if !(value > 0.0 && value.is_finite()) {
                 return Err(Error::setting(key, value, "a positive number"));
             }
@@ -522,6 +531,12 @@ impl Trainer {
         }
     }
 
+    /// Adam's step size at optimiser step `step` (from 0).
+    fn learning_rate_at(&self, step: u64) -> f64 {
+        let c = &self.config;
+        learning_rate_at(c.learning_rate, c.learning_rate_end, step, c.steps)
+    }
+
     fn net(&self) -> &CorrespondenceNet {
         self.net.as_ref().expect("a network between steps")
     }
@@ -574,7 +589,7 @@ impl Trainer {
         }
         let net = self.net.take().expect("a network between steps");
         let grads = GradientsParams::from_grads(loss.backward(), &net);
-        self.net = Some(self.optimizer.step(self.config.learning_rate, net, grads));
+        self.net = Some(self.optimizer.step(self.learning_rate_at(step), net, grads));
         Ok(value)
     }
 

@@ -167,7 +167,7 @@ pub fn check_same_config(dir: &Path, checkpoint: &Checkpoint, config: &serde_jso
     })
 }
 
-/// The dotted keys whose values differ between two configs, but those `ignored` (for training:
+/// The dotted keys whose values differ between two configs (a null value counts as absent), but those `ignored` (for training:
 /// `output`, as a moved run folder is the same run, and `train.steps`, as a resume may extend
 /// the run).
 pub fn changed_keys(a: &serde_json::Value, b: &serde_json::Value, ignored: &[&str]) -> Vec<String> {
@@ -178,7 +178,7 @@ pub fn changed_keys(a: &serde_json::Value, b: &serde_json::Value, ignored: &[&st
                 let key = if prefix.is_empty() { k.clone() } else { format!("{prefix}.{k}") };
                 walk(&key, x.get(k), y.get(k), ignored, out);
             }
-        } else if a != b && !ignored.contains(&prefix) {
+        } else if a.filter(|v| !v.is_null()) != b.filter(|v| !v.is_null()) && !ignored.contains(&prefix) {
             out.push(prefix.to_string());
         }
     }
@@ -233,5 +233,13 @@ mod tests {
         let ignored = ["output", "train.steps"];
         assert_eq!(changed_keys(&a, &b, &ignored), ["loss.arap", "train.batch"]);
         assert!(changed_keys(&a, &a, &ignored).is_empty());
+        // A key added later with no value (an unset option) reads as absent, so older
+        // checkpoints still resume.
+        let c = serde_json::json!({"output": "/a", "seed": 1, "train": {"steps": 10, "batch": 4, "end": null}, "loss": {"arap": 1.0}});
+        assert!(changed_keys(&a, &c, &ignored).is_empty());
+        assert_eq!(
+            changed_keys(&c, &serde_json::json!({"train": {"end": 1.0}}), &[]),
+            ["loss", "output", "seed", "train.batch", "train.end", "train.steps"]
+        );
     }
 }

@@ -378,11 +378,7 @@ impl TrainConfig {
 
     /// Adam's step size at `step`: constant, or a half cosine down to `learning_rate_end`.
     pub fn learning_rate_at(&self, step: u64) -> f64 {
-        let start = self.train.learning_rate;
-        match self.train.learning_rate_end {
-            None => start,
-            Some(end) => end + (start - end) * 0.5 * (1.0 + (std::f64::consts::PI * self.progress(step)).cos()),
-        }
+        super::optim::learning_rate_at(self.train.learning_rate, self.train.learning_rate_end, step, self.train.steps)
     }
 }
 

@@ -36,6 +36,20 @@ use serde::{Deserialize, Serialize};
 
 use crate::error::{Error, Result};
 
+/// Adam's step size at `step` of a run of `steps`: `start` throughout, or, with an `end`, falling
+/// from `start` at the first step to `end` at the last along a half cosine (Loshchilov & Hutter
+/// 2017, "SGDR", without restarts). A function of the step alone, so a resumed run takes the
+/// same steps as an uninterrupted one.
+pub fn learning_rate_at(start: f64, end: Option<f64>, step: u64, steps: u64) -> f64 {
+    let Some(end) = end else { return start };
+    let progress = if steps > 1 {
+        (step as f64 / (steps - 1) as f64).clamp(0.0, 1.0)
+    } else {
+        1.0
+    };
+    end + (start - end) * 0.5 * (1.0 + (std::f64::consts::PI * progress).cos())
+}
+
 /// Adam's hyper-parameters except the learning rate, which is given at every step
 /// (`ModuleOptimizer::step(lr, module, grads)`): the `[train.adam]` table of a training config.
 /// Defaults are PyTorch's (ε = 1e-8, not Burn's 1e-5).
