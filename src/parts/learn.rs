@@ -184,10 +184,10 @@ impl LearnConfig {
     /// # Errors
     /// [`Error::Setting`] naming the key, its value and what it must be.
     pub fn validate(&self) -> Result<()> {
-        let end = ("learning_rate_end", self.learning_rate_end);
+        let end = self.learning_rate_end.map(|v| ("learning_rate_end", v));
         for (key, value) in [("temperature", self.temperature), ("learning_rate", self.learning_rate)]
             .into_iter()
-            .chain(end.1.map(|v| (end.0, v)))
+            .chain(end)
         {
             if !(value > 0.0 && value.is_finite()) {
                 return Err(Error::setting(key, value, "a positive number"));
@@ -531,12 +531,6 @@ impl Trainer {
         }
     }
 
-    /// Adam's step size at optimiser step `step` (from 0).
-    fn learning_rate_at(&self, step: u64) -> f64 {
-        let c = &self.config;
-        learning_rate_at(c.learning_rate, c.learning_rate_end, step, c.steps)
-    }
-
     fn net(&self) -> &CorrespondenceNet {
         self.net.as_ref().expect("a network between steps")
     }
@@ -589,7 +583,9 @@ impl Trainer {
         }
         let net = self.net.take().expect("a network between steps");
         let grads = GradientsParams::from_grads(loss.backward(), &net);
-        self.net = Some(self.optimizer.step(self.learning_rate_at(step), net, grads));
+        let c = &self.config;
+        let rate = learning_rate_at(c.learning_rate, c.learning_rate_end, step, c.steps);
+        self.net = Some(self.optimizer.step(rate, net, grads));
         Ok(value)
     }
 

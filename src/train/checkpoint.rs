@@ -167,9 +167,10 @@ pub fn check_same_config(dir: &Path, checkpoint: &Checkpoint, config: &serde_jso
     })
 }
 
-/// The dotted keys whose values differ between two configs (a null value counts as absent), but those `ignored` (for training:
-/// `output`, as a moved run folder is the same run, and `train.steps`, as a resume may extend
-/// the run).
+/// The dotted keys whose values differ between two configs (a null value counts as absent, so an
+/// option added after a checkpoint was written and left unset still matches it), but those
+/// `ignored` (for training: `output`, as a moved run folder is the same run, and `train.steps`,
+/// as a resume may extend the run).
 pub fn changed_keys(a: &serde_json::Value, b: &serde_json::Value, ignored: &[&str]) -> Vec<String> {
     fn walk(prefix: &str, a: Option<&serde_json::Value>, b: Option<&serde_json::Value>, ignored: &[&str], out: &mut Vec<String>) {
         if let (Some(serde_json::Value::Object(x)), Some(serde_json::Value::Object(y))) = (a, b) {

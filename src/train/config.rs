@@ -361,19 +361,10 @@ impl TrainConfig {
         }
     }
 
-    /// How far `step` is through the run, 0 at the first step and 1 at the last.
-    fn progress(&self, step: u64) -> f64 {
-        if self.train.steps > 1 {
-            (step as f64 / (self.train.steps - 1) as f64).clamp(0.0, 1.0)
-        } else {
-            1.0
-        }
-    }
-
     /// σ at `step` of `steps` (geometric from `sigma[0]` to `sigma[1]`).
     pub fn sigma_at(&self, step: u64) -> f32 {
         let [a, b] = self.train.sigma;
-        a * (b / a).powf(self.progress(step) as f32)
+        a * (b / a).powf(super::optim::run_progress(step, self.train.steps) as f32)
     }
 
     /// Adam's step size at `step`: constant, or a half cosine down to `learning_rate_end`.

@@ -42,12 +42,17 @@ use crate::error::{Error, Result};
 /// same steps as an uninterrupted one.
 pub fn learning_rate_at(start: f64, end: Option<f64>, step: u64, steps: u64) -> f64 {
     let Some(end) = end else { return start };
-    let progress = if steps > 1 {
+    end + (start - end) * 0.5 * (1.0 + (std::f64::consts::PI * run_progress(step, steps)).cos())
+}
+
+/// How far `step` is through a run of `steps`: 0 at the first step, 1 at the last (and for a
+/// run of one step).
+pub fn run_progress(step: u64, steps: u64) -> f64 {
+    if steps > 1 {
         (step as f64 / (steps - 1) as f64).clamp(0.0, 1.0)
     } else {
         1.0
-    };
-    end + (start - end) * 0.5 * (1.0 + (std::f64::consts::PI * progress).cos())
+    }
 }
 
 /// Adam's hyper-parameters except the learning rate, which is given at every step
