@@ -5,6 +5,8 @@
 //! sums over the batch are taken per image and added in image order, so results do not depend
 //! on the thread count or on scheduling (training stays reproducible).
 
+use std::cell::Cell;
+
 use faer::linalg::matmul::matmul;
 use faer::{Accum, MatMut, MatRef, Par};
 use rayon::prelude::*;
@@ -159,18 +161,17 @@ impl ConvGeometry {
         let mut y = vec![0f32; x.len() / self.input_len() * self.output_len()];
         y.par_chunks_mut(self.output_len())
             .zip(x.par_chunks(self.input_len()))
-            .for_each_init(
-                || vec![0f32; n * p],
-                |col, (yb, xb)| {
+            .for_each(|(yb, xb)| {
+                with_patches(n * p, |col| {
                     self.im2col(xb, col);
                     let w = MatRef::from_row_major_slice(weight, o, n);
                     let cols = MatRef::from_row_major_slice(col, n, p);
                     matmul(MatMut::from_row_major_slice_mut(yb, o, p), Accum::Replace, w, cols, 1.0, Par::Seq);
-                    for (row, &b) in yb.chunks_exact_mut(p).zip(bias) {
-                        row.iter_mut().for_each(|v| *v += b);
-                    }
-                },
-            );
+                });
+                for (row, &b) in yb.chunks_exact_mut(p).zip(bias) {
+                    row.iter_mut().for_each(|v| *v += b);
+                }
+            });
         y
     }
 
@@ -194,19 +195,18 @@ impl ConvGeometry {
             .par_chunks_mut(self.weight_len() + o)
             .zip(x.par_chunks(self.input_len()))
             .zip(dy.par_chunks(self.output_len()))
-            .for_each_init(
-                || vec![0f32; n * p],
-                |col, ((part, xb), dyb)| {
+            .for_each(|((part, xb), dyb)| {
+                let (dw, db) = part.split_at_mut(self.weight_len());
+                with_patches(n * p, |col| {
                     self.im2col(xb, col);
-                    let (dw, db) = part.split_at_mut(self.weight_len());
                     let g = MatRef::from_row_major_slice(dyb, o, p);
                     let cols_t = MatRef::from_row_major_slice(col, n, p).transpose();
                     matmul(MatMut::from_row_major_slice_mut(dw, o, n), Accum::Replace, g, cols_t, 1.0, Par::Seq);
-                    for (d, row) in db.iter_mut().zip(dyb.chunks_exact(p)) {
-                        *d = row.iter().sum();
-                    }
-                },
-            );
+                });
+                for (d, row) in db.iter_mut().zip(dyb.chunks_exact(p)) {
+                    *d = row.iter().sum();
+                }
+            });
         let mut sums = vec![0f32; self.weight_len() + o];
         for part in parts.chunks_exact(self.weight_len() + o) {
             sums.iter_mut().zip(part).for_each(|(s, v)| *s += v);
@@ -247,17 +247,37 @@ impl ConvGeometry {
         let mut dx = vec![0f32; dy.len() / self.output_len() * self.input_len()];
         dx.par_chunks_mut(self.input_len())
             .zip(dy.par_chunks(self.output_len()))
-            .for_each_init(
-                || vec![0f32; n * p],
-                |dcol, (dxb, dyb)| {
+            .for_each(|(dxb, dyb)| {
+                with_patches(n * p, |dcol| {
                     let w_t = MatRef::from_row_major_slice(weight, o, n).transpose();
                     let g = MatRef::from_row_major_slice(dyb, o, p);
                     matmul(MatMut::from_row_major_slice_mut(dcol, n, p), Accum::Replace, w_t, g, 1.0, Par::Seq);
                     self.col2im(dcol, dxb);
-                },
-            );
+                })
+            });
         dx
     }
+}
+
+thread_local! {
+    /// This thread's patch matrix, kept between calls (see [`with_patches`]).
+    static PATCHES: Cell<Vec<f32>> = const { Cell::new(Vec::new()) };
+}
+
+/// Runs `f` on a patch matrix of `len` values lent by this thread's buffer. Every user
+/// overwrites all of it (the unfolding writes the padding's zeros too; the products replace), so
+/// the buffer is neither cleared nor freed between calls: a fresh zeroed matrix per image and call
+/// cost a large share of a training step in page faults and memset (benches/README.md "parts").
+/// A thread keeps the largest matrix it has lent, one image's worth. A nested call (none today)
+/// would find the buffer taken and allocate its own.
+fn with_patches<R>(len: usize, f: impl FnOnce(&mut [f32]) -> R) -> R {
+    let mut buffer = PATCHES.take();
+    if buffer.len() < len {
+        buffer.resize(len, 0.0);
+    }
+    let result = f(&mut buffer[..len]);
+    PATCHES.set(buffer);
+    result
 }
 
 /// The most values a patch matrix of several images may hold (64 MiB of f32): a larger batch is

@@ -25,7 +25,7 @@ use burn::tensor::{Tensor, TensorData};
 
 use super::conv_kernel::ConvGeometry;
 use crate::backend::Inner;
-use crate::render::burn_op::host;
+use crate::render::burn_op::{host, register_gradient};
 
 /// `conv.forward(x)` for a square-kernel convolution with `stride` and `padding` zeros on every
 /// side (the ones `conv` was built with).
@@ -245,9 +245,7 @@ impl<B: Backend> Backward<B, 3> for ConvBackward {
             .direction
             .gradients(&s.geometry, &s.input, &s.weight, &host::<B>(upstream), input.is_some());
         let mut register = |node: Option<NodeId>, values: Vec<f32>, dims: Vec<usize>| {
-            if let Some(id) = node {
-                grads.register::<B>(id, B::float_from_data(TensorData::new(values, dims), &device));
-            }
+            register_gradient::<B>(grads, node, values, dims, &device);
         };
         if let Some(dx) = dx {
             let [c, h, w] = s.direction.input_shape(&s.geometry);

@@ -16,10 +16,10 @@ use burn::config::Config;
 use burn::module::Module;
 use burn::nn::conv::{Conv2d, Conv2dConfig};
 use burn::nn::{InstanceNorm, InstanceNormConfig, PaddingConfig2d};
-use burn::tensor::activation::{leaky_relu, sigmoid};
 use burn::tensor::{Device, Tensor};
 
 use super::conv_op::conv2d;
+use super::gate_op::gated_norm;
 
 /// The blocks' kernel side (pix2pix's).
 const KERNEL: usize = 4;
@@ -146,12 +146,6 @@ impl CorrespondenceNetConfig {
     }
 }
 
-/// Features times a sigmoid gate: the two halves of a block's channels.
-fn gate(h: Tensor<4>, norm: &InstanceNorm) -> Tensor<4> {
-    let [features, gate] = h.chunk(2, 1).try_into().expect("an even channel count");
-    leaky_relu(norm.forward(features), SLOPE) * sigmoid(gate)
-}
-
 /// Each pixel of `x` `[B, C, H, W]` repeated 2×2: `[B, C, 2H, 2W]`.
 fn double(x: Tensor<4>) -> Tensor<4> {
     let [b, c, h, w] = x.dims();
@@ -163,10 +157,16 @@ fn double(x: Tensor<4>) -> Tensor<4> {
 impl CorrespondenceNet {
     /// Unit features `[B, F, S, S]` of poses `[B, 4, S, S]`.
     pub fn forward(&self, x: Tensor<4>) -> Tensor<4> {
+        unit_length(self.raw_forward(x))
+    }
+
+    /// The features before their scaling to unit length (training scales only the pixels its
+    /// loss samples).
+    pub fn raw_forward(&self, x: Tensor<4>) -> Tensor<4> {
         let mut levels = vec![x.clone()];
         for down in &self.downs {
             let h = conv2d(&down.conv, levels.last().expect("the input").clone(), 2, 1);
-            levels.push(gate(h, &down.norm));
+            levels.push(gated_norm(h, &down.norm, SLOPE));
         }
         let depth = self.downs.len();
         let mut y = levels[depth].clone();
@@ -174,12 +174,16 @@ impl CorrespondenceNet {
             if i < depth - 1 {
                 y = Tensor::cat(vec![y, levels[i + 1].clone()], 1);
             }
-            y = gate(conv2d(&self.ups[i].conv, double(y), 1, 1), &self.ups[i].norm);
+            y = gated_norm(conv2d(&self.ups[i].conv, double(y), 1, 1), &self.ups[i].norm, SLOPE);
         }
-        let f = conv2d(&self.head, Tensor::cat(vec![y, x], 1), 1, 1);
-        let norm = (f.clone().powi_scalar(2).sum_dim(1) + NORM_EPSILON).sqrt();
-        f / norm
+        conv2d(&self.head, Tensor::cat(vec![y, x], 1), 1, 1)
     }
+}
+
+/// `f` with every vector along axis 1 (a pixel's features) scaled to unit length.
+pub fn unit_length<const D: usize>(f: Tensor<D>) -> Tensor<D> {
+    let norm = (f.clone().powi_scalar(2).sum_dim(1) + NORM_EPSILON).sqrt();
+    f / norm
 }
 
 #[cfg(test)]

@@ -11,6 +11,8 @@ pub mod correspondence;
 pub mod decoder;
 pub mod deformation;
 pub mod folder;
+pub mod gate_kernel;
+pub mod gate_op;
 pub mod letterbox;
 
 pub use bundle::Model;

@@ -24,7 +24,7 @@ use crate::atomic_file::{record, write_atomic, Outputs};
 use crate::backend::scalar;
 use crate::error::{Error, Result};
 use crate::model::bundle::{load_weights, max_weights_bytes, weights_bytes};
-use crate::model::correspondence::{CorrespondenceNet, CorrespondenceNetConfig};
+use crate::model::correspondence::{unit_length, CorrespondenceNet, CorrespondenceNetConfig};
 use crate::progress::Progress;
 use crate::rng::Rng;
 use crate::train::checkpoint::{self, Checkpoint, CheckpointState, OPTIMIZER, WEIGHTS};
@@ -551,25 +551,43 @@ impl Trainer {
             .copied()
             .collect();
         let x = Tensor::<4>::from_data(TensorData::new(data, [2 * n, 4, s, s]), &self.device);
-        let f = self.net().forward(x);
+        // Every pixel's raw features as rows `[2n·S², F]`; the loss gathers the few it samples in
+        // one selection and normalises only those (the same values as selecting from unit
+        // features, without normalising and back-propagating every pixel of the batch).
         let channels = self.config.features;
-        let mut terms = Vec::new();
+        let rows = self.net().raw_forward(x).permute([0, 2, 3, 1]).reshape([2 * n * s * s, channels]);
+        let mut samples = Vec::new();
         for (k, pair) in pairs.iter().enumerate() {
-            let (Some(a), Some(b)) = (image_features(&f, k, channels, s), image_features(&f, n + k, channels, s)) else {
-                continue;
-            };
             let flipped: Vec<[u32; 2]> = pair.matches.iter().map(|m| [m[1], m[0]]).collect();
-            for (from, to, matches, mask) in [(&a, &b, &pair.matches, &pair.masks[1]), (&b, &a, &flipped, &pair.masks[0])] {
-                if let Some(term) = self.info_nce(from, to, matches, mask, &mut rng) {
-                    terms.push(term);
+            for (from, to, matches, mask) in [(k, n + k, &pair.matches, &pair.masks[1]), (n + k, k, &flipped, &pair.masks[0])] {
+                let offsets = [from * s * s, to * s * s];
+                if let Some(sample) = self.sample(matches, mask, offsets, &mut rng) {
+                    samples.push(sample);
                 }
             }
         }
-        if terms.is_empty() {
+        if samples.is_empty() {
             return Err(Error::format(
                 "training pairs",
                 format!("step {}: no pair has a matched pixel", step + 1),
             ));
+        }
+        let indices: Vec<i64> = samples
+            .iter()
+            .flat_map(|t| t.sources.iter().chain(&t.candidates))
+            .copied()
+            .collect();
+        let count = indices.len();
+        let picked = Tensor::<1, Int>::from_data(TensorData::new(indices, [count]), &self.device);
+        let gathered = unit_length(rows.select(0, picked));
+        let mut start = 0;
+        let mut terms = Vec::with_capacity(samples.len());
+        for sample in &samples {
+            let (anchors, candidates) = (sample.sources.len(), sample.candidates.len());
+            let a = gathered.clone().narrow(0, start, anchors);
+            let b = gathered.clone().narrow(0, start + anchors, candidates);
+            terms.push(self.info_nce(a, b));
+            start += anchors + candidates;
         }
         let count = terms.len() as f64;
         let loss = Tensor::cat(terms, 0).sum() / count;
@@ -589,32 +607,39 @@ impl Trainer {
         Ok(value)
     }
 
-    /// The InfoNCE loss of anchors sampled from `matches` (pixel of `from`, pixel of `to`):
-    /// each must pick its match among itself and negatives drawn from `to`'s character pixels.
-    fn info_nce(&self, from: &Tensor<2>, to: &Tensor<2>, matches: &[[u32; 2]], mask: &[bool], rng: &mut Rng) -> Option<Tensor<1>> {
+    /// Samples one InfoNCE term's pixels: anchors drawn from `matches` (pixel of the first
+    /// image, pixel of the second), each with its match and, shared by all, negatives drawn from
+    /// the second image's character pixels `mask`. `offsets` place the two images' pixels among
+    /// the batch's rows.
+    fn sample(&self, matches: &[[u32; 2]], mask: &[bool], offsets: [usize; 2], rng: &mut Rng) -> Option<Sample> {
         let foreground: Vec<u32> = (0..mask.len() as u32).filter(|&i| mask[i as usize]).collect();
         if matches.is_empty() || foreground.is_empty() {
             return None;
         }
         let anchors = self.config.anchors.min(matches.len());
         let picked: Vec<[u32; 2]> = (0..anchors).map(|_| matches[rng.below(matches.len())]).collect();
-        let index = |v: Vec<i64>| Tensor::<1, Int>::from_data(TensorData::new(v.clone(), [v.len()]), &self.device);
-        let sources = index(picked.iter().map(|m| i64::from(m[0])).collect());
-        let candidates = index(
-            picked
+        let row = |offset: usize, pixel: u32| (offset + pixel as usize) as i64;
+        Some(Sample {
+            sources: picked.iter().map(|m| row(offsets[0], m[0])).collect(),
+            candidates: picked
                 .iter()
-                .map(|m| i64::from(m[1]))
-                .chain((0..self.config.negatives).map(|_| i64::from(foreground[rng.below(foreground.len())])))
+                .map(|m| row(offsets[1], m[1]))
+                .chain((0..self.config.negatives).map(|_| row(offsets[1], foreground[rng.below(foreground.len())])))
                 .collect(),
-        );
+        })
+    }
+
+    /// The InfoNCE loss of anchors `a` `[N, F]` whose matches are the first N rows of the
+    /// candidates `b` `[N + M, F]` (unit features): each must pick its match among itself and
+    /// the M negatives.
+    fn info_nce(&self, a: Tensor<2>, b: Tensor<2>) -> Tensor<1> {
+        let anchors = a.dims()[0];
         let tau = self.config.temperature;
-        let a = from.clone().select(0, sources); // [N, F]
-        let b = to.clone().select(0, candidates); // [N + M, F]
         let positive = (a.clone() * b.clone().narrow(0, 0, anchors)).sum_dim(1) / tau;
         let logits = a.matmul(b.transpose()) / tau;
         let peak = logits.clone().detach().max_dim(1);
         let log_sum = (logits - peak.clone()).exp().sum_dim(1).log() + peak;
-        Some((log_sum - positive).mean())
+        (log_sum - positive).mean()
     }
 
     /// The held-out pairs' match score with the current weights.
@@ -657,7 +682,10 @@ impl Trainer {
     }
 }
 
-/// Image `k`'s features of the batch `f` `[B, F, S, S]` as rows `[S², F]`, if it exists.
-fn image_features(f: &Tensor<4>, k: usize, channels: usize, size: usize) -> Option<Tensor<2>> {
-    (k < f.dims()[0]).then(|| f.clone().narrow(0, k, 1).reshape([channels, size * size]).transpose())
+/// One InfoNCE term's rows of the batch's features: its anchors, then their matches and the
+/// negatives.
+#[derive(Debug)]
+struct Sample {
+    sources: Vec<i64>,
+    candidates: Vec<i64>,
 }

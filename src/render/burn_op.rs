@@ -13,6 +13,7 @@ use burn::backend::autodiff::checkpoint::base::Checkpointer;
 use burn::backend::autodiff::checkpoint::strategy::NoCheckpointing;
 use burn::backend::autodiff::grads::Gradients;
 use burn::backend::autodiff::ops::{Backward, Ops, OpsKind};
+use burn::backend::autodiff::NodeId;
 use burn::backend::ops::FloatTensorOps;
 use burn::backend::{Autodiff, Backend, TensorMetadata};
 use burn::tensor::{read_sync, Tensor, TensorData};
@@ -90,6 +91,20 @@ trait Pipe: Sized {
     }
 }
 impl<T> Pipe for T {}
+
+/// Registers `values` shaped `dims` as the gradient of `node` (if the operation's parent is
+/// tracked), on `device`: the last step of a custom operation's backward.
+pub(crate) fn register_gradient<B: Backend>(
+    grads: &mut Gradients,
+    node: Option<NodeId>,
+    values: Vec<f32>,
+    dims: Vec<usize>,
+    device: &B::Device,
+) {
+    if let Some(id) = node {
+        grads.register::<B>(id, B::float_from_data(TensorData::new(values, dims), device));
+    }
+}
 
 /// A backend tensor's values on the host as f32.
 pub(crate) fn host<B: Backend>(t: B::FloatTensorPrimitive) -> Vec<f32> {
