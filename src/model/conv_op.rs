@@ -25,7 +25,7 @@ use burn::tensor::{Tensor, TensorData};
 
 use super::conv_kernel::ConvGeometry;
 use crate::backend::Inner;
-use crate::render::burn_op::{host, register_gradient};
+use crate::render::burn_op::{host, register_gradient, HostValues};
 
 /// `conv.forward(x)` for a square-kernel convolution with `stride` and `padding` zeros on every
 /// side (the ones `conv` was built with).
@@ -184,11 +184,11 @@ fn apply(direction: Direction, geometry: ConvGeometry, x: &Tensor<4>, weight: &T
         bias_or_zeros.clone().try_into_primitive::<Autodiff<Inner>>().ok(),
     ) {
         let (xs, ws, bs) = (
-            host::<Inner>(ax.primitive().clone()),
-            host::<Inner>(aw.primitive().clone()),
-            host::<Inner>(ab.primitive().clone()),
+            HostValues::new(ax.primitive().clone()),
+            HostValues::new(aw.primitive().clone()),
+            HostValues::new(ab.primitive().clone()),
         );
-        let y = output(direction.run(&geometry, &xs, &ws, &bs));
+        let y = output(direction.run(&geometry, xs.values(), ws.values(), bs.values()));
         let out = match ConvBackward
             .prepare::<NoCheckpointing>([ax.node(), aw.node(), ab.node()])
             .compute_bound()
@@ -226,8 +226,8 @@ fn apply(direction: Direction, geometry: ConvGeometry, x: &Tensor<4>, weight: &T
 struct Saved {
     direction: Direction,
     geometry: ConvGeometry,
-    input: Vec<f32>,
-    weight: Vec<f32>,
+    input: HostValues,
+    weight: HostValues,
 }
 
 #[derive(Debug)]
@@ -241,15 +241,19 @@ impl<B: Backend> Backward<B, 3> for ConvBackward {
         let upstream = grads.consume::<B>(&ops.node);
         let device = upstream.device();
         let s = &ops.state;
-        let (dx, dw, db) = s
-            .direction
-            .gradients(&s.geometry, &s.input, &s.weight, &host::<B>(upstream), input.is_some());
+        let (dx, dw, db) = s.direction.gradients(
+            &s.geometry,
+            s.input.values(),
+            s.weight.values(),
+            &host::<B>(upstream),
+            input.is_some(),
+        );
         let mut register = |node: Option<NodeId>, values: Vec<f32>, dims: Vec<usize>| {
             register_gradient::<B>(grads, node, values, dims, &device);
         };
         if let Some(dx) = dx {
             let [c, h, w] = s.direction.input_shape(&s.geometry);
-            let batch = s.input.len() / (c * h * w);
+            let batch = s.input.values().len() / (c * h * w);
             register(input.map(|n| n.id), dx, vec![batch, c, h, w]);
         }
         // `[O, C, K, K]` for a convolution; the same numbers are Burn's `[I, O, K, K]` of its

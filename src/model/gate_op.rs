@@ -19,7 +19,7 @@ use burn::tensor::{Tensor, TensorData};
 
 use super::gate_kernel::{Gate, PlaneStats};
 use crate::backend::Inner;
-use crate::render::burn_op::{host, register_gradient};
+use crate::render::burn_op::{host, register_gradient, HostValues};
 
 /// `leaky_relu(norm(features), slope) · sigmoid(gates)` for a block output `h` `[B, 2C, H, W]`
 /// whose first `C` channels are features and last `C` gates: `[B, C, H, W]`.
@@ -61,11 +61,11 @@ fn apply(gate: Gate, [height, width]: [usize; 2], h: &Tensor<4>, scale: &Tensor<
         ad(shift.clone()),
     ) {
         let (hs, scales, shifts) = (
-            host::<Inner>(ah.primitive().clone()),
-            host::<Inner>(ascale.primitive().clone()),
-            host::<Inner>(ashift.primitive().clone()),
+            HostValues::new(ah.primitive().clone()),
+            HostValues::new(ascale.primitive().clone()),
+            HostValues::new(ashift.primitive().clone()),
         );
-        let (y, stats) = gate.forward(&hs, &scales, &shifts);
+        let (y, stats) = gate.forward(hs.values(), scales.values(), shifts.values());
         let out = match GateBackward
             .prepare::<NoCheckpointing>([ah.node(), ascale.node(), ashift.node()])
             .compute_bound()
@@ -102,9 +102,9 @@ struct Saved {
     gate: Gate,
     /// The input's shape.
     dims: [usize; 4],
-    input: Vec<f32>,
-    scale: Vec<f32>,
-    shift: Vec<f32>,
+    input: HostValues,
+    scale: HostValues,
+    shift: HostValues,
     stats: Vec<PlaneStats>,
 }
 
@@ -119,7 +119,9 @@ impl<B: Backend> Backward<B, 3> for GateBackward {
         let upstream = grads.consume::<B>(&ops.node);
         let device = upstream.device();
         let s = &ops.state;
-        let g = s.gate.backward(&s.input, &s.scale, &s.shift, &s.stats, &host::<B>(upstream));
+        let g = s
+            .gate
+            .backward(s.input.values(), s.scale.values(), s.shift.values(), &s.stats, &host::<B>(upstream));
         let channels = s.gate.channels;
         register_gradient::<B>(grads, input.map(|n| n.id), g.input, s.dims.to_vec(), &device);
         register_gradient::<B>(grads, scale.map(|n| n.id), g.scale, vec![channels], &device);

@@ -438,13 +438,29 @@ pub fn train_correspondence(
         within_2px: f64::NAN,
         mean_error: f64::NAN,
     };
-    while step < stop {
-        let t0 = Instant::now();
-        let pairs: Vec<TrainingPair> = (0..config.batch as u64)
+    let batch = |step: u64| -> Result<Vec<TrainingPair>> {
+        (0..config.batch as u64)
             .into_par_iter()
             .map(|k| train.pair(step * config.batch as u64 + k))
-            .collect::<Result<_>>()?;
-        let loss = run.step(step, &pairs)?;
+            .collect()
+    };
+    let t0 = Instant::now();
+    let mut pairs = if step < stop { batch(step)? } else { Vec::new() };
+    elapsed += t0.elapsed().as_secs_f64();
+    while step < stop {
+        let t0 = Instant::now();
+        // The next step's pairs are made while this one trains: the step leaves a core idle
+        // for much of its time (Burn's operations between the kernels run on one).
+        let (loss, next) = std::thread::scope(|scope| {
+            let next = (step + 1 < stop).then(|| scope.spawn(|| batch(step + 1)));
+            let loss = run.step(step, &pairs);
+            let next = next.map(|handle| handle.join().unwrap_or_else(|panic| std::panic::resume_unwind(panic)));
+            (loss, next)
+        });
+        let loss = loss?;
+        if let Some(next) = next {
+            pairs = next?;
+        }
         step += 1;
         elapsed += t0.elapsed().as_secs_f64();
         let mut row = LearnRow {
@@ -551,11 +567,13 @@ impl Trainer {
             .copied()
             .collect();
         let x = Tensor::<4>::from_data(TensorData::new(data, [2 * n, 4, s, s]), &self.device);
-        // Every pixel's raw features as rows `[2n·S², F]`; the loss gathers the few it samples in
-        // one selection and normalises only those (the same values as selecting from unit
-        // features, without normalising and back-propagating every pixel of the batch).
+        // The batch's raw features, flat in their own `[2n, F, S²]` order: the loss gathers the
+        // few pixels it samples in one selection and normalises only those (the same values as
+        // selecting from unit features, without normalising and back-propagating every pixel of
+        // the batch, and without transposing the batch to pixel-major rows and back).
         let channels = self.config.features;
-        let rows = self.net().raw_forward(x).permute([0, 2, 3, 1]).reshape([2 * n * s * s, channels]);
+        let plane = s * s;
+        let features = self.net().raw_forward(x).reshape([2 * n * channels * plane]);
         let mut samples = Vec::new();
         for (k, pair) in pairs.iter().enumerate() {
             let flipped: Vec<[u32; 2]> = pair.matches.iter().map(|m| [m[1], m[0]]).collect();
@@ -572,14 +590,11 @@ impl Trainer {
                 format!("step {}: no pair has a matched pixel", step + 1),
             ));
         }
-        let indices: Vec<i64> = samples
-            .iter()
-            .flat_map(|t| t.sources.iter().chain(&t.candidates))
-            .copied()
-            .collect();
+        let rows = samples.iter().flat_map(|t| t.sources.iter().chain(&t.candidates)).copied();
+        let indices = feature_indices(rows, channels, plane);
         let count = indices.len();
         let picked = Tensor::<1, Int>::from_data(TensorData::new(indices, [count]), &self.device);
-        let gathered = unit_length(rows.select(0, picked));
+        let gathered = unit_length(features.select(0, picked).reshape([count / channels, channels]));
         let mut start = 0;
         let mut terms = Vec::with_capacity(samples.len());
         for sample in &samples {
@@ -682,10 +697,49 @@ impl Trainer {
     }
 }
 
+/// Where the features of each of `rows` lie in a flat `[B, F, P]` tensor of `channels` (F)
+/// features per pixel: row r is pixel r % P of image r / P, and its feature f lies at
+/// (image·F + f)·P + pixel. Row by row, the F features of each.
+fn feature_indices(rows: impl Iterator<Item = i64>, channels: usize, plane: usize) -> Vec<i64> {
+    let (channels, plane) = (channels as i64, plane as i64);
+    rows.flat_map(|row| {
+        let (image, pixel) = (row / plane, row % plane);
+        (0..channels).map(move |f| (image * channels + f) * plane + pixel)
+    })
+    .collect()
+}
+
 /// One InfoNCE term's rows of the batch's features: its anchors, then their matches and the
 /// negatives.
 #[derive(Debug)]
 struct Sample {
     sources: Vec<i64>,
     candidates: Vec<i64>,
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Selecting the rows' features from the flat channel-first tensor gives what selecting
+    /// rows of the pixel-major transpose gives.
+    #[test]
+    fn feature_indices_pick_the_rows_of_the_transpose() {
+        let device = crate::backend::device();
+        let (batch, channels, plane) = (3, 4, 5);
+        let values: Vec<f32> = (0..batch * channels * plane).map(|i| (i * 37 % 101) as f32).collect();
+        let features = Tensor::<3>::from_data(TensorData::new(values, [batch, channels, plane]), &device);
+        let rows = [7i64, 0, 14, 9, 4];
+        let pick = |indices: Vec<i64>| Tensor::<1, Int>::from_data(TensorData::new(indices.clone(), [indices.len()]), &device);
+        let flat = features
+            .clone()
+            .reshape([batch * channels * plane])
+            .select(0, pick(feature_indices(rows.into_iter(), channels, plane)))
+            .reshape([rows.len(), channels]);
+        let transposed = features
+            .permute([0, 2, 1])
+            .reshape([batch * plane, channels])
+            .select(0, pick(rows.to_vec()));
+        assert_eq!(flat.into_data(), transposed.into_data());
+    }
 }

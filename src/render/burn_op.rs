@@ -15,6 +15,7 @@ use burn::backend::autodiff::grads::Gradients;
 use burn::backend::autodiff::ops::{Backward, Ops, OpsKind};
 use burn::backend::autodiff::NodeId;
 use burn::backend::ops::FloatTensorOps;
+use burn::backend::tensor::FloatTensor;
 use burn::backend::{Autodiff, Backend, TensorMetadata};
 use burn::tensor::{read_sync, Tensor, TensorData};
 
@@ -111,6 +112,49 @@ pub(crate) fn host<B: Backend>(t: B::FloatTensorPrimitive) -> Vec<f32> {
     read_sync(B::float_into_data(t))
         .map(|d| d.convert::<f32>().try_into_vec::<f32>().expect("converted to f32"))
         .expect("reading a CPU tensor cannot fail")
+}
+
+/// A tensor's values on the host as f32, read in place: the backend's own buffer when it is a
+/// contiguous f32 buffer (Flex's; the tensor is shared, not copied), a copy otherwise. Custom
+/// operations read their inputs and keep them for the backward pass this way; copying them cost
+/// a full pass over every activation of the network, on one core, each way.
+#[derive(Debug)]
+pub(crate) enum HostValues {
+    /// The backend's buffer.
+    InPlace(FloatTensor<Inner>),
+    /// A copy.
+    Copied(Vec<f32>),
+}
+
+impl HostValues {
+    /// The values of `t`.
+    pub(crate) fn new(t: FloatTensor<Inner>) -> Self {
+        if in_place(&t).is_some() {
+            HostValues::InPlace(t)
+        } else {
+            HostValues::Copied(host::<Inner>(t))
+        }
+    }
+
+    /// The values, row-major.
+    pub(crate) fn values(&self) -> &[f32] {
+        match self {
+            HostValues::InPlace(t) => in_place(t).expect("checked when made"),
+            HostValues::Copied(v) => v,
+        }
+    }
+}
+
+/// The values of a contiguous f32 tensor without copying them, where the backend allows it.
+#[cfg(feature = "flex")]
+fn in_place(t: &FloatTensor<Inner>) -> Option<&[f32]> {
+    t.as_slice::<f32>()
+}
+
+/// The values of a contiguous f32 tensor without copying them, where the backend allows it.
+#[cfg(not(feature = "flex"))]
+fn in_place(_: &FloatTensor<Inner>) -> Option<&[f32]> {
+    None
 }
 
 /// One rasterizer call's settings.
