@@ -214,7 +214,8 @@ fn apply(direction: Direction, geometry: ConvGeometry, x: &Tensor<4>, weight: &T
         bias_or_zeros.try_into_primitive::<Inner>().ok(),
     ) {
         (Some(px), Some(pw), Some(pb)) => {
-            let y = direction.run(&geometry, &host::<Inner>(px), &host::<Inner>(pw), &host::<Inner>(pb));
+            let (xs, ws, bs) = (HostValues::new(px), HostValues::new(pw), HostValues::new(pb));
+            let y = direction.run(&geometry, xs.values(), ws.values(), bs.values());
             Some(Tensor::from_primitive::<Inner>(output(y)))
         }
         _ => None,

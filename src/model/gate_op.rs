@@ -89,7 +89,8 @@ fn apply(gate: Gate, [height, width]: [usize; 2], h: &Tensor<4>, scale: &Tensor<
     let plain = |t: Tensor<1>| t.try_into_primitive::<Inner>().ok();
     match (h.clone().try_into_primitive::<Inner>(), plain(scale.clone()), plain(shift.clone())) {
         (Ok(ph), Some(pscale), Some(pshift)) => {
-            let (y, _) = gate.forward(&host::<Inner>(ph), &host::<Inner>(pscale), &host::<Inner>(pshift));
+            let (hs, scales, shifts) = (HostValues::new(ph), HostValues::new(pscale), HostValues::new(pshift));
+            let (y, _) = gate.forward(hs.values(), scales.values(), shifts.values());
             Some(Tensor::from_primitive::<Inner>(output(y)))
         }
         _ => None,
