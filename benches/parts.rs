@@ -9,7 +9,9 @@
 //! then the nearest feature of every foreground pixel in each other pose). The sheet is
 //! synthetic seed 9000's generator at 10 poses. And one training step of the network
 //! (`parts/train_step/4x2x128`: 4 pairs of 128² poses, InfoNCE both ways, Adam), the step
-//! `bench/parts_net_torch.py` times in PyTorch. Results: benches/README.md "parts".
+//! `bench/parts_net_torch.py` times in PyTorch, and making one step's pairs
+//! (`parts/training_pairs/4x128`: the generator's characters in two poses each, with their exact
+//! correspondences). Results: benches/README.md "parts".
 //!
 //! ```sh
 //! cargo bench --bench parts
@@ -65,6 +67,14 @@ fn parts(c: &mut Criterion) {
         size: 128,
         varied: config.varied,
     };
+    let mut first = 0;
+    group.bench_function("training_pairs/4x128", |b| {
+        b.iter(|| {
+            let batch: Vec<_> = (0..config.batch as u64).map(|k| source.pair(first + k).expect("a pair")).collect();
+            first += config.batch as u64;
+            batch
+        })
+    });
     let pairs: Vec<_> = (0..config.batch as u64).map(|k| source.pair(k).expect("a pair")).collect();
     let mut trainer = Trainer::new(&config, &puppet::backend::train_device());
     let mut step = 0;

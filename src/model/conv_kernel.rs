@@ -12,7 +12,10 @@ use faer::{Accum, MatMut, MatRef, Par};
 use rayon::prelude::*;
 
 /// The shape of one convolution: input `channels × height × width`, `out_channels` square
-/// kernels of side `kernel`, moved by `stride`, over an input padded with `padding` zeros.
+/// kernels of side `kernel`, moved by `stride`, over an input padded with `padding` zeros. With
+/// `upsample` > 1 the convolution reads its input enlarged that many times by nearest neighbour
+/// (each pixel an `upsample × upsample` block; a U-Net's way up) without the enlarged image
+/// being made, and its input gradient sums each block back into its pixel.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct ConvGeometry {
     /// Input channels C.
@@ -29,17 +32,29 @@ pub struct ConvGeometry {
     pub stride: usize,
     /// Zero padding on every side.
     pub padding: usize,
+    /// The nearest-neighbour enlargement of the input the kernels see (1: none).
+    pub upsample: usize,
 }
 
 impl ConvGeometry {
     /// Output height Ho.
     pub fn out_height(&self) -> usize {
-        (self.height + 2 * self.padding - self.kernel) / self.stride + 1
+        (self.seen_height() + 2 * self.padding - self.kernel) / self.stride + 1
     }
 
     /// Output width Wo.
     pub fn out_width(&self) -> usize {
-        (self.width + 2 * self.padding - self.kernel) / self.stride + 1
+        (self.seen_width() + 2 * self.padding - self.kernel) / self.stride + 1
+    }
+
+    /// The height of the (enlarged) input the kernels move over.
+    fn seen_height(&self) -> usize {
+        self.height * self.upsample
+    }
+
+    /// The width of the (enlarged) input the kernels move over.
+    fn seen_width(&self) -> usize {
+        self.width * self.upsample
     }
 
     /// Values in one input image.
@@ -66,8 +81,8 @@ impl ConvGeometry {
         self.out_height() * self.out_width()
     }
 
-    /// The input index that output pixel `out` reads at kernel offset `offset` along an axis of
-    /// `size` input pixels, or `None` in the padding.
+    /// The (enlarged) input index that output pixel `out` reads at kernel offset `offset` along
+    /// an axis of `size` such pixels, or `None` in the padding.
     fn source(&self, offset: usize, size: usize, out: usize) -> Option<usize> {
         (out * self.stride + offset).checked_sub(self.padding).filter(|&i| i < size)
     }
@@ -96,20 +111,28 @@ impl ConvGeometry {
     fn patch_row(&self, x: &[f32], row: usize, dst: &mut [f32]) {
         let (wo, k) = (self.out_width(), self.kernel);
         let (c, i, j) = (row / (k * k), row / k % k, row % k);
-        let (lo, hi) = self.inside(j, self.width, wo);
+        let (lo, hi) = self.inside(j, self.seen_width(), wo);
         let plane_len = self.height * self.width;
         for (image, dst) in dst.chunks_exact_mut(self.out_pixels()).enumerate() {
             let plane = &x[(image * self.channels + c) * plane_len..][..plane_len];
             for (oy, line) in dst.chunks_exact_mut(wo).enumerate() {
-                let Some(y) = self.source(i, self.height, oy) else {
+                let Some(y) = self.source(i, self.seen_height(), oy) else {
                     line.fill(0.0);
                     continue;
                 };
-                let src = &plane[y * self.width..][..self.width];
+                let src = &plane[y / self.upsample * self.width..][..self.width];
                 line[..lo].fill(0.0);
                 line[hi..].fill(0.0);
                 let first = lo * self.stride + j - self.padding;
-                gather(&mut line[lo..hi], &src[first..], self.stride);
+                match (self.upsample, self.stride) {
+                    (1, stride) => gather(&mut line[lo..hi], &src[first..], stride),
+                    (2, 1) => gather_doubled(&mut line[lo..hi], src, first),
+                    (upsample, stride) => {
+                        for (k, v) in line[lo..hi].iter_mut().enumerate() {
+                            *v = src[(first + k * stride) / upsample];
+                        }
+                    }
+                }
             }
         }
     }
@@ -120,13 +143,25 @@ impl ConvGeometry {
         for (row, src) in col.chunks_exact(self.out_pixels()).enumerate() {
             let (c, i, j) = (row / (k * k), row / k % k, row % k);
             let plane = &mut dx[c * self.height * self.width..][..self.height * self.width];
-            let (lo, hi) = self.inside(j, self.width, wo);
+            let (lo, hi) = self.inside(j, self.seen_width(), wo);
             for (oy, line) in src.chunks_exact(wo).enumerate() {
-                let Some(y) = self.source(i, self.height, oy) else { continue };
-                let dst = &mut plane[y * self.width..][..self.width];
+                let Some(y) = self.source(i, self.seen_height(), oy) else {
+                    continue;
+                };
+                let dst = &mut plane[y / self.upsample * self.width..][..self.width];
                 let first = lo * self.stride + j - self.padding;
-                for (d, &v) in dst[first..].iter_mut().step_by(self.stride).zip(&line[lo..hi]) {
-                    *d += v;
+                match (self.upsample, self.stride) {
+                    (1, stride) => {
+                        for (d, &v) in dst[first..].iter_mut().step_by(stride).zip(&line[lo..hi]) {
+                            *d += v;
+                        }
+                    }
+                    (2, 1) => scatter_doubled(&line[lo..hi], dst, first),
+                    (upsample, stride) => {
+                        for (k, &v) in line[lo..hi].iter().enumerate() {
+                            dst[(first + k * stride) / upsample] += v;
+                        }
+                    }
                 }
             }
         }
@@ -148,7 +183,7 @@ impl ConvGeometry {
     /// The side-by-side patch matrix of the images `x` `[G, C, H, W]`, rows filled in parallel.
     fn unfold(&self, x: &[f32]) -> Vec<f32> {
         let columns = x.len() / self.input_len() * self.out_pixels();
-        let mut col = vec![0f32; self.patch() * columns];
+        let mut col = zeros(self.patch() * columns);
         col.par_chunks_mut(columns)
             .enumerate()
             .for_each(|(row, dst)| self.patch_row(x, row, dst));
@@ -158,7 +193,7 @@ impl ConvGeometry {
     /// `Y = W·col + b` for a batch `x` `[B, C, H, W]`; returns `[B, O, Ho, Wo]`.
     pub fn forward(&self, x: &[f32], weight: &[f32], bias: &[f32]) -> Vec<f32> {
         let (o, p, n) = (self.out_channels, self.out_pixels(), self.patch());
-        let mut y = vec![0f32; x.len() / self.input_len() * self.output_len()];
+        let mut y = zeros(x.len() / self.input_len() * self.output_len());
         y.par_chunks_mut(self.output_len())
             .zip(x.par_chunks(self.input_len()))
             .for_each(|(yb, xb)| {
@@ -190,7 +225,7 @@ impl ConvGeometry {
     fn weight_gradient_per_image(&self, x: &[f32], dy: &[f32]) -> (Vec<f32>, Vec<f32>) {
         let (o, p, n) = (self.out_channels, self.out_pixels(), self.patch());
         let batch = x.len() / self.input_len();
-        let mut parts = vec![0f32; batch * (self.weight_len() + o)];
+        let mut parts = zeros(batch * (self.weight_len() + o));
         parts
             .par_chunks_mut(self.weight_len() + o)
             .zip(x.par_chunks(self.input_len()))
@@ -244,7 +279,7 @@ impl ConvGeometry {
     /// `[B, C, H, W]` — also the forward pass of the transposed convolution with these weights.
     pub fn input_gradient(&self, weight: &[f32], dy: &[f32]) -> Vec<f32> {
         let (o, p, n) = (self.out_channels, self.out_pixels(), self.patch());
-        let mut dx = vec![0f32; dy.len() / self.output_len() * self.input_len()];
+        let mut dx = zeros(dy.len() / self.output_len() * self.input_len());
         dx.par_chunks_mut(self.input_len())
             .zip(dy.par_chunks(self.output_len()))
             .for_each(|(dxb, dyb)| {
@@ -280,6 +315,15 @@ fn with_patches<R>(len: usize, f: impl FnOnce(&mut [f32]) -> R) -> R {
     result
 }
 
+/// `len` zeros written by rayon's threads: a large buffer zeroed on the calling thread alone
+/// (page faults and memset) left the other core idle for a share of a training step
+/// (benches/README.md "parts").
+pub fn zeros(len: usize) -> Vec<f32> {
+    let mut values = Vec::with_capacity(len);
+    values.par_extend(rayon::iter::repeat_n(0f32, len));
+    values
+}
+
 /// The most values a patch matrix of several images may hold (64 MiB of f32): a larger batch is
 /// unfolded in groups of images.
 const MAX_PATCH_VALUES: usize = 1 << 24;
@@ -313,7 +357,7 @@ fn product(dst: MatMut<'_, f32>, lhs: MatRef<'_, f32>, rhs: MatRef<'_, f32>, acc
 /// `[G, O, P]` → `[O, G·P]`: each channel's pixels of every image in one row.
 fn by_channel(values: &[f32], channels: usize, pixels: usize) -> Vec<f32> {
     let images = values.len() / (channels * pixels);
-    let mut out = vec![0f32; values.len()];
+    let mut out = zeros(values.len());
     out.par_chunks_mut(images * pixels).enumerate().for_each(|(channel, row)| {
         for (image, dst) in row.chunks_exact_mut(pixels).enumerate() {
             dst.copy_from_slice(&values[(image * channels + channel) * pixels..][..pixels]);
@@ -340,6 +384,49 @@ fn gather(dst: &mut [f32], src: &[f32], stride: usize) {
     }
 }
 
+/// `dst[k] = src[(first + k) / 2]`: one line of a patch row over an input doubled by nearest
+/// neighbour, written as pairs so that the loop has no division and no bounds checks.
+fn gather_doubled(dst: &mut [f32], src: &[f32], first: usize) {
+    let mut src = &src[first / 2..];
+    let dst = match dst.split_first_mut() {
+        Some((head, rest)) if first % 2 == 1 => {
+            *head = src[0];
+            src = &src[1..];
+            rest
+        }
+        _ => dst,
+    };
+    let mut pairs = dst.chunks_exact_mut(2);
+    let whole = pairs.len();
+    for (pair, &v) in (&mut pairs).zip(src) {
+        pair.fill(v);
+    }
+    if let [last] = pairs.into_remainder() {
+        *last = src[whole];
+    }
+}
+
+/// The adjoint of [`gather_doubled`]: `dst[(first + k) / 2] += src[k]`.
+fn scatter_doubled(src: &[f32], dst: &mut [f32], first: usize) {
+    let mut dst = &mut dst[first / 2..];
+    let src = match src.split_first() {
+        Some((&head, rest)) if first % 2 == 1 => {
+            dst[0] += head;
+            dst = &mut dst[1..];
+            rest
+        }
+        _ => src,
+    };
+    let pairs = src.chunks_exact(2);
+    let (whole, last) = (pairs.len(), pairs.remainder().first().copied());
+    for (d, pair) in dst.iter_mut().zip(pairs) {
+        *d += pair[0] + pair[1];
+    }
+    if let Some(v) = last {
+        dst[whole] += v;
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -353,7 +440,24 @@ mod tests {
             kernel: 5,
             stride: 2,
             padding: 2,
+            upsample: 1,
         }
+    }
+
+    /// A 3×3 convolution over the input doubled by nearest neighbour (the U-Net's way up).
+    fn doubled() -> ConvGeometry {
+        ConvGeometry {
+            kernel: 3,
+            stride: 1,
+            padding: 1,
+            upsample: 2,
+            ..geometry()
+        }
+    }
+
+    /// An enlargement and a stride the fast paths do not take.
+    fn tripled() -> ConvGeometry {
+        ConvGeometry { upsample: 3, ..geometry() }
     }
 
     /// Deterministic values in [-1, 1).
@@ -377,10 +481,12 @@ mod tests {
                             for i in 0..k {
                                 for j in 0..k {
                                     let (yy, xx) = (oy * g.stride + i, ox * g.stride + j);
-                                    if yy < g.padding || xx < g.padding || yy - g.padding >= g.height || xx - g.padding >= g.width {
+                                    let (seen_height, seen_width) = (g.height * g.upsample, g.width * g.upsample);
+                                    if yy < g.padding || xx < g.padding || yy - g.padding >= seen_height || xx - g.padding >= seen_width {
                                         continue;
                                     }
-                                    let xi = ((bi * g.channels + c) * g.height + yy - g.padding) * g.width + xx - g.padding;
+                                    let (sy, sx) = ((yy - g.padding) / g.upsample, (xx - g.padding) / g.upsample);
+                                    let xi = ((bi * g.channels + c) * g.height + sy) * g.width + sx;
                                     s += x[xi] as f64 * w[((o * g.channels + c) * k + i) * k + j] as f64;
                                 }
                             }
@@ -408,7 +514,8 @@ mod tests {
             padding: 0,
             ..geometry()
         };
-        for g in [geometry(), other, wide] {
+        assert_eq!((doubled().out_height(), doubled().out_width()), (18, 14));
+        for g in [geometry(), other, wide, doubled(), tripled()] {
             let (x, w, b) = (values(2 * g.input_len(), 1), values(g.weight_len(), 2), values(4, 3));
             let got = g.forward(&x, &w, &b);
             let want = direct(&g, &x, &w, &b);
@@ -419,7 +526,12 @@ mod tests {
 
     #[test]
     fn gradients_match_central_differences_of_a_weighted_sum() {
-        let g = geometry();
+        for g in [geometry(), doubled(), tripled()] {
+            assert_gradients_match_central_differences(g);
+        }
+    }
+
+    fn assert_gradients_match_central_differences(g: ConvGeometry) {
         let (x, w, b) = (values(2 * g.input_len(), 4), values(g.weight_len(), 5), values(4, 6));
         let upstream = values(2 * g.output_len(), 7);
         let loss = |x: &[f32], w: &[f32], b: &[f32]| -> f64 { direct(&g, x, w, b).iter().zip(&upstream).map(|(y, u)| y * *u as f64).sum() };
@@ -452,7 +564,7 @@ mod tests {
             });
             worst = worst.max((want - db[i] as f64).abs());
         }
-        assert!(worst < 1e-3, "max error {worst}");
+        assert!(worst < 1e-3, "{g:?}: max error {worst}");
     }
 
     /// The two weight-gradient layouts agree (whichever one a shape picks), in one group or one

@@ -49,14 +49,42 @@ pub fn conv_transpose2d(conv: &ConvTranspose2d, x: Tensor<4>, stride: usize, pad
     )
 }
 
+/// `conv.forward` of `x` `[B, C, H, W]` doubled by nearest neighbour (each pixel 2×2), for a
+/// stride-1 convolution with `padding` zeros: a U-Net's way up, without the doubled tensor
+/// (making it and summing its gradient back were Burn operations on one core).
+pub fn conv2d_doubled(conv: &Conv2d, x: Tensor<4>, padding: usize) -> Tensor<4> {
+    let (weight, bias) = (conv.weight.val(), conv.bias.as_ref().map(|b| b.val()));
+    let geometry = ConvGeometry {
+        upsample: 2,
+        ..forward_geometry(&x, &weight, 1, padding)
+    };
+    apply(Direction::Forward, geometry, &x, &weight, bias.as_ref())
+        .unwrap_or_else(|| burn::tensor::module::conv2d(double(x), weight, bias, ConvOptions::new([1; 2], [padding; 2], [1, 1], 1)))
+}
+
+/// Each pixel of `x` `[B, C, H, W]` repeated 2×2: `[B, C, 2H, 2W]`.
+fn double(x: Tensor<4>) -> Tensor<4> {
+    let [b, c, h, w] = x.dims();
+    x.reshape([b * c * h, 1, w, 1])
+        .expand([b * c * h, 2, w, 2])
+        .reshape([b, c, 2 * h, 2 * w])
+}
+
 /// The convolution of `x` `[B, C, H, W]` with square kernels `weight` `[O, C, K, K]` (and
 /// `bias` `[O]`), moved by `stride` over `padding` zeros on every side: Burn's
 /// `module::conv2d`, through the slice kernels when every tensor lives on the compiled-in
 /// backend (differentiable in each on its autodiff device).
 pub fn convolve(x: Tensor<4>, weight: Tensor<4>, bias: Option<Tensor<1>>, stride: usize, padding: usize) -> Tensor<4> {
+    let geometry = forward_geometry(&x, &weight, stride, padding);
+    apply(Direction::Forward, geometry, &x, &weight, bias.as_ref())
+        .unwrap_or_else(|| burn::tensor::module::conv2d(x, weight, bias, ConvOptions::new([stride; 2], [padding; 2], [1, 1], 1)))
+}
+
+/// The geometry of the convolution of `x` with `weight` `[O, C, K, K]`.
+fn forward_geometry(x: &Tensor<4>, weight: &Tensor<4>, stride: usize, padding: usize) -> ConvGeometry {
     let [out_channels, channels, kernel, _] = weight.dims();
     let [_, _, height, width] = x.dims();
-    let geometry = ConvGeometry {
+    ConvGeometry {
         channels,
         height,
         width,
@@ -64,9 +92,8 @@ pub fn convolve(x: Tensor<4>, weight: Tensor<4>, bias: Option<Tensor<1>>, stride
         kernel,
         stride,
         padding,
-    };
-    apply(Direction::Forward, geometry, &x, &weight, bias.as_ref())
-        .unwrap_or_else(|| burn::tensor::module::conv2d(x, weight, bias, ConvOptions::new([stride; 2], [padding; 2], [1, 1], 1)))
+        upsample: 1,
+    }
 }
 
 /// The transposed convolution of `x` `[B, I, h, w]` with `weight` `[I, O, K, K]` (Burn's
@@ -90,6 +117,7 @@ pub fn convolve_transposed(
         kernel,
         stride,
         padding,
+        upsample: 1,
     };
     let [_, _, h, w] = x.dims();
     debug_assert_eq!([geometry.out_height(), geometry.out_width()], [h, w], "output size {size:?}");
@@ -323,6 +351,20 @@ mod tests {
         let plain = config.init(&plain_device);
         let xp = Tensor::<4>::random([2, 3, 12, 10], Distribution::Uniform(-1.0, 1.0), &plain_device);
         assert!(worst(values(conv2d(&plain, xp.clone(), 2, 2)), values(plain.forward(xp))) < 1e-5);
+    }
+
+    /// The U-Net's way up: a 3×3 convolution of the doubled input, against Burn's convolution
+    /// of the doubled tensor.
+    #[test]
+    fn a_convolution_of_the_doubled_input_matches_burns_on_the_doubled_tensor() {
+        let device = crate::backend::train_device();
+        let config = Conv2dConfig::new([3, 4], [3, 3]).with_padding(PaddingConfig2d::Explicit(1, 1, 1, 1));
+        let conv = config.init(&device);
+        let x = Tensor::<4>::random([2, 3, 5, 4], Distribution::Uniform(-1.0, 1.0), &device).require_grad();
+        let bias = conv.bias.as_ref().unwrap().val();
+        let ours = conv2d_doubled(&conv, x.clone(), 1);
+        assert_eq!(ours.dims(), [2, 4, 10, 8]);
+        assert_same(ours, conv.forward(double(x.clone())), &x, &conv.weight.val(), Some(&bias));
     }
 
     /// The generator's up-convolutions (4×4, stride 2, padding 1) and a stride-1 case with an

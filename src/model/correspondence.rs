@@ -4,8 +4,8 @@
 //! `parts::learn`). Pixels are matched between poses by their most similar feature.
 //!
 //! The paper gives a "gated U-Net" of 6.7 M parameters at 256²; its layers are not specified.
-//! Ours: pix2pix-style 4×4 stride-2 convolutions down and transposed convolutions up, skips by
-//! concatenation, every block a gated convolution (Yu et al. 2019: half the channels are
+//! Ours: pix2pix-style 4×4 stride-2 convolutions down; up, nearest-neighbour doubling and 3×3
+//! convolutions (no checkerboard), skips by concatenation, every block a gated convolution (Yu et al. 2019: half the channels are
 //! features, half a sigmoid gate that lets the network switch features off where they do not
 //! apply — here, off the character), instance-normalised features, LeakyReLU 0.2; a 3×3 head
 //! over the last block and the input draws the features, normalised to unit length.
@@ -18,7 +18,7 @@ use burn::nn::conv::{Conv2d, Conv2dConfig};
 use burn::nn::{InstanceNorm, InstanceNormConfig, PaddingConfig2d};
 use burn::tensor::{Device, Tensor};
 
-use super::conv_op::conv2d;
+use super::conv_op::{conv2d, conv2d_doubled};
 use super::gate_op::gated_norm;
 
 /// The blocks' kernel side (pix2pix's).
@@ -146,14 +146,6 @@ impl CorrespondenceNetConfig {
     }
 }
 
-/// Each pixel of `x` `[B, C, H, W]` repeated 2×2: `[B, C, 2H, 2W]`.
-fn double(x: Tensor<4>) -> Tensor<4> {
-    let [b, c, h, w] = x.dims();
-    x.reshape([b * c * h, 1, w, 1])
-        .expand([b * c * h, 2, w, 2])
-        .reshape([b, c, 2 * h, 2 * w])
-}
-
 impl CorrespondenceNet {
     /// Unit features `[B, F, S, S]` of poses `[B, 4, S, S]`.
     pub fn forward(&self, x: Tensor<4>) -> Tensor<4> {
@@ -174,7 +166,7 @@ impl CorrespondenceNet {
             if i < depth - 1 {
                 y = Tensor::cat(vec![y, levels[i + 1].clone()], 1);
             }
-            y = gated_norm(conv2d(&self.ups[i].conv, double(y), 1, 1), &self.ups[i].norm, SLOPE);
+            y = gated_norm(conv2d_doubled(&self.ups[i].conv, y, 1), &self.ups[i].norm, SLOPE);
         }
         conv2d(&self.head, Tensor::cat(vec![y, x], 1), 1, 1)
     }

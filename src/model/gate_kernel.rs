@@ -8,6 +8,8 @@
 
 use rayon::prelude::*;
 
+use super::conv_kernel::zeros;
+
 /// The shape of one gated activation and its two constants.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Gate {
@@ -51,7 +53,7 @@ fn sigmoid(x: f32) -> f32 {
 /// x = n·ln 2 + r with n = round(x·log₂e) and |r| ≤ ln 2 / 2; e^r by a degree-7 polynomial;
 /// 2ⁿ from the exponent bits. Clamped to the range where both e^x and 2ⁿ are normal floats.
 #[inline]
-fn exp(x: f32) -> f32 {
+pub fn exp(x: f32) -> f32 {
     // 1.5·2²³: adding it rounds x·log₂e to an integer n, which then sits in the low mantissa
     // bits (no float-to-int conversion, whose saturation does not vectorise).
     const ROUND: f32 = 12_582_912.0;
@@ -126,7 +128,7 @@ impl Gate {
     /// `[B, C, H, W]`, and each plane's statistics for [`Self::backward`].
     pub fn forward(&self, h: &[f32], scale: &[f32], shift: &[f32]) -> (Vec<f32>, Vec<PlaneStats>) {
         let p = self.pixels;
-        let mut y = vec![0f32; self.batch * self.channels * p];
+        let mut y = zeros(self.batch * self.channels * p);
         let mut stats = vec![PlaneStats::default(); self.batch * self.channels];
         y.par_chunks_mut(p)
             .zip(stats.par_iter_mut())
@@ -151,7 +153,7 @@ impl Gate {
     /// `stats`.
     pub fn backward(&self, h: &[f32], scale: &[f32], shift: &[f32], stats: &[PlaneStats], upstream: &[f32]) -> GateGradients {
         let (c, p) = (self.channels, self.pixels);
-        let mut input = vec![0f32; self.input_len()];
+        let mut input = zeros(self.input_len());
         let sums: Vec<(f64, f64)> = input
             .par_chunks_mut(2 * c * p)
             .enumerate()

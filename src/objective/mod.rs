@@ -10,6 +10,7 @@
 
 pub mod adversarial;
 pub mod arap_op;
+pub mod info_nce;
 
 use std::sync::Arc;
 

@@ -24,7 +24,8 @@ use crate::atomic_file::{record, write_atomic, Outputs};
 use crate::backend::scalar;
 use crate::error::{Error, Result};
 use crate::model::bundle::{load_weights, max_weights_bytes, weights_bytes};
-use crate::model::correspondence::{unit_length, CorrespondenceNet, CorrespondenceNetConfig};
+use crate::model::correspondence::{CorrespondenceNet, CorrespondenceNetConfig};
+use crate::objective::info_nce::{info_nce, Term};
 use crate::progress::Progress;
 use crate::rng::Rng;
 use crate::train::checkpoint::{self, Checkpoint, CheckpointState, OPTIMIZER, WEIGHTS};
@@ -594,18 +595,21 @@ impl Trainer {
         let indices = feature_indices(rows, channels, plane);
         let count = indices.len();
         let picked = Tensor::<1, Int>::from_data(TensorData::new(indices, [count]), &self.device);
-        let gathered = unit_length(features.select(0, picked).reshape([count / channels, channels]));
+        let gathered = features.select(0, picked).reshape([count / channels, channels]);
         let mut start = 0;
-        let mut terms = Vec::with_capacity(samples.len());
-        for sample in &samples {
-            let (anchors, candidates) = (sample.sources.len(), sample.candidates.len());
-            let a = gathered.clone().narrow(0, start, anchors);
-            let b = gathered.clone().narrow(0, start + anchors, candidates);
-            terms.push(self.info_nce(a, b));
-            start += anchors + candidates;
-        }
-        let count = terms.len() as f64;
-        let loss = Tensor::cat(terms, 0).sum() / count;
+        let terms: Vec<Term> = samples
+            .iter()
+            .map(|sample| {
+                let term = Term {
+                    start,
+                    anchors: sample.sources.len(),
+                    candidates: sample.candidates.len(),
+                };
+                start += term.anchors + term.candidates;
+                term
+            })
+            .collect();
+        let loss = info_nce(gathered, &terms, self.config.temperature as f32)?;
         let value = scalar(&loss);
         if !value.is_finite() {
             return Err(Error::Diverged {
@@ -642,19 +646,6 @@ impl Trainer {
                 .chain((0..self.config.negatives).map(|_| row(offsets[1], foreground[rng.below(foreground.len())])))
                 .collect(),
         })
-    }
-
-    /// The InfoNCE loss of anchors `a` `[N, F]` whose matches are the first N rows of the
-    /// candidates `b` `[N + M, F]` (unit features): each must pick its match among itself and
-    /// the M negatives.
-    fn info_nce(&self, a: Tensor<2>, b: Tensor<2>) -> Tensor<1> {
-        let anchors = a.dims()[0];
-        let tau = self.config.temperature;
-        let positive = (a.clone() * b.clone().narrow(0, 0, anchors)).sum_dim(1) / tau;
-        let logits = a.matmul(b.transpose()) / tau;
-        let peak = logits.clone().detach().max_dim(1);
-        let log_sum = (logits - peak.clone()).exp().sum_dim(1).log() + peak;
-        (log_sum - positive).mean()
     }
 
     /// The held-out pairs' match score with the current weights.
