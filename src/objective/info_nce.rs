@@ -75,7 +75,7 @@ pub fn info_nce(raw: Tensor<2>, terms: &[Term], temperature: f32) -> Result<Tens
             format!("the features' {rows}"),
         ));
     }
-    let loss = |values: f32| Inner::float_from_data(TensorData::new(vec![values], [1]), &Default::default());
+    let loss = |value: f32| Inner::float_from_data(TensorData::new(vec![value], [1]), &Default::default());
     if let Ok(ad) = raw.clone().try_into_primitive::<Autodiff<Inner>>() {
         let x = HostValues::new(ad.primitive().clone());
         let (value, gradient) = loss_and_gradient(x.values(), features, terms, temperature);
