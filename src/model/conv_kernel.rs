@@ -151,6 +151,13 @@ impl ConvGeometry {
                 let dst = &mut plane[y / self.upsample * self.width..][..self.width];
                 let first = lo * self.stride + j - self.padding;
                 match (self.upsample, self.stride) {
+                    (1, 1) => {
+                        // Contiguous: the form that vectorises (a step-by iterator does not).
+                        let line = &line[lo..hi];
+                        for (d, &v) in dst[first..][..line.len()].iter_mut().zip(line) {
+                            *d += v;
+                        }
+                    }
                     (1, stride) => {
                         for (d, &v) in dst[first..].iter_mut().step_by(stride).zip(&line[lo..hi]) {
                             *d += v;
@@ -417,12 +424,14 @@ fn scatter_doubled(src: &[f32], dst: &mut [f32], first: usize) {
         }
         _ => src,
     };
-    let pairs = src.chunks_exact(2);
-    let (whole, last) = (pairs.len(), pairs.remainder().first().copied());
-    for (d, pair) in dst.iter_mut().zip(pairs) {
-        *d += pair[0] + pair[1];
+    let whole = src.len() / 2;
+    // Indexed over slices of exact lengths: the form the compiler vectorises (pairs from
+    // `chunks_exact` are not).
+    let (pairs, sums) = (&src[..2 * whole], &mut dst[..whole]);
+    for k in 0..whole {
+        sums[k] += pairs[2 * k] + pairs[2 * k + 1];
     }
-    if let Some(v) = last {
+    if let Some(&v) = src.get(2 * whole) {
         dst[whole] += v;
     }
 }

@@ -13,6 +13,7 @@ pub mod deformation;
 pub mod folder;
 pub mod gate_kernel;
 pub mod gate_op;
+pub mod lanes;
 pub mod letterbox;
 
 pub use bundle::Model;

@@ -24,7 +24,7 @@ use rayon::prelude::*;
 
 use crate::backend::Inner;
 use crate::error::{Error, Result};
-use crate::model::gate_kernel::exp;
+use crate::model::lanes::{exp, lane_max, lane_sum};
 use crate::render::burn_op::{host, HostValues};
 
 /// Added under the square root of a feature's norm, so an all-zero feature has a gradient (as
@@ -156,11 +156,11 @@ fn term(x: &[f32], features: usize, t: Term, temperature: f32, weight: f32, dx: 
     let mut loss = 0f64;
     for (i, row) in g.chunks_exact_mut(m).enumerate() {
         let positive = row[i];
-        let peak = row.iter().copied().fold(f32::NEG_INFINITY, f32::max);
+        let peak = lane_max(row);
         for v in row.iter_mut() {
             *v = exp(*v - peak);
         }
-        let sum: f64 = row.iter().map(|&v| f64::from(v)).sum();
+        let sum = lane_sum(row, row, |v, _| v);
         loss += sum.ln() + f64::from(peak - positive);
         let scale = (f64::from(row_weight) / sum) as f32;
         row.iter_mut().for_each(|v| *v *= scale);
