@@ -210,6 +210,7 @@ impl RigData {
 /// ```toml
 /// [rig]
 /// pin_spacing = 6.0                 # pixels between pins along an outline (default: from the size)
+/// pin_separation = 10.0             # several parents: no pin within 10 px of another parent's (default 0)
 /// skinning = "affine"               # carry accessories by their pins' triangles (default: "translation")
 ///
 /// [[rig.edge]]                      # a child's edges replace its automatic one; several = several parents
@@ -232,6 +233,8 @@ impl RigData {
 pub struct RigOverrides {
     /// Pixels between pins along an outline.
     pub pin_spacing: Option<f32>,
+    /// Least distance in pixels between pins of two parents of one accessory.
+    pub pin_separation: Option<f32>,
     /// How accessories follow their pins (default: [`crate::rig::RigOptions::skinning`]).
     pub skinning: Option<Skinning>,
     /// Edges chosen by hand.

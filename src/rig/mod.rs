@@ -107,6 +107,12 @@ pub fn rig_puppet(
         }
         pin_options.spacing = spacing;
     }
+    if let Some(separation) = overrides.pin_separation {
+        if !(separation.is_finite() && separation >= 0.0) {
+            return Err(Error::setting("rig.pin_separation", separation, "0 pixels or more"));
+        }
+        pin_options.separation = separation;
+    }
     let mut body_part: Vec<usize> = (0..puppet.layers.len()).collect();
     for &child in &order {
         if let Some(e) = edges.iter().find(|e| e.child == child) {

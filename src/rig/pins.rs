@@ -31,6 +31,10 @@ pub struct PinOptions {
     pub coincident_distance: f32,
     /// Overlap outline kept within this distance of the body layers' attachment (paper: 20 px).
     pub attachment_distance: f32,
+    /// A child with several parents: no pin of a later edge's parent within this distance of a
+    /// pin of an earlier one (0: no limit). Pins of two parents close together that move apart
+    /// cannot both be met without folding the child between them.
+    pub separation: f32,
 }
 
 impl PinOptions {
@@ -41,6 +45,7 @@ impl PinOptions {
             spacing: (width.max(height) as f32 / 40.0).max(2.0),
             coincident_distance: 5.0,
             attachment_distance: 20.0,
+            separation: 0.0,
         }
     }
 }
@@ -91,6 +96,7 @@ pub fn pin_sites(cx: &Context, child: usize, edges: &[&RigEdge], overrides: &Rig
                 Constraint::Overlap => overlap_outline(cx, child, p, options),
                 Constraint::Point => point_site(c, &masks[p], c).into_iter().collect(),
             };
+            let points = apart_from_other_parents(points, &sites, p, options.separation);
             push_snapped(&mut sites, c, &points, p, constraint);
         }
         if sites.len() == before {
@@ -132,6 +138,16 @@ pub fn pin_sites(cx: &Context, child: usize, edges: &[&RigEdge], overrides: &Rig
         }
     }
     sites
+}
+
+/// `points` (of parent `parent`) without those within `separation` of a site of another parent.
+fn apart_from_other_parents(points: Vec<[f32; 2]>, sites: &[PinSite], parent: usize, separation: f32) -> Vec<[f32; 2]> {
+    let near_other = |q: &[f32; 2]| {
+        sites
+            .iter()
+            .any(|s| s.parent != parent && (s.at[0] - q[0]).hypot(s.at[1] - q[1]) < separation)
+    };
+    points.into_iter().filter(|q| !near_other(q)).collect()
 }
 
 /// Adds `points` snapped to the nearest child pixel centre (within 1.5 px), each once.
@@ -243,6 +259,14 @@ mod tests {
     }
 
     fn sites(masks: Vec<Mask>, e: &RigEdge, spacing: f32) -> Vec<PinSite> {
+        let options = PinOptions {
+            spacing,
+            ..PinOptions::for_size(40, 40)
+        };
+        sites_of(masks, &[e], &options)
+    }
+
+    fn sites_of(masks: Vec<Mask>, edges: &[&RigEdge], options: &PinOptions) -> Vec<PinSite> {
         let layers = (0..masks.len())
             .map(|k| crate::test_util::rect_layer(&format!("l{k}"), (40, 40), [0.0, 0.0, 1.0, 1.0], (1, 1), |_, _| [0.0; 3]));
         let puppet = Puppet {
@@ -260,11 +284,52 @@ mod tests {
             body_part: &body_part,
             adjacent: &[],
         };
-        let options = PinOptions {
-            spacing,
-            ..PinOptions::for_size(40, 40)
+        pin_sites(&cx, 1, edges, &RigOverrides::default(), options)
+    }
+
+    #[test]
+    fn a_later_parent_keeps_its_distance_from_an_earlier_one() {
+        // Hair [8, 32) × [3, 30) over a head [16, 24) × [5, 20) and a torso from y = 22: the
+        // torso's top edge under the hair runs 3 px below the head's bottom edge in the middle
+        // and farther from it at the sides.
+        let masks = || {
+            vec![
+                rect(40, 40, [16, 5, 24, 20]),
+                rect(40, 40, [8, 3, 32, 30]),
+                rect(40, 40, [5, 22, 35, 40]),
+            ]
         };
-        pin_sites(&cx, 1, &[e], &RigOverrides::default(), &options)
+        let (head, torso) = (edge(0, &[Constraint::Occlusion]), edge(2, &[Constraint::Occlusion]));
+        let with = |separation| {
+            let options = PinOptions {
+                spacing: 2.0,
+                separation,
+                ..PinOptions::for_size(40, 40)
+            };
+            sites_of(masks(), &[&head, &torso], &options)
+        };
+        let closest = |s: &[PinSite]| {
+            let of = |parent| s.iter().filter(move |p| p.parent == parent);
+            of(2)
+                .flat_map(|t| of(0).map(move |h| (t.at[0] - h.at[0]).hypot(t.at[1] - h.at[1])))
+                .fold(f32::INFINITY, f32::min)
+        };
+        let (all, apart) = (with(0.0), with(5.0));
+        assert!(closest(&all) < 5.0, "{all:?}");
+        assert!(closest(&apart) >= 5.0, "{apart:?}");
+        // The head keeps every pin, the torso those away from it (occlusion pins, not a fallback).
+        let count = |s: &[PinSite], parent| {
+            s.iter()
+                .filter(|p| p.parent == parent && p.constraint == Constraint::Occlusion)
+                .count()
+        };
+        assert_eq!(count(&apart, 0), count(&all, 0));
+        assert!(
+            (1..count(&all, 2)).contains(&count(&apart, 2)),
+            "{} of {}",
+            count(&apart, 2),
+            count(&all, 2)
+        );
     }
 
     #[test]
