@@ -429,4 +429,8 @@ fn a_dicebear_character_rigs_with_pins_every_three_pixels() {
     std::fs::write(&toml, format!("{text}\n[rig]\nskinning = \"sideways\"\n")).unwrap();
     puppet(tmp.path(), &["build", art.to_str().unwrap(), "-o", "refused"]).assert_error(&["character.toml", "sideways"]);
     assert!(!tmp.path().join("refused").exists());
+    // So is a pin separation below zero, before anything is meshed.
+    std::fs::write(&toml, format!("{text}\n[rig]\npin_separation = -1.0\n")).unwrap();
+    puppet(tmp.path(), &["build", art.to_str().unwrap(), "-o", "refused"]).assert_error(&["character.toml", "rig.pin_separation", "-1"]);
+    assert!(!tmp.path().join("refused").exists());
 }

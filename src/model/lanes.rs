@@ -23,10 +23,10 @@ pub fn exp(x: f32) -> f32 {
     e_r * f32::from_bits(shifted.to_bits().wrapping_add(127) << 23)
 }
 
-/// Elements per f32 partial sum: short enough that a block's f32 rounding stays far below the
-/// f64 total's needs, long enough to vectorise.
+/// Accumulators of a lane reduction: enough independent chains to fill the vector units.
 const LANES: usize = 8;
-/// Elements per block of a [`lane_sum`], whose sums are added in f64.
+/// Elements per block of a [`lane_sum`], whose f32 lane sums are then added in f64: short enough
+/// that a block's f32 rounding stays far below the f64 total's needs, long enough to vectorise.
 const BLOCK: usize = 512;
 
 /// Σ term(aᵢ, bᵢ) in f64: eight f32 lanes per block of 512 (so the loop vectorises; a single

@@ -101,7 +101,7 @@ impl Character {
     ///
     /// Checks: at least one layer, no duplicate names, a root that names a body layer, every layer
     /// has `file` (layer-PNG form) or a valid `color` (label-map form) but not both forms, no two
-    /// layers share a colour, joints name existing layers.
+    /// layers share a colour, joints name existing layers, the `[rig]` settings in range.
     ///
     /// # Errors
     /// [`Error::Format`] naming `path`, or [`Error::Partial`] listing every problem found.
@@ -174,6 +174,9 @@ impl Character {
             if pair[0] == pair[1] {
                 problems.push(Error::format(path, format!("joint {pair:?} joins a layer to itself")));
             }
+        }
+        if let Err(e) = self.rig.check() {
+            problems.push(Error::format(path, e.to_string()));
         }
         Error::collect(problems)
     }
@@ -254,6 +257,7 @@ impl LayeredOverrides {
                 return Err(Error::layer(path, &layer.name, "named twice"));
             }
         }
+        overrides.rig.check().map_err(|e| Error::format(path, e.to_string()))?;
         Ok(Some(overrides))
     }
 }

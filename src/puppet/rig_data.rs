@@ -7,6 +7,7 @@
 use serde::{Deserialize, Serialize};
 
 use super::Puppet;
+use crate::error::{Error, Result};
 
 /// The rig section's schema version.
 pub const RIG_VERSION: u32 = 1;
@@ -246,6 +247,31 @@ pub struct RigOverrides {
     /// Pins removed by hand.
     #[serde(default, rename = "unpin")]
     pub unpins: Vec<UnpinOverride>,
+}
+
+impl RigOverrides {
+    /// Checks the numeric settings: `pin_spacing` at least 1 px, `pin_separation` 0 or more.
+    ///
+    /// # Errors
+    /// [`Error::Setting`] naming the first setting out of range.
+    pub fn check(&self) -> Result<()> {
+        let bad = |value: Option<f32>, least: f32| value.is_some_and(|v| !(v.is_finite() && v >= least));
+        if bad(self.pin_spacing, 1.0) {
+            return Err(Error::setting(
+                "rig.pin_spacing",
+                self.pin_spacing.unwrap_or_default(),
+                "at least 1 pixel",
+            ));
+        }
+        if bad(self.pin_separation, 0.0) {
+            return Err(Error::setting(
+                "rig.pin_separation",
+                self.pin_separation.unwrap_or_default(),
+                "0 pixels or more",
+            ));
+        }
+        Ok(())
+    }
 }
 
 /// `[[rig.edge]]`.

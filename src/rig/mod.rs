@@ -100,19 +100,10 @@ pub fn rig_puppet(
     let masks: Vec<Mask> = puppet.layers.iter().map(|l| Mask::of_layer(l, options.alpha_threshold)).collect();
     let edges = layer_dag(puppet, &masks, overrides, &options.dag, progress)?;
     let order = topological_order(puppet, &edges)?;
+    overrides.check()?;
     let mut pin_options = options.pins.unwrap_or_else(|| PinOptions::for_size(puppet.width, puppet.height));
-    if let Some(spacing) = overrides.pin_spacing {
-        if !(spacing.is_finite() && spacing >= 1.0) {
-            return Err(Error::setting("rig.pin_spacing", spacing, "at least 1 pixel"));
-        }
-        pin_options.spacing = spacing;
-    }
-    if let Some(separation) = overrides.pin_separation {
-        if !(separation.is_finite() && separation >= 0.0) {
-            return Err(Error::setting("rig.pin_separation", separation, "0 pixels or more"));
-        }
-        pin_options.separation = separation;
-    }
+    pin_options.spacing = overrides.pin_spacing.unwrap_or(pin_options.spacing);
+    pin_options.separation = overrides.pin_separation.unwrap_or(pin_options.separation);
     let mut body_part: Vec<usize> = (0..puppet.layers.len()).collect();
     for &child in &order {
         if let Some(e) = edges.iter().find(|e| e.child == child) {

@@ -32,8 +32,9 @@ pub struct PinOptions {
     /// Overlap outline kept within this distance of the body layers' attachment (paper: 20 px).
     pub attachment_distance: f32,
     /// A child with several parents: no pin of a later edge's parent within this distance of a
-    /// pin of an earlier one (0: no limit). Pins of two parents close together that move apart
-    /// cannot both be met without folding the child between them.
+    /// pin of an earlier one (0: no limit), but for the point an edge left with no pin falls back
+    /// to (§3.4). Pins of two parents close together that move apart cannot both be met without
+    /// folding the child between them.
     pub separation: f32,
 }
 
