@@ -15,7 +15,8 @@ use rayon::prelude::*;
 /// kernels of side `kernel`, moved by `stride`, over an input padded with `padding` zeros. With
 /// `upsample` > 1 the convolution reads its input enlarged that many times by nearest neighbour
 /// (each pixel an `upsample × upsample` block; a U-Net's way up) without the enlarged image
-/// being made, and its input gradient sums each block back into its pixel.
+/// being made, and its input gradient sums each block back into its pixel (the U-Net's 3×3 case
+/// runs faster in `conv_phases`).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct ConvGeometry {
     /// Input channels C.
@@ -126,7 +127,6 @@ impl ConvGeometry {
                 let first = lo * self.stride + j - self.padding;
                 match (self.upsample, self.stride) {
                     (1, stride) => gather(&mut line[lo..hi], &src[first..], stride),
-                    (2, 1) => gather_doubled(&mut line[lo..hi], src, first),
                     (upsample, stride) => {
                         for (k, v) in line[lo..hi].iter_mut().enumerate() {
                             *v = src[(first + k * stride) / upsample];
@@ -163,7 +163,6 @@ impl ConvGeometry {
                             *d += v;
                         }
                     }
-                    (2, 1) => scatter_doubled(&line[lo..hi], dst, first),
                     (upsample, stride) => {
                         for (k, &v) in line[lo..hi].iter().enumerate() {
                             dst[(first + k * stride) / upsample] += v;
@@ -388,51 +387,6 @@ fn gather(dst: &mut [f32], src: &[f32], stride: usize) {
         1 => dst.copy_from_slice(&src[..dst.len()]),
         2 => strided::<2>(dst, src),
         _ => dst.iter_mut().zip(src.iter().step_by(stride)).for_each(|(v, &x)| *v = x),
-    }
-}
-
-/// `dst[k] = src[(first + k) / 2]`: one line of a patch row over an input doubled by nearest
-/// neighbour, written as pairs so that the loop has no division and no bounds checks.
-fn gather_doubled(dst: &mut [f32], src: &[f32], first: usize) {
-    let mut src = &src[first / 2..];
-    let dst = match dst.split_first_mut() {
-        Some((head, rest)) if first % 2 == 1 => {
-            *head = src[0];
-            src = &src[1..];
-            rest
-        }
-        _ => dst,
-    };
-    let mut pairs = dst.chunks_exact_mut(2);
-    let whole = pairs.len();
-    for (pair, &v) in (&mut pairs).zip(src) {
-        pair.fill(v);
-    }
-    if let [last] = pairs.into_remainder() {
-        *last = src[whole];
-    }
-}
-
-/// The adjoint of [`gather_doubled`]: `dst[(first + k) / 2] += src[k]`.
-fn scatter_doubled(src: &[f32], dst: &mut [f32], first: usize) {
-    let mut dst = &mut dst[first / 2..];
-    let src = match src.split_first() {
-        Some((&head, rest)) if first % 2 == 1 => {
-            dst[0] += head;
-            dst = &mut dst[1..];
-            rest
-        }
-        _ => src,
-    };
-    let whole = src.len() / 2;
-    // Indexed over slices of exact lengths: the form the compiler vectorises (pairs from
-    // `chunks_exact` are not).
-    let (pairs, sums) = (&src[..2 * whole], &mut dst[..whole]);
-    for k in 0..whole {
-        sums[k] += pairs[2 * k] + pairs[2 * k + 1];
-    }
-    if let Some(&v) = src.get(2 * whole) {
-        dst[whole] += v;
     }
 }
 

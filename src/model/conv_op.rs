@@ -24,6 +24,7 @@ use burn::tensor::ops::{ConvOptions, ConvTransposeOptions};
 use burn::tensor::{Tensor, TensorData};
 
 use super::conv_kernel::ConvGeometry;
+use super::conv_phases::DoubledConv;
 use crate::backend::Inner;
 use crate::render::burn_op::{host, register_gradient, HostValues};
 
@@ -51,7 +52,8 @@ pub fn conv_transpose2d(conv: &ConvTranspose2d, x: Tensor<4>, stride: usize, pad
 
 /// `conv.forward` of `x` `[B, C, H, W]` doubled by nearest neighbour (each pixel 2×2), for a
 /// stride-1 convolution with `padding` zeros: a U-Net's way up, without the doubled tensor
-/// (making it and summing its gradient back were Burn operations on one core).
+/// (making it and summing its gradient back were Burn operations on one core). A 3×3 kernel with
+/// padding 1 runs as 2×2 convolutions of `x` itself ([`DoubledConv`]).
 pub fn conv2d_doubled(conv: &Conv2d, x: Tensor<4>, padding: usize) -> Tensor<4> {
     let (weight, bias) = (conv.weight.val(), conv.bias.as_ref().map(|b| b.val()));
     let geometry = ConvGeometry {
@@ -149,7 +151,10 @@ impl Direction {
     /// The operation on host values (bias per output channel).
     fn run(self, g: &ConvGeometry, x: &[f32], weight: &[f32], bias: &[f32]) -> Vec<f32> {
         match self {
-            Direction::Forward => g.forward(x, weight, bias),
+            Direction::Forward => match DoubledConv::of(g) {
+                Some(doubled) => doubled.forward(x, weight, bias),
+                None => g.forward(x, weight, bias),
+            },
             Direction::Transposed => {
                 let mut y = g.input_gradient(weight, x);
                 let plane = g.height * g.width;
@@ -180,10 +185,13 @@ impl Direction {
         input: bool,
     ) -> (Option<Vec<f32>>, Vec<f32>, Vec<f32>) {
         match self {
-            Direction::Forward => {
-                let (dw, db) = g.weight_gradient(x, upstream);
-                (input.then(|| g.input_gradient(weight, upstream)), dw, db)
-            }
+            Direction::Forward => match DoubledConv::of(g) {
+                Some(doubled) => doubled.gradients(x, weight, upstream, input),
+                None => {
+                    let (dw, db) = g.weight_gradient(x, upstream);
+                    (input.then(|| g.input_gradient(weight, upstream)), dw, db)
+                }
+            },
             Direction::Transposed => {
                 let (dw, _) = g.weight_gradient(upstream, x);
                 let plane = g.height * g.width;

@@ -7,6 +7,7 @@ pub mod appearance;
 pub mod bundle;
 pub mod conv_kernel;
 pub mod conv_op;
+pub mod conv_phases;
 pub mod correspondence;
 pub mod decoder;
 pub mod deformation;
