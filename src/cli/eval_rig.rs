@@ -55,7 +55,6 @@ pub fn run(args: EvalRigArgs, s: &Session) -> anyhow::Result<()> {
     let mut problems = Vec::new();
     for member in &members {
         let (name, dir) = (&member.name, &member.artwork);
-        s.ui.stage(name, edits.len() as u64);
         let scored = (|| -> anyhow::Result<_> {
             let art = artwork::load(dir, &artwork::ImportOptions::default())?;
             let puppet = build_rigged(&art, &build::BuildOptions::default(), &RigOptions::default(), &s.ui)?;
@@ -65,6 +64,8 @@ pub fn run(args: EvalRigArgs, s: &Session) -> anyhow::Result<()> {
             } else {
                 None
             };
+            // After the build, whose own stages (meshing, rigging) would take the edits' steps.
+            s.ui.stage(name, edits.len() as u64);
             let mut report = evaluate_character(name, &puppet, truth.as_ref(), &edits, &s.ui)?;
             if let Some(sequence) = &member.sequence {
                 let truth = Truth::load(&sequence.join(puppet::synth::truth::TRUTH_FILE))?;

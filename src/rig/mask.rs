@@ -143,6 +143,11 @@ impl Mask {
     /// the mesher traces them), one every `spacing` pixels of arc length, each ring starting at
     /// its first traced point.
     pub fn outline(&self, spacing: f32) -> Vec<[f32; 2]> {
+        self.outline_rings(spacing).concat()
+    }
+
+    /// [`Mask::outline`] ring by ring, each ring's points in tracing order.
+    pub fn outline_rings(&self, spacing: f32) -> Vec<Vec<[f32; 2]>> {
         let alpha: Vec<f32> = self.inside.iter().map(|&i| if i { 1.0 } else { 0.0 }).collect();
         let grid = AlphaGrid {
             alpha: &alpha,
@@ -151,9 +156,10 @@ impl Mask {
             threshold: 0.5,
         };
         let spacing = f64::from(spacing.max(0.5));
-        let mut out = Vec::new();
+        let mut rings = Vec::new();
         for ring in contour(&grid) {
             let n = ring.len();
+            let mut out = Vec::new();
             let mut carry = 0.0;
             for k in 0..n {
                 let (a, b) = (ring[k], ring[(k + 1) % n]);
@@ -166,8 +172,9 @@ impl Mask {
                 }
                 carry = s - len;
             }
+            rings.push(out);
         }
-        out
+        rings
     }
 
     /// The exact Euclidean distance from every pixel centre to the nearest covered pixel centre

@@ -1,8 +1,9 @@
 //! Where the pins of each constraint go (accessory-rigs.md §3.3), on the layers' rest masks,
 //! before the accessory is meshed: each site becomes a vertex of the accessory's mesh.
 //!
-//! - **Occlusion**: the parent's outline, sampled every `spacing` pixels, where it passes under
-//!   the child (the child covers the sample).
+//! - **Occlusion**: each stretch of the parent's outline that passes under the child (the child
+//!   covers it), pinned at both ends and every `spacing` pixels or less between, so a stretch
+//!   shorter than the spacing is pinned too.
 //! - **Coincident boundary**: the child's outline where it runs within `coincident_distance`
 //!   (paper: 5 px) of the parent's outline.
 //! - **Overlap**: the outline of the region the two layers share, when the parent's outline runs
@@ -86,7 +87,7 @@ pub fn pin_sites(cx: &Context, child: usize, edges: &[&RigEdge], overrides: &Rig
         let before = sites.len();
         for &constraint in &edge.constraints {
             let points = match constraint {
-                Constraint::Occlusion => masks[p].outline(options.spacing).into_iter().filter(|&q| c.covers(q)).collect(),
+                Constraint::Occlusion => occlusion_points(&masks[p], c, options.spacing),
                 Constraint::Coincident => {
                     let edge_distance = outline_mask(&masks[p]).distance();
                     c.outline(options.spacing)
@@ -139,6 +140,54 @@ pub fn pin_sites(cx: &Context, child: usize, edges: &[&RigEdge], overrides: &Rig
         }
     }
     sites
+}
+
+/// Arc length between the outline samples the occlusion constraint looks at, pixels.
+const OUTLINE_STEP: f32 = 0.5;
+
+/// The occlusion constraint's sites: each stretch of `parent`'s outline under `child`, pinned at
+/// both ends and at most `spacing` apart between (a stretch shorter than half the spacing, at
+/// its middle). Samples every `spacing` along the whole outline would miss a stretch shorter
+/// than the spacing (the temple of a pair of glasses crossing a head's outline) and leave the
+/// ends of longer ones, where the child's rim crosses the outline and covers it least, up to a
+/// spacing from the nearest pin.
+fn occlusion_points(parent: &Mask, child: &Mask, spacing: f32) -> Vec<[f32; 2]> {
+    let mut points = Vec::new();
+    for ring in parent.outline_rings(OUTLINE_STEP) {
+        let covered: Vec<bool> = ring.iter().map(|&q| child.covers(q)).collect();
+        let Some(start) = covered.iter().position(|&c| !c) else {
+            // The whole ring under the child: no ends, evenly spaced samples.
+            let k = ((ring.len() as f32 * OUTLINE_STEP / spacing).round() as usize).clamp(1, ring.len());
+            points.extend((0..k).map(|j| ring[j * ring.len() / k]));
+            continue;
+        };
+        let mut run = Vec::new();
+        // From just after an uncovered sample round to it, so a stretch across the ring's
+        // first point is one stretch and the last one ends.
+        for j in 1..=ring.len() {
+            let i = (start + j) % ring.len();
+            if covered[i] {
+                run.push(ring[i]);
+            } else if !run.is_empty() {
+                points.extend(spread_over(&run, spacing));
+                run.clear();
+            }
+        }
+    }
+    points
+}
+
+/// Points of a stretch of outline samples (`OUTLINE_STEP` apart): its two ends and as few
+/// between as keep neighbours at most `spacing` apart, or its middle sample if it is shorter
+/// than half the spacing.
+fn spread_over(run: &[[f32; 2]], spacing: f32) -> Vec<[f32; 2]> {
+    let last = run.len() - 1;
+    let length = last as f32 * OUTLINE_STEP;
+    if length < spacing / 2.0 {
+        return vec![run[last / 2]];
+    }
+    let intervals = ((length / spacing).ceil() as usize).max(1);
+    (0..=intervals).map(|j| run[j * last / intervals]).collect()
 }
 
 /// `points` (of parent `parent`) without those within `separation` of a site of another parent.
@@ -259,6 +308,15 @@ mod tests {
         }
     }
 
+    /// The occlusion sites of a child rectangle over a parent rectangle on a 40² canvas.
+    fn occlusion_sites(parent: [u32; 4], child: [u32; 4], spacing: f32) -> Vec<PinSite> {
+        sites(
+            vec![rect(40, 40, parent), rect(40, 40, child)],
+            &edge(0, &[Constraint::Occlusion]),
+            spacing,
+        )
+    }
+
     fn sites(masks: Vec<Mask>, e: &RigEdge, spacing: f32) -> Vec<PinSite> {
         let options = PinOptions {
             spacing,
@@ -336,17 +394,35 @@ mod tests {
     #[test]
     fn occlusion_pins_the_parent_outline_under_the_child() {
         // An arm [10, 30) × [10, 20) under a sleeve covering its left half [8, 20) × [8, 22).
-        let s = sites(
-            vec![rect(40, 40, [10, 10, 30, 20]), rect(40, 40, [8, 8, 20, 22])],
-            &edge(0, &[Constraint::Occlusion]),
-            2.0,
-        );
+        let s = occlusion_sites([10, 10, 30, 20], [8, 8, 20, 22], 2.0);
         assert!(s.len() >= 8, "{s:?}");
         for p in &s {
             assert!(p.at[0] < 20.0 && p.constraint == Constraint::Occlusion, "{p:?}");
             let on_outline = (p.at[0] - 10.0).abs() < 1.0 || (p.at[1] - 10.0).abs() < 1.0 || (p.at[1] - 20.0).abs() < 1.0;
             assert!(on_outline, "{p:?} is not on the arm's outline");
         }
+    }
+
+    #[test]
+    fn every_stretch_of_outline_under_the_child_is_pinned_at_its_ends() {
+        // A head [10, 30) × [10, 30) under a temple 2 px thick, [26, 36) × [19, 21), which
+        // crosses its right edge: a stretch of 2 px, far shorter than the 16 px spacing.
+        let s = occlusion_sites([10, 10, 30, 30], [26, 19, 36, 21], 16.0);
+        // An occlusion pin, not the point a child without any falls back to.
+        assert_eq!(s.len(), 1, "{s:?}");
+        assert_eq!(s[0].constraint, Constraint::Occlusion);
+        assert!((s[0].at[0] - 29.5).abs() <= 1.0 && (19.0..21.0).contains(&s[0].at[1]), "{s:?}");
+        // A cap [5, 35) × [5, 18) over the head: the stretch runs down both sides and along the
+        // top, and its two ends, where the cap's rim crosses the sides at y = 18, are pins.
+        let s = occlusion_sites([10, 10, 30, 30], [5, 5, 35, 18], 5.0);
+        for x in [10.5, 29.5] {
+            assert!(
+                s.iter().any(|p| (p.at[0] - x).abs() <= 1.0 && p.at[1] >= 16.5),
+                "no end at x = {x}: {s:?}"
+            );
+        }
+        // Both sides (8 px each) and the top (20 px) at most 5 px apart: at least 2 + 4 + 2.
+        assert!(s.len() >= 8, "{s:?}");
     }
 
     #[test]

@@ -43,6 +43,12 @@ impl State {
     }
 }
 
+/// An ADMM estimate at most this far above 0 starts the active-set method held at 0. A few ADMM
+/// iterations leave most weights far from their pin slightly positive rather than at 0, and
+/// every weight started free enlarges each active-set iteration's factorisation (and takes
+/// iterations to fix); one held wrongly is released by its multiplier (benches/README.md "bbw").
+const WARM_START_ZERO: f64 = 1e-3;
+
 impl Biharmonic {
     /// Handle k's weights at the free unknowns (clamped to [0, 1]) and the active-set iterations
     /// taken: the primal–dual active-set method from the unconstrained minimiser `x0` (or from
@@ -58,12 +64,12 @@ impl Biharmonic {
         let mut work = Work::new(self, k);
         let tol = options.tolerance;
         let start = match admm {
-            // Weights the ADMM iterate holds at a bound start fixed there.
+            // Weights the ADMM iterate holds at a bound, or nearly at 0, start fixed there.
             Some(admm) => admm
                 .estimate(&work.b, x0, options.warm_start_iterations)
                 .into_iter()
                 .map(|z| match z {
-                    z if z <= 0.0 => State::AtZero,
+                    z if z <= WARM_START_ZERO => State::AtZero,
                     z if z >= 1.0 => State::AtOne,
                     _ => State::Free,
                 })

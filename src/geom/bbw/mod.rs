@@ -107,8 +107,8 @@ pub struct BbwOptions {
     pub max_iterations: usize,
     /// ADMM iterations (on one factorisation shared by all handles) that estimate each handle's
     /// active set before the exact active-set method; 0 starts that method from the
-    /// unconstrained weights instead. Default 20 (measured, one thread: 0.8× the time of no warm
-    /// start on benches/data/character_1k.txt, 0.87× on character_5k.txt, 0.7× on hair_2k.txt).
+    /// unconstrained weights instead. Default 20 (benches/README.md "bbw" measures it against
+    /// none).
     pub warm_start_iterations: usize,
     /// The mass matrix M. Default [`MassMatrix::Barycentric`].
     pub mass: MassMatrix,
