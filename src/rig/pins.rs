@@ -238,11 +238,8 @@ fn outline_mask(mask: &Mask) -> Mask {
 
 /// The overlap constraint's outline samples (module doc).
 fn overlap_outline(cx: &Context, child: usize, parent: usize, options: &PinOptions) -> Vec<[f32; 2]> {
-    let crosses = cx.masks[parent]
-        .outline(options.spacing)
-        .into_iter()
-        .any(|q| cx.masks[child].covers(q));
-    if !crosses {
+    // Walked as the occlusion pins walk it, so a crossing shorter than the spacing counts.
+    if occlusion_points(&cx.masks[parent], &cx.masks[child], options.spacing).is_empty() {
         return Vec::new();
     }
     let shared = cx.masks[child].and(&cx.masks[parent]);
@@ -308,13 +305,9 @@ mod tests {
         }
     }
 
-    /// The occlusion sites of a child rectangle over a parent rectangle on a 40² canvas.
-    fn occlusion_sites(parent: [u32; 4], child: [u32; 4], spacing: f32) -> Vec<PinSite> {
-        sites(
-            vec![rect(40, 40, parent), rect(40, 40, child)],
-            &edge(0, &[Constraint::Occlusion]),
-            spacing,
-        )
+    /// The sites `constraint` gives a child rectangle over a parent rectangle on a 40² canvas.
+    fn rect_sites(parent: [u32; 4], child: [u32; 4], constraint: Constraint, spacing: f32) -> Vec<PinSite> {
+        sites(vec![rect(40, 40, parent), rect(40, 40, child)], &edge(0, &[constraint]), spacing)
     }
 
     fn sites(masks: Vec<Mask>, e: &RigEdge, spacing: f32) -> Vec<PinSite> {
@@ -394,7 +387,7 @@ mod tests {
     #[test]
     fn occlusion_pins_the_parent_outline_under_the_child() {
         // An arm [10, 30) × [10, 20) under a sleeve covering its left half [8, 20) × [8, 22).
-        let s = occlusion_sites([10, 10, 30, 20], [8, 8, 20, 22], 2.0);
+        let s = rect_sites([10, 10, 30, 20], [8, 8, 20, 22], Constraint::Occlusion, 2.0);
         assert!(s.len() >= 8, "{s:?}");
         for p in &s {
             assert!(p.at[0] < 20.0 && p.constraint == Constraint::Occlusion, "{p:?}");
@@ -407,14 +400,14 @@ mod tests {
     fn every_stretch_of_outline_under_the_child_is_pinned_at_its_ends() {
         // A head [10, 30) × [10, 30) under a temple 2 px thick, [26, 36) × [19, 21), which
         // crosses its right edge: a stretch of 2 px, far shorter than the 16 px spacing.
-        let s = occlusion_sites([10, 10, 30, 30], [26, 19, 36, 21], 16.0);
+        let s = rect_sites([10, 10, 30, 30], [26, 19, 36, 21], Constraint::Occlusion, 16.0);
         // An occlusion pin, not the point a child without any falls back to.
         assert_eq!(s.len(), 1, "{s:?}");
         assert_eq!(s[0].constraint, Constraint::Occlusion);
         assert!((s[0].at[0] - 29.5).abs() <= 1.0 && (19.0..21.0).contains(&s[0].at[1]), "{s:?}");
         // A cap [5, 35) × [5, 18) over the head: the stretch runs down both sides and along the
         // top, and its two ends, where the cap's rim crosses the sides at y = 18, are pins.
-        let s = occlusion_sites([10, 10, 30, 30], [5, 5, 35, 18], 5.0);
+        let s = rect_sites([10, 10, 30, 30], [5, 5, 35, 18], Constraint::Occlusion, 5.0);
         for x in [10.5, 29.5] {
             assert!(
                 s.iter().any(|p| (p.at[0] - x).abs() <= 1.0 && p.at[1] >= 16.5),
@@ -426,20 +419,21 @@ mod tests {
     }
 
     #[test]
+    fn a_crossing_shorter_than_the_spacing_gives_overlap_pins() {
+        // A strap 2 px thick, [26, 36) × [19, 21), over a patch [10, 30) × [10, 30): the patch's
+        // outline runs through it for 2 px, far less than the 16 px spacing, so the strap keeps
+        // the outline of their shared region instead of falling back to a point.
+        let s = rect_sites([10, 10, 30, 30], [26, 19, 36, 21], Constraint::Overlap, 16.0);
+        assert!(!s.is_empty() && s.iter().all(|p| p.constraint == Constraint::Overlap), "{s:?}");
+    }
+
+    #[test]
     fn coincident_pins_where_the_outlines_meet_and_a_button_falls_back_to_a_point() {
         // Two rectangles sharing the edge x = 20.
-        let s = sites(
-            vec![rect(40, 40, [5, 5, 20, 30]), rect(40, 40, [20, 5, 35, 30])],
-            &edge(0, &[Constraint::Coincident]),
-            2.0,
-        );
+        let s = rect_sites([5, 5, 20, 30], [20, 5, 35, 30], Constraint::Coincident, 2.0);
         assert!(!s.is_empty() && s.iter().all(|p| p.at[0] < 26.0), "{s:?}");
         // A button on a square: no shared outline, so one point at the button's centre.
-        let s = sites(
-            vec![rect(40, 40, [5, 5, 35, 35]), rect(40, 40, [18, 18, 22, 22])],
-            &edge(0, &[Constraint::Coincident]),
-            2.0,
-        );
+        let s = rect_sites([5, 5, 35, 35], [18, 18, 22, 22], Constraint::Coincident, 2.0);
         assert_eq!(s.len(), 1);
         assert_eq!((s[0].at, s[0].constraint), ([19.5, 19.5], Constraint::Point));
     }
