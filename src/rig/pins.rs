@@ -157,7 +157,9 @@ fn occlusion_points(parent: &Mask, child: &Mask, spacing: f32) -> Vec<[f32; 2]> 
         let covered: Vec<bool> = ring.iter().map(|&q| child.covers(q)).collect();
         let Some(start) = covered.iter().position(|&c| !c) else {
             // The whole ring under the child: no ends, evenly spaced samples.
-            let k = ((ring.len() as f32 * OUTLINE_STEP / spacing).round() as usize).clamp(1, ring.len());
+            let k = ((ring.len() as f32 * OUTLINE_STEP / spacing).round() as usize)
+                .max(1)
+                .min(ring.len());
             points.extend((0..k).map(|j| ring[j * ring.len() / k]));
             continue;
         };
@@ -186,7 +188,7 @@ fn spread_over(run: &[[f32; 2]], spacing: f32) -> Vec<[f32; 2]> {
     if length < spacing / 2.0 {
         return vec![run[last / 2]];
     }
-    let intervals = ((length / spacing).ceil() as usize).max(1);
+    let intervals = (length / spacing).ceil() as usize;
     (0..=intervals).map(|j| run[j * last / intervals]).collect()
 }
 
