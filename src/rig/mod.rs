@@ -52,6 +52,8 @@ pub struct RigOptions {
     pub weight_floor: f32,
     /// How accessories follow their pins, unless the overrides say (`[rig] skinning`).
     pub skinning: Skinning,
+    /// How each accessory's bounded biharmonic weights are solved.
+    pub weights: BbwOptions,
 }
 
 impl Default for RigOptions {
@@ -65,6 +67,11 @@ impl Default for RigOptions {
             // a network trained through it learns far worse (README "Accessory rigs"): a small
             // turn of a body triangle under a pin swings the whole accessory.
             skinning: Skinning::Translation,
+            // The weights are stored as f32 and dropped below `weight_floor`, so the active-set
+            // stopping test need not be as fine as the solver's default: thin accessories (a
+            // glasses' frame), whose weights are nearly free along the stroke, spent most of their
+            // iterations below 1e-6 (benches/README.md "rig" measures both).
+            weights: BbwOptions::DEFAULT.with_tolerance(1e-6),
         }
     }
 }
@@ -204,7 +211,7 @@ fn rig_accessory(
     }
     let positions: Vec<[f64; 2]> = meshed.mesh.vertices.iter().map(|p| [f64::from(p[0]), f64::from(p[1])]).collect();
     let handles: Vec<u32> = pins.iter().map(|p| p.vertex).collect();
-    let solved = bbw(&positions, &meshed.mesh.triangles, &handles, &BbwOptions::default()).map_err(|e| Error::Solver {
+    let solved = bbw(&positions, &meshed.mesh.triangles, &handles, &options.weights).map_err(|e| Error::Solver {
         what: format!("rig: layer {name:?}: weights"),
         err: Box::new(e),
     })?;
