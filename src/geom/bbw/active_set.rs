@@ -43,11 +43,12 @@ impl State {
     }
 }
 
-/// An ADMM estimate at most this far above 0 starts the active-set method held at 0. A few ADMM
-/// iterations leave most weights far from their pin slightly positive rather than at 0, and
-/// every weight started free enlarges each active-set iteration's factorisation (and takes
-/// iterations to fix); one held wrongly is released by its multiplier (benches/README.md "bbw").
-const WARM_START_ZERO: f64 = 1e-3;
+/// An ADMM estimate within this of a bound starts the active-set method held at that bound. A
+/// few ADMM iterations leave most weights far from their pin slightly above 0, and on thin
+/// layers, where a weight is 1 along most of a stroke, slightly below 1; every weight started
+/// free enlarges each active-set iteration's factorisation (and takes iterations to fix); one
+/// held wrongly is released by its multiplier (benches/README.md "bbw").
+const WARM_START_MARGIN: f64 = 1e-3;
 
 impl Biharmonic {
     /// Handle k's weights at the free unknowns (clamped to [0, 1]) and the active-set iterations
@@ -64,13 +65,13 @@ impl Biharmonic {
         let mut work = Work::new(self, k);
         let tol = options.tolerance;
         let start = match admm {
-            // Weights the ADMM iterate holds at a bound, or nearly at 0, start fixed there.
+            // Weights the ADMM iterate holds at or near a bound start fixed there.
             Some(admm) => admm
                 .estimate(&work.b, x0, options.warm_start_iterations)
                 .into_iter()
                 .map(|z| match z {
-                    z if z <= WARM_START_ZERO => State::AtZero,
-                    z if z >= 1.0 => State::AtOne,
+                    z if z <= WARM_START_MARGIN => State::AtZero,
+                    z if z >= 1.0 - WARM_START_MARGIN => State::AtOne,
                     _ => State::Free,
                 })
                 .collect(),
