@@ -455,27 +455,11 @@ pub fn nearest_frame(picture: &Picture, candidates: &[Picture]) -> Option<(usize
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::model::deformation::DeformationNetConfig;
-    use crate::test_util::layered_puppet;
-
-    fn small_model() -> (Model, Device) {
-        let device = crate::backend::device();
-        let puppet = layered_puppet();
-        let config = DeformationNetConfig::new(puppet.vertex_count())
-            .with_input_size(16)
-            .with_encoder_hidden([32, 16])
-            .with_latent(8)
-            .with_decoder_hidden([16, 16]);
-        let mut model = Model::new(config, puppet, &device).unwrap();
-        // Give the last decoder layer weights so that poses depend on z (an untrained model
-        // predicts the rest pose whatever z is).
-        model.net = crate::edit::test_support::randomise_last_layer(model.net, 0.3);
-        (model, device)
-    }
+    use crate::edit::test_support::small_model;
 
     #[test]
     fn latent_end_points_are_the_fits_and_vertex_interpolation_is_linear() {
-        let (model, device) = small_model();
+        let (model, device) = small_model(0.3);
         let a = crate::render::render_crisp(&model.puppet, &model.puppet.rest_vertices(), 48, 40).unwrap();
         let mut b = a.clone();
         b.pixels.rotate_left(37); // a different image, so a different latent
@@ -512,7 +496,7 @@ mod tests {
 
     #[test]
     fn the_default_path_starts_and_ends_on_fits_past_the_manifold() {
-        let (model, device) = small_model();
+        let (model, device) = small_model(0.3);
         let (w, h) = (model.puppet.width, model.puppet.height);
         let a = render_crisp(&model.puppet, &model.puppet.rest_vertices(), w, h).unwrap();
         let mut moved = model.puppet.rest_vertices();
@@ -551,7 +535,7 @@ mod tests {
 
     #[test]
     fn zero_or_too_many_steps_and_wrong_sizes_are_refused() {
-        let (model, device) = small_model();
+        let (model, device) = small_model(0.3);
         let a = Picture::filled(48, 40, [1.0, 0.0, 0.0, 1.0]);
         assert!(matches!(steps_t(0, MAX_STEPS), Err(Error::Setting { .. })));
         assert!(matches!(steps_t(11, 10), Err(Error::Limit { amount: 11, limit: 10, .. })));

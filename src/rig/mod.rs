@@ -69,8 +69,8 @@ impl Default for RigOptions {
             skinning: Skinning::Translation,
             // The weights are stored as f32 and dropped below `weight_floor`, so the active-set
             // stopping test need not be as fine as the solver's default: thin accessories (a
-            // glasses' frame), whose weights are nearly free along the stroke, spent most of their
-            // iterations below 1e-6 (benches/README.md "rig" measures both).
+            // glasses' frame), whose weights are nearly free along the stroke, spent about half
+            // their iterations below 1e-6 (benches/README.md "rig" measures both).
             weights: BbwOptions::DEFAULT.with_tolerance(1e-6),
         }
     }
