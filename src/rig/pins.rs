@@ -240,8 +240,13 @@ fn outline_mask(mask: &Mask) -> Mask {
 
 /// The overlap constraint's outline samples (module doc).
 fn overlap_outline(cx: &Context, child: usize, parent: usize, options: &PinOptions) -> Vec<[f32; 2]> {
-    // Walked as the occlusion pins walk it, so a crossing shorter than the spacing counts.
-    if occlusion_points(&cx.masks[parent], &cx.masks[child], options.spacing).is_empty() {
+    // Sampled as finely as the occlusion pins walk it, so a crossing shorter than the spacing
+    // counts.
+    let crosses = cx.masks[parent]
+        .outline(OUTLINE_STEP)
+        .into_iter()
+        .any(|q| cx.masks[child].covers(q));
+    if !crosses {
         return Vec::new();
     }
     let shared = cx.masks[child].and(&cx.masks[parent]);
