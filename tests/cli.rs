@@ -433,4 +433,8 @@ fn a_dicebear_character_rigs_with_pins_every_three_pixels() {
     std::fs::write(&toml, format!("{text}\n[rig]\npin_separation = -1.0\n")).unwrap();
     puppet(tmp.path(), &["build", art.to_str().unwrap(), "-o", "refused"]).assert_error(&["character.toml", "rig.pin_separation", "-1"]);
     assert!(!tmp.path().join("refused").exists());
+    // And a gap bridge wider than any notch.
+    std::fs::write(&toml, format!("{text}\n[rig]\nbridge_gaps = 100.0\n")).unwrap();
+    puppet(tmp.path(), &["build", art.to_str().unwrap(), "-o", "refused"]).assert_error(&["character.toml", "rig.bridge_gaps", "100"]);
+    assert!(!tmp.path().join("refused").exists());
 }

@@ -72,17 +72,24 @@ impl TriangleGrid {
 
     /// Whether `p` lies in one of the triangles (edges included).
     pub fn covers(&self, p: [f32; 2]) -> bool {
+        self.holding(p).is_some()
+    }
+
+    /// A triangle holding `p` (edges included), as its index among the finite triangles given
+    /// to [`TriangleGrid::new`] (their order; all of them for a mesh's triangles at rest).
+    pub fn holding(&self, p: [f32; 2]) -> Option<usize> {
         if self.triangles.is_empty() || !p[0].is_finite() || !p[1].is_finite() {
-            return false;
+            return None;
         }
         let inside = |x: f32, o: f32, n: usize| x >= o && x <= o + n as f32 * self.cell;
         if !inside(p[0], self.origin[0], self.columns) || !inside(p[1], self.origin[1], self.rows) {
-            return false;
+            return None;
         }
         let [c, r] = self.cell_of(p);
         self.cells[r * self.columns + c]
             .iter()
-            .any(|&k| contains(self.triangles[k as usize], p, 1e-6))
+            .find(|&&k| contains(self.triangles[k as usize], p, 1e-6))
+            .map(|&k| k as usize)
     }
 
     /// Whether the disc of radius `r` about `p` lies in the union, judged at its centre and at

@@ -212,6 +212,7 @@ impl RigData {
 /// [rig]
 /// pin_spacing = 6.0                 # pixels between pins along an outline (default: from the size)
 /// pin_separation = 10.0             # several parents: no pin within 10 px of another parent's (default 0)
+/// bridge_gaps = 2.0                 # weights solved with gaps under ~2×2 px closed (default: from the size; 0: off)
 /// skinning = "affine"               # carry accessories by their pins' triangles (default: "translation")
 ///
 /// [[rig.edge]]                      # a child's edges replace its automatic one; several = several parents
@@ -236,6 +237,9 @@ pub struct RigOverrides {
     pub pin_spacing: Option<f32>,
     /// Least distance in pixels between pins of two parents of one accessory.
     pub pin_separation: Option<f32>,
+    /// Radius in pixels of the closing an accessory's weights are solved under
+    /// ([`crate::rig::RigOptions::bridge_gaps`]).
+    pub bridge_gaps: Option<f32>,
     /// How accessories follow their pins (default: [`crate::rig::RigOptions::skinning`]).
     pub skinning: Option<Skinning>,
     /// Edges chosen by hand.
@@ -250,7 +254,8 @@ pub struct RigOverrides {
 }
 
 impl RigOverrides {
-    /// Checks the numeric settings: `pin_spacing` at least 1 px, `pin_separation` 0 or more.
+    /// Checks the numeric settings: `pin_spacing` at least 1 px, `pin_separation` and
+    /// `bridge_gaps` 0 or more (`bridge_gaps` at most 64).
     ///
     /// # Errors
     /// [`Error::Setting`] naming the first setting out of range.
@@ -270,9 +275,20 @@ impl RigOverrides {
                 "0 pixels or more",
             ));
         }
+        if bad(self.bridge_gaps, 0.0) || self.bridge_gaps.is_some_and(|r| r > MAX_BRIDGE_GAPS) {
+            return Err(Error::setting(
+                "rig.bridge_gaps",
+                self.bridge_gaps.unwrap_or_default(),
+                "0 to 64 pixels",
+            ));
+        }
         Ok(())
     }
 }
+
+/// The largest `[rig] bridge_gaps` accepted, pixels: a closing that wide would fill the space
+/// between a character's locks of hair, not the notches in one.
+const MAX_BRIDGE_GAPS: f32 = 64.0;
 
 /// `[[rig.edge]]`.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]

@@ -16,6 +16,7 @@
 //! the puppet ([`crate::puppet::rig_data`]); accessories have no hinge joints. [`outfit`] takes
 //! accessories off and puts others on the same body.
 
+pub mod bridge;
 pub mod dag;
 pub mod deform;
 pub mod mask;
@@ -54,6 +55,17 @@ pub struct RigOptions {
     pub skinning: Skinning,
     /// How each accessory's bounded biharmonic weights are solved.
     pub weights: BbwOptions,
+    /// The weights are solved with the accessory's gaps narrower than about twice this closed
+    /// ([`bridge`]), pixels; `None`: `max(width, height) / 128` of the canvas (2 px at 256²), 0:
+    /// not at all. The `[rig] bridge_gaps` override wins.
+    pub bridge_gaps: Option<f32>,
+}
+
+impl RigOptions {
+    /// The gap-bridging radius for a `width` × `height` canvas ([`RigOptions::bridge_gaps`]).
+    pub fn bridge_radius(&self, width: u32, height: u32) -> f32 {
+        self.bridge_gaps.unwrap_or(width.max(height) as f32 / 128.0)
+    }
 }
 
 impl Default for RigOptions {
@@ -72,6 +84,7 @@ impl Default for RigOptions {
             // glasses' frame), whose weights are nearly free along the stroke, spent about half
             // their iterations below 1e-6 (benches/README.md "rig" measures both).
             weights: BbwOptions::DEFAULT.with_tolerance(1e-6),
+            bridge_gaps: None,
         }
     }
 }
@@ -111,6 +124,9 @@ pub fn rig_puppet(
     let mut pin_options = options.pins.unwrap_or_else(|| PinOptions::for_size(puppet.width, puppet.height));
     pin_options.spacing = overrides.pin_spacing.unwrap_or(pin_options.spacing);
     pin_options.separation = overrides.pin_separation.unwrap_or(pin_options.separation);
+    let bridge_radius = overrides
+        .bridge_gaps
+        .unwrap_or_else(|| options.bridge_radius(puppet.width, puppet.height));
     let mut body_part: Vec<usize> = (0..puppet.layers.len()).collect();
     for &child in &order {
         if let Some(e) = edges.iter().find(|e| e.child == child) {
@@ -137,7 +153,7 @@ pub fn rig_puppet(
     for &child in &order {
         let child_edges: Vec<_> = edges.iter().filter(|e| e.child == child).collect();
         let sites = pin_sites(&cx, child, &child_edges, overrides, &pin_options);
-        accessories.push(rig_accessory(&mut out, child, &sites, mesh_options, options)?);
+        accessories.push(rig_accessory(&mut out, child, &sites, mesh_options, options, bridge_radius)?);
         progress.advance(1);
     }
     out.rig = Some(RigData {
@@ -158,6 +174,7 @@ fn rig_accessory(
     sites: &[PinSite],
     mesh_options: &MeshOptions,
     options: &RigOptions,
+    bridge_radius: f32,
 ) -> Result<AccessoryRig> {
     let name = puppet.layers[child].name.clone();
     let layer_error = |problem: String| Error::setting(format!("rig: layer {name:?}"), problem, "an accessory the rig can pin");
@@ -209,13 +226,16 @@ fn rig_accessory(
             });
         }
     }
-    let positions: Vec<[f64; 2]> = meshed.mesh.vertices.iter().map(|p| [f64::from(p[0]), f64::from(p[1])]).collect();
     let handles: Vec<u32> = pins.iter().map(|p| p.vertex).collect();
-    let solved = bbw(&positions, &meshed.mesh.triangles, &handles, &options.weights).map_err(|e| Error::Solver {
-        what: format!("rig: layer {name:?}: weights"),
-        err: Box::new(e),
-    })?;
-    let weights = sparse_rows(&solved.weights, handles.len(), options.weight_floor);
+    let bridged = bridge::closed_alpha(&alpha, w, h, options.alpha_threshold, bridge_radius)
+        .and_then(|closed| bridged_weights(&meshed.mesh, &handles, &closed, (w, h), mesh_options, options));
+    let dense = bridged
+        .unwrap_or_else(|| solve_weights(&meshed.mesh, &handles, options))
+        .map_err(|e| Error::Solver {
+            what: format!("rig: layer {name:?}: weights"),
+            err: Box::new(e),
+        })?;
+    let weights = sparse_rows(&dense, handles.len(), options.weight_floor);
     let layer = &mut puppet.layers[child];
     layer.uvs = meshed.mesh.vertices.iter().map(|v| [v[0] / w as f32, v[1] / h as f32]).collect();
     layer.mesh = meshed.mesh;
@@ -224,6 +244,37 @@ fn rig_accessory(
         pins,
         weights,
     })
+}
+
+/// The bounded biharmonic weights (`V × H`, row-major) of `mesh` with a handle at each of
+/// `handles`.
+fn solve_weights(mesh: &Mesh, handles: &[u32], options: &RigOptions) -> Result<Vec<f64>, crate::geom::BbwError> {
+    let positions: Vec<[f64; 2]> = mesh.vertices.iter().map(|p| [f64::from(p[0]), f64::from(p[1])]).collect();
+    Ok(bbw(&positions, &mesh.triangles, handles, &options.weights)?.weights)
+}
+
+/// The weights of `mesh` solved on the layer with its gaps closed (`closed`, its alpha; see
+/// [`bridge`]), or `None` where that layer cannot carry them: it does not mesh with the pins as
+/// vertices, two pins fall on one of its vertices, or a piece of it has no pin (the closing can
+/// give a speck the mesher dropped the area to be meshed).
+fn bridged_weights(
+    mesh: &Mesh,
+    handles: &[u32],
+    closed: &[f32],
+    (w, h): (u32, u32),
+    mesh_options: &MeshOptions,
+    options: &RigOptions,
+) -> Option<Result<Vec<f64>, crate::geom::BbwError>> {
+    let points: Vec<[f32; 2]> = handles.iter().map(|&v| mesh.vertices[v as usize]).collect();
+    let wide = mesh_alpha(closed, w, h, &points, mesh_options).ok()?;
+    let mut distinct = wide.required.clone();
+    distinct.sort_unstable();
+    distinct.dedup();
+    let pinned = |piece: &Vec<u32>| piece.iter().any(|v| distinct.binary_search(v).is_ok());
+    if distinct.len() != handles.len() || !mesh_pieces(&wide.mesh).iter().all(pinned) {
+        return None;
+    }
+    Some(solve_weights(&wide.mesh, &wide.required, options).map(|weights| bridge::read_back(mesh, handles, &wide.mesh, &weights)))
 }
 
 /// Dense `V × H` weights as sparse rows: entries below `floor` dropped, each row renormalised

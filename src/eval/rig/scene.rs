@@ -6,6 +6,7 @@ use std::collections::BTreeMap;
 use super::edits::body_layers;
 use super::report::Scores;
 use crate::geom::triangle_grid::TriangleGrid;
+use crate::geom::{component_labels, triangle_edges};
 use crate::puppet::rig_data::{Constraint, RigEdge};
 use crate::puppet::{LayerKind, Puppet};
 use crate::rig::deform::bind_point;
@@ -120,8 +121,6 @@ pub(super) struct Scene<'a> {
     attachments: Vec<Attachment>,
     /// Coincident seams: a child point, the parent point nearest it, their rest distance.
     seams: Vec<(Bound, Bound, f32)>,
-    /// Per accessory, the holes of its coverage at rest.
-    rest_holes: Vec<usize>,
 }
 
 impl<'a> Scene<'a> {
@@ -220,7 +219,6 @@ impl<'a> Scene<'a> {
                 }
             }
         }
-        let rest_holes = accessories.iter().map(|&a| fine_holes(puppet, a, &rest, offsets[a])).collect();
         Scene {
             puppet,
             offsets,
@@ -229,7 +227,6 @@ impl<'a> Scene<'a> {
             own,
             attachments,
             seams,
-            rest_holes,
         }
     }
 
@@ -305,8 +302,11 @@ impl<'a> Scene<'a> {
             new_holes: self
                 .accessories
                 .iter()
-                .zip(&self.rest_holes)
-                .map(|(&a, &before)| fine_holes(self.puppet, a, pose, self.offsets[a]).saturating_sub(before))
+                .map(|&a| {
+                    let mesh = &self.puppet.layers[a].mesh;
+                    let placed = &pose[self.offsets[a]..self.offsets[a] + mesh.vertices.len()];
+                    new_holes(&mesh.triangles, &mesh.vertices, placed, self.puppet.width, self.puppet.height)
+                })
                 .sum(),
             seam_change_p95: (!seam_change.is_empty()).then(|| percentile(&mut seam_change.clone(), 0.95)),
             stretch_p95: percentile(&mut stretch, 0.95),
@@ -314,21 +314,36 @@ impl<'a> Scene<'a> {
     }
 }
 
-/// Enclosed holes in the coverage of layer `l` (its vertices from global index `offset`) in
-/// `pose`, rasterised at [`HOLE_SUPERSAMPLING`] times the canvas resolution: at the canvas's
-/// own, a stroke of line art thinner than a pixel in places is rasterised with gaps, which open
-/// and close as it moves (a glasses frame whose lens is enclosed in one pose and not the next).
-fn fine_holes(puppet: &Puppet, l: usize, pose: &[[f32; 2]], offset: usize) -> usize {
-    let mesh = &puppet.layers[l].mesh;
-    holes_of_triangles(
-        &mesh.triangles,
-        &pose[offset..offset + mesh.vertices.len()],
-        puppet.width,
-        puppet.height,
-    )
+/// Holes in the coverage of a mesh (`triangles` over `rest`) placed at `placed` that its rest
+/// shape, each connected piece moved as a whole by its vertices' mean displacement, does not
+/// have: the hole count at [`HOLE_SUPERSAMPLING`] times the canvas resolution less that of the
+/// moved rest shape. At the canvas's own resolution a stroke of line art thinner than a pixel
+/// in places is rasterised with gaps, which open and close as it moves (a glasses frame whose
+/// lens is enclosed in one pose and not the next); at any resolution a stroke thinner than a
+/// subsample still does, so the rest shape is counted where the pose has it, and pieces that
+/// only translate (eyes on point pins) open none.
+fn new_holes(triangles: &[[u32; 3]], rest: &[[f32; 2]], placed: &[[f32; 2]], width: u32, height: u32) -> usize {
+    let (piece, count) = component_labels(rest.len(), triangle_edges(triangles));
+    let mut shift = vec![[0.0f64; 3]; count];
+    for ((r, p), &k) in rest.iter().zip(placed).zip(&piece) {
+        shift[k] = [
+            shift[k][0] + f64::from(p[0] - r[0]),
+            shift[k][1] + f64::from(p[1] - r[1]),
+            shift[k][2] + 1.0,
+        ];
+    }
+    let moved: Vec<[f32; 2]> = rest
+        .iter()
+        .zip(&piece)
+        .map(|(r, &k)| {
+            let [x, y, n] = shift[k];
+            [r[0] + (x / n) as f32, r[1] + (y / n) as f32]
+        })
+        .collect();
+    holes_of_triangles(triangles, placed, width, height).saturating_sub(holes_of_triangles(triangles, &moved, width, height))
 }
 
-/// [`fine_holes`] of a mesh placed at `placed` on a `width` × `height` canvas.
+/// Enclosed holes in the coverage of a mesh placed at `placed` on a `width` × `height` canvas.
 fn holes_of_triangles(triangles: &[[u32; 3]], placed: &[[f32; 2]], width: u32, height: u32) -> usize {
     let k = HOLE_SUPERSAMPLING as f32;
     // Rasterised over the layer's bounding box, with a free pixel round it: a piece of the
@@ -413,15 +428,7 @@ mod tests {
         // A square frame 0.6 px wide round [x0, x0 + 12]²: four bars, two triangles each.
         let frame = |x0: f32| {
             let (a, b, c, d) = (x0, x0 + 0.6, x0 + 11.4, x0 + 12.0);
-            let bars = [[a, a, d, b], [a, c, d, d], [a, a, b, d], [c, a, d, d]];
-            let mut vertices = Vec::new();
-            let mut triangles = Vec::new();
-            for [x1, y1, x2, y2] in bars {
-                let k = vertices.len() as u32;
-                vertices.extend([[x1, y1], [x2, y1], [x2, y2], [x1, y2]]);
-                triangles.extend([[k, k + 1, k + 2], [k, k + 2, k + 3]]);
-            }
-            (vertices, triangles)
+            boxes(&[[a, a, d, b], [a, c, d, d], [a, a, b, d], [c, a, d, d]])
         };
         for x0 in [2.0, 2.3, 2.6, 2.9] {
             let (vertices, triangles) = frame(x0);
@@ -431,5 +438,57 @@ mod tests {
         // and top bars, and encloses nothing.
         let (vertices, triangles) = frame(2.6);
         assert_eq!(holes(&Mask::of_triangles(&vertices, &triangles, 20, 20)), 0);
+    }
+
+    /// Axis-aligned boxes `[x0, y0, x1, y1]` as a mesh, two triangles each.
+    fn boxes(bars: &[[f32; 4]]) -> (Vec<[f32; 2]>, Vec<[u32; 3]>) {
+        let mut vertices = Vec::new();
+        let mut triangles = Vec::new();
+        for &[x1, y1, x2, y2] in bars {
+            let k = vertices.len() as u32;
+            vertices.extend([[x1, y1], [x2, y1], [x2, y2], [x1, y2]]);
+            triangles.extend([[k, k + 1, k + 2], [k, k + 2, k + 3]]);
+        }
+        (vertices, triangles)
+    }
+
+    #[test]
+    fn pieces_that_only_translate_open_no_hole() {
+        // Two square frames 0.15 px wide (under a subsample), one piece each, the first moved by
+        // fractions of a pixel and the second not: the hole count at 4× changes as the first
+        // moves, and none of it is new.
+        let frame = |a: f32, b: f32, c: f32, d: f32| [[a, a, d, b], [a, c, d, d], [a, a, b, d], [c, a, d, d]];
+        let bars: Vec<[f32; 4]> = frame(2.0, 2.15, 13.85, 14.0)
+            .into_iter()
+            .chain(frame(2.0, 2.15, 13.85, 14.0).map(|[x0, y0, x1, y1]| [x0 + 14.0, y0, x1 + 14.0, y1]))
+            .collect();
+        let (rest, triangles) = boxes(&bars);
+        let mut counts = Vec::new();
+        for step in 0..12 {
+            let shift = |v: usize| {
+                let k = if v < 16 { 1.0 } else { 0.0 };
+                [0.037 * step as f32 * k, 0.061 * step as f32 * k]
+            };
+            let placed: Vec<[f32; 2]> = rest
+                .iter()
+                .enumerate()
+                .map(|(v, p)| [p[0] + shift(v)[0], p[1] + shift(v)[1]])
+                .collect();
+            counts.push(holes_of_triangles(&triangles, &placed, 32, 20));
+            assert_eq!(new_holes(&triangles, &rest, &placed, 32, 20), 0, "step {step}");
+        }
+        assert!(counts.iter().any(|&n| n != counts[0]), "the raw counts should vary: {counts:?}");
+    }
+
+    #[test]
+    fn a_notch_pinched_shut_is_a_new_hole() {
+        // A U with a notch 1 px wide; the pose leans the right arm's top onto the left arm's.
+        let (rest, triangles) = boxes(&[[2.0, 2.0, 3.0, 12.0], [4.0, 2.0, 5.0, 12.0], [2.0, 12.0, 5.0, 13.0]]);
+        let mut placed = rest.clone();
+        for v in [4, 5] {
+            placed[v][0] -= 1.5;
+        }
+        assert_eq!(new_holes(&triangles, &rest, &rest, 20, 20), 0);
+        assert_eq!(new_holes(&triangles, &rest, &placed, 20, 20), 1);
     }
 }
