@@ -22,6 +22,7 @@
 use spade::{AngleLimit, ConstrainedDelaunayTriangulation, Point2, RefinementParameters, Triangulation};
 
 use super::contour::{inside_rings, signed_area};
+use super::simplify::segment_distance;
 use super::{MeshError, MeshOptions};
 use crate::puppet::Mesh;
 
@@ -276,18 +277,6 @@ fn lattice(rings: &[Vec<[f64; 2]>], max_area: f64) -> Vec<[f64; 2]> {
         }
     }
     seeds
-}
-
-fn segment_distance(p: [f64; 2], a: [f64; 2], b: [f64; 2]) -> f64 {
-    let d = [b[0] - a[0], b[1] - a[1]];
-    let len2 = d[0] * d[0] + d[1] * d[1];
-    let t = if len2 > 0.0 {
-        (((p[0] - a[0]) * d[0] + (p[1] - a[1]) * d[1]) / len2).clamp(0.0, 1.0)
-    } else {
-        0.0
-    };
-    let q = [a[0] + t * d[0] - p[0], a[1] + t * d[1] - p[1]];
-    (q[0] * q[0] + q[1] * q[1]).sqrt()
 }
 
 /// Whether `p` lies on a ring edge (within 1e-9 px).
