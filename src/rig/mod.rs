@@ -227,7 +227,10 @@ fn rig_accessory(
         }
     }
     let handles: Vec<u32> = pins.iter().map(|p| p.vertex).collect();
-    let bridged = bridge::closed_alpha(&alpha, w, h, options.alpha_threshold, bridge_radius)
+    // One handle weighs 1 everywhere, however the layer is meshed: nothing to bridge.
+    let bridged = (handles.len() > 1)
+        .then(|| bridge::closed_alpha(&alpha, w, h, options.alpha_threshold, bridge_radius))
+        .flatten()
         .and_then(|closed| bridged_weights(&meshed.mesh, &handles, &closed, (w, h), mesh_options, options));
     let dense = bridged
         .unwrap_or_else(|| solve_weights(&meshed.mesh, &handles, options))

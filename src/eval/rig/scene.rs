@@ -426,10 +426,7 @@ mod tests {
     #[test]
     fn a_frame_thinner_than_a_pixel_encloses_its_hole_wherever_it_lies() {
         // A square frame 0.6 px wide round [x0, x0 + 12]²: four bars, two triangles each.
-        let frame = |x0: f32| {
-            let (a, b, c, d) = (x0, x0 + 0.6, x0 + 11.4, x0 + 12.0);
-            boxes(&[[a, a, d, b], [a, c, d, d], [a, a, b, d], [c, a, d, d]])
-        };
+        let frame = |x0: f32| boxes(&frame_bars(x0, 0.6, 12.0));
         for x0 in [2.0, 2.3, 2.6, 2.9] {
             let (vertices, triangles) = frame(x0);
             assert_eq!(holes_of_triangles(&triangles, &vertices, 20, 20), 1, "frame at {x0}");
@@ -438,6 +435,12 @@ mod tests {
         // and top bars, and encloses nothing.
         let (vertices, triangles) = frame(2.6);
         assert_eq!(holes(&Mask::of_triangles(&vertices, &triangles, 20, 20)), 0);
+    }
+
+    /// The four bars `[x0, y0, x1, y1]` of a square frame `width` wide round `[at, at + size]²`.
+    fn frame_bars(at: f32, width: f32, size: f32) -> [[f32; 4]; 4] {
+        let (a, b, c, d) = (at, at + width, at + size - width, at + size);
+        [[a, a, d, b], [a, c, d, d], [a, a, b, d], [c, a, d, d]]
     }
 
     /// Axis-aligned boxes `[x0, y0, x1, y1]` as a mesh, two triangles each.
@@ -457,10 +460,10 @@ mod tests {
         // Two square frames 0.15 px wide (under a subsample), one piece each, the first moved by
         // fractions of a pixel and the second not: the hole count at 4× changes as the first
         // moves, and none of it is new.
-        let frame = |a: f32, b: f32, c: f32, d: f32| [[a, a, d, b], [a, c, d, d], [a, a, b, d], [c, a, d, d]];
-        let bars: Vec<[f32; 4]> = frame(2.0, 2.15, 13.85, 14.0)
+        let frame = frame_bars(2.0, 0.15, 12.0);
+        let bars: Vec<[f32; 4]> = frame
             .into_iter()
-            .chain(frame(2.0, 2.15, 13.85, 14.0).map(|[x0, y0, x1, y1]| [x0 + 14.0, y0, x1 + 14.0, y1]))
+            .chain(frame.map(|[x0, y0, x1, y1]| [x0 + 14.0, y0, x1 + 14.0, y1]))
             .collect();
         let (rest, triangles) = boxes(&bars);
         let mut counts = Vec::new();
