@@ -11,7 +11,8 @@
 //! full size or the first share at half size (`edit/fit/vertex_round/coarse_share=<S>`). On
 //! the male adventurer, his hair rigged, one frame with the hair drawn off the rig: one round of
 //! vertex steps, then none or the default number of steps on the accessories' moves
-//! (`edit/fit/accessory_steps=<N>`).
+//! (`edit/fit/accessory_steps=<N>`). And the default fit of four frames of the robot, limbs
+//! turned (`edit/fit/default/frames=4`).
 
 // Benchmarks print their figures, read their own committed data, and criterion's macros write
 // undocumented functions.
@@ -148,6 +149,24 @@ fn bench(c: &mut Criterion) {
             b.iter(|| black_box(fit(&model, &[&drawn], &options, &device, &Silent).expect("fit")))
         });
     }
+
+    // The default fit of four frames (the robot's held-out split has four): the frames go in a
+    // batch per core.
+    let poses: Vec<Vec<[f32; 2]>> = (1..=4)
+        .map(|k| {
+            let mut pose = model.puppet.rest_vertices();
+            limbs(&model.puppet)[k].turn(&mut pose, (20.0 * k as f32).to_radians());
+            pose
+        })
+        .collect();
+    let frames: Vec<_> = poses
+        .iter()
+        .map(|p| render_crisp(&model.puppet, p, w, h).expect("render"))
+        .collect();
+    let frames: Vec<_> = frames.iter().collect();
+    group.bench_function("fit/default/frames=4", |b| {
+        b.iter(|| black_box(fit(&model, &frames, &FitOptions::default(), &device, &Silent).expect("fit")))
+    });
 
     let dressed = kenney_model("male_adventurer", true);
     let (w, h) = (dressed.puppet.width, dressed.puppet.height);

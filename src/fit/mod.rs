@@ -24,6 +24,7 @@ pub mod plausible;
 use std::path::Path;
 
 use burn::tensor::{Device, Tensor, TensorData};
+use rayon::prelude::*;
 
 use crate::error::{Error, Result};
 use crate::model::decoder::Decoder;
@@ -223,8 +224,8 @@ impl FitOptions {
     }
 }
 
-/// Fits `frames` (the puppet's size) in batches of [`BATCH`], advancing `progress` by each
-/// batch: encoder, then `options.latent_steps` Adam steps per latent, then
+/// Fits `frames` (the puppet's size) in a batch per core (of at most [`BATCH`] frames, fitted
+/// side by side), advancing `progress` by each batch: encoder, then `options.latent_steps` Adam steps per latent, then
 /// `options.vertex_rounds` rounds of a limb search ([`LimbSearch`]) and `options.vertex_steps`
 /// Adam steps on the vertices themselves. Returns the template vertices of each frame in frame
 /// pixels.
@@ -254,18 +255,23 @@ pub fn fit_with_latents(
     device: &Device,
     progress: &dyn Progress,
 ) -> Result<(Tensor<2>, Vec<Vec<[f32; 2]>>)> {
-    let mut latents = Vec::new();
-    let mut poses = Vec::with_capacity(frames.len());
-    for chunk in frames.chunks(BATCH) {
-        let (z, p) = fit_batch(model, chunk, options, device)?;
-        latents.push(z);
-        poses.extend(p);
-        progress.advance(chunk.len() as u64);
+    if frames.is_empty() {
+        return Ok((model.encode(frames, device)?, Vec::new()));
     }
-    if latents.is_empty() {
-        return Ok((model.encode(frames, device)?, poses));
-    }
-    Ok((Tensor::cat(latents, 0), poses))
+    // A frame's fit does not depend on the frames beside it in its batch (`Analysis::descend`),
+    // and one batch keeps about one core busy (its steps are many small operations), so the
+    // frames are split into a batch per core.
+    let per_batch = frames.len().div_ceil(rayon::current_num_threads()).clamp(1, BATCH);
+    let batches: Vec<(Tensor<2>, Vec<Vec<[f32; 2]>>)> = frames
+        .par_chunks(per_batch)
+        .map(|chunk| {
+            let fitted = fit_batch(model, chunk, options, device)?;
+            progress.advance(chunk.len() as u64);
+            Ok(fitted)
+        })
+        .collect::<Result<_>>()?;
+    let (latents, poses): (Vec<_>, Vec<_>) = batches.into_iter().unzip();
+    Ok((Tensor::cat(latents, 0), poses.into_iter().flatten().collect()))
 }
 
 /// One batch of [`fit`]: the latents after the latent steps and the fitted poses.
@@ -722,5 +728,30 @@ mod tests {
         };
         close(&some[1], &fit_with(&[&rest], 2, 0.0)[0]);
         close(&some[0], &fit_with(&[&shifted], 3, 0.0)[0]);
+    }
+
+    /// `fit` splits its frames into a batch per core; each frame's pose and latent are what one
+    /// batch of all the frames gives.
+    #[test]
+    fn frames_split_into_batches_fit_as_in_one() {
+        let (model, device, shifted) = model_and_frame();
+        let puppet = &model.puppet;
+        let rest = crate::render::render_crisp(puppet, &puppet.rest_vertices(), puppet.width, puppet.height).unwrap();
+        let frames = [&shifted, &rest, &shifted];
+        let options = FitOptions {
+            latent_steps: 5,
+            vertex_steps: 20,
+            vertex_rounds: 2,
+            ..FitOptions::default()
+        };
+        let (z, split) = fit_with_latents(&model, &frames, &options, &device, &crate::progress::Silent).unwrap();
+        let (z_one, one) = fit_batch(&model, &frames, &options, &device).unwrap();
+        assert_eq!(split.len(), 3);
+        for (a, b) in split.iter().zip(&one) {
+            let worst = crate::test_util::largest_distance(a, b);
+            assert!(worst < 1e-3, "{worst} px apart");
+        }
+        let gap = (z - z_one).abs().max().into_scalar::<f32>();
+        assert!(gap < 1e-4, "latents {gap} apart");
     }
 }
