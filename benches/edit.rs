@@ -150,8 +150,8 @@ fn bench(c: &mut Criterion) {
         });
     }
 
-    // The default fit of four frames (the robot's held-out split has four): the frames go in a
-    // batch per core.
+    // The default fit of four frames (the robot's held-out split has four), in two batches side
+    // by side.
     let poses: Vec<Vec<[f32; 2]>> = (1..=4)
         .map(|k| {
             let mut pose = model.puppet.rest_vertices();
