@@ -229,8 +229,7 @@ impl FitOptions {
 /// frames; otherwise two, or more of at most [`BATCH`]), advancing `progress` by each batch:
 /// encoder, then `options.latent_steps` Adam steps per latent, then `options.vertex_rounds`
 /// rounds of a limb search ([`LimbSearch`]) and `options.vertex_steps` Adam steps on the
-/// vertices themselves. Returns the template vertices of each frame in frame
-/// pixels.
+/// vertices themselves. Returns the template vertices of each frame in frame pixels.
 ///
 /// # Errors
 /// As [`fit_latents`].
