@@ -2,7 +2,7 @@
 
 use std::path::PathBuf;
 
-use puppet::eval::parts::{score_synthetic_sheet, SheetScores, Source};
+use puppet::eval::parts::{score_synthetic_sheet, OracleCleanup, SheetScores, Source};
 use puppet::parts::learn::TrainedNet;
 use puppet::parts::pose::{crop_like, load_poses, Layout};
 use puppet::parts::score::{labels_by_colour, part_iou};
@@ -45,6 +45,12 @@ pub struct EvalPartsArgs {
     /// pixels (0: keep all).
     #[arg(long, default_value_t = 2.0, value_name = "PX")]
     pub flow_check: f32,
+    /// With --net: mend the network's matches by the generator's truth after the checks, to
+    /// measure what each kind of error costs (an oracle, for analysis): `hidden` drops matches
+    /// of points the other pose hides, `far` also those more than 6 px off, `wrong` also those
+    /// more than 2 px off, `corrected` replaces those by the truth instead.
+    #[arg(long, value_enum, value_name = "KIND", requires = "net")]
+    pub oracle_cleanup: Option<CleanupArg>,
     /// With --synthetic: the part finder's largest RMS motion residual of a merged part, as a
     /// fraction of the pose size (as `puppet parts --merge-residual`).
     #[arg(long, default_value_t = PartsOptions::default().segment.merge_residual, value_name = "FRACTION", conflicts_with_all = ["truth", "predicted"])]
@@ -75,6 +81,30 @@ pub struct EvalPartsArgs {
     pub grid: Option<(u32, u32)>,
 }
 
+/// `--oracle-cleanup`'s values ([`OracleCleanup`]).
+#[derive(Clone, Copy, Debug, clap::ValueEnum)]
+pub enum CleanupArg {
+    /// Drop matches of points hidden in the other pose.
+    Hidden,
+    /// Also drop matches more than 6 px from the truth.
+    Far,
+    /// Also drop matches more than 2 px from the truth.
+    Wrong,
+    /// Replace matches more than 2 px from the truth by the truth; drop the hidden ones.
+    Corrected,
+}
+
+impl From<CleanupArg> for OracleCleanup {
+    fn from(arg: CleanupArg) -> Self {
+        match arg {
+            CleanupArg::Hidden => OracleCleanup::Hidden,
+            CleanupArg::Far => OracleCleanup::Far,
+            CleanupArg::Wrong => OracleCleanup::Wrong,
+            CleanupArg::Corrected => OracleCleanup::Corrected,
+        }
+    }
+}
+
 fn parse_seeds(s: &str) -> Result<(u64, u64), String> {
     let bad = || format!("{s:?} is not a seed range FIRST..END with FIRST < END (e.g. 9000..9024)");
     let (a, b) = s.split_once("..").ok_or_else(bad)?;
@@ -102,6 +132,7 @@ pub fn run(args: EvalPartsArgs, s: &Session) -> anyhow::Result<()> {
             Some(net) => Source::Network {
                 net,
                 check: args.flow_check,
+                cleanup: args.oracle_cleanup.map(OracleCleanup::from),
             },
             None => Source::Truth,
         };

@@ -70,6 +70,11 @@ impl Correspondences {
         self.flows.get(s * self.poses + t).and_then(Option::as_ref)
     }
 
+    /// The flow from `s` to `t` to change, if one was stored.
+    pub fn get_mut(&mut self, s: usize, t: usize) -> Option<&mut Flow> {
+        self.flows.get_mut(s * self.poses + t).and_then(Option::as_mut)
+    }
+
     /// Drops correspondences that do not come back: pixel `x` of pose `s` keeps its target `q`
     /// only if the flow from `t` at `q`'s pixel returns within `tolerance` pixels of `x` (the
     /// forward–backward check of optical flow; it removes most of a flow's mistakes, and every
