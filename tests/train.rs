@@ -188,8 +188,9 @@ fn a_killed_run_resumes_to_the_weights_of_an_uninterrupted_one() {
     let tmp = tempfile::tempdir().unwrap();
     let seq = synth(tmp.path(), 4, "64x64");
     // Sampled poses around the network's own poses (they depend on the weights of each step
-    // too) and the drawn frames augmented: both must be functions of the step.
-    let settings = &format!("steps = 40\ncheckpoint_every = 4\n{SAMPLED}around = \"fits\"\n{AUGMENT}");
+    // too), shown for the first half of the run (the resumed part crosses the schedule's end),
+    // and the drawn frames augmented: all must be functions of the step.
+    let settings = &format!("steps = 40\ncheckpoint_every = 4\n{SAMPLED}around = \"fits\"\nuntil = 0.5\n{AUGMENT}");
     let whole = config(tmp.path(), "whole", &seq, settings);
     puppet(tmp.path(), &["train", whole.to_str().unwrap()]).assert_ok();
 

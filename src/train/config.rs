@@ -30,6 +30,7 @@
 //! scale = 0.05                      # the figure scaled within 1 ± this
 //! shift = 0.03                      # and shifted within ± this share of the frame
 //! around = "fits"                   # turned from the network's poses of the batch, or "rest"
+//! until = 1.0                       # shown for this share of the steps, then drawn frames only
 //!
 //! [train.augment]                   # the drawn frames moved and recoloured each step (issue
 //! shift = 0.0                       #   19; not the paper's): within ± this share of the square

@@ -32,6 +32,9 @@ pub struct SampledPoses {
     /// What the limbs are turned from: the rest pose, or the poses the network gives the step's
     /// drawn frames (so the samples explore around the drawn poses as training learns them).
     pub around: SampleAround,
+    /// The schedule: samples are shown for this share of the run's steps (`train.steps`), and
+    /// the steps after train on the drawn frames alone (1: the whole run).
+    pub until: f64,
 }
 
 /// What sampled poses are drawn around.
@@ -57,6 +60,7 @@ impl Default for SampledPoses {
             scale: 0.05,
             shift: 0.03,
             around: SampleAround::Fits,
+            until: 1.0,
         }
     }
 }
@@ -68,6 +72,11 @@ impl SampledPoses {
     /// Whether no sampled pose is shown (the config's table may then be left out).
     pub fn is_off(&self) -> bool {
         self.share == 0.0
+    }
+
+    /// Whether step `step` (from 0) of a run of `steps` shows samples.
+    pub fn shown_at(&self, step: u64, steps: u64) -> bool {
+        !self.is_off() && (step as f64) < self.until * steps as f64
     }
 
     /// Sampled poses in a step of `batch` drawn frames.
@@ -95,6 +104,9 @@ impl SampledPoses {
         }
         if !(self.shift.is_finite() && (0.0..=0.5).contains(&self.shift)) {
             return bad("shift", f64::from(self.shift), "from 0 to 0.5");
+        }
+        if !(self.until > 0.0 && self.until <= 1.0) {
+            return bad("until", self.until, "a share of the run's steps above 0, at most 1");
         }
         Ok(())
     }
@@ -253,6 +265,21 @@ mod tests {
     }
 
     #[test]
+    fn samples_are_shown_until_the_schedule_ends() {
+        let schedule = SampledPoses {
+            share: 0.5,
+            until: 0.7,
+            ..SampledPoses::default()
+        };
+        let shown: Vec<bool> = (0..10).map(|step| schedule.shown_at(step, 10)).collect();
+        assert_eq!(shown, [true, true, true, true, true, true, true, false, false, false]);
+        assert!(
+            (0..10).all(|step| !SampledPoses::default().shown_at(step, 10)),
+            "off is never shown"
+        );
+    }
+
+    #[test]
     fn settings_out_of_range_are_named() {
         for (bad, key) in [
             (
@@ -282,6 +309,13 @@ mod tests {
                     ..SampledPoses::default()
                 },
                 "vertex_weight",
+            ),
+            (
+                SampledPoses {
+                    until: 0.0,
+                    ..SampledPoses::default()
+                },
+                "until",
             ),
         ] {
             let e = bad.validate().unwrap_err().to_string();

@@ -508,7 +508,9 @@ impl Trainer {
         let net = &self.model.net;
         // Samples around the rest pose go through the network with the drawn frames, in one
         // forward; samples around the network's poses of the frames need those poses first.
-        let beside = match &self.sampler {
+        let sampled = &self.config.train.sampled;
+        let sampler = self.sampler.as_ref().filter(|_| sampled.shown_at(step, self.config.train.steps));
+        let beside = match sampler {
             Some(sampler) if !sampler.around_fits() => Some(sampler.step(&self.model, step, drawn, &[])?),
             _ => None,
         };
@@ -518,7 +520,7 @@ impl Trainer {
         let images = self.images(&batch, &self.device);
         let vertices = self.decoder.vertices(net, net.encode(images.clone()));
         let on_frames = vertices.clone().narrow(0, 0, drawn);
-        let vertex = match (&self.sampler, beside) {
+        let vertex = match (sampler, beside) {
             (_, Some(s)) => Some(self.vertex_loss(vertices.narrow(0, drawn, s.vertices.len()), &s.vertices)),
             (Some(sampler), None) => {
                 let s = sampler.step(&self.model, step, drawn, &self.frame_poses(&on_frames))?;
@@ -530,7 +532,7 @@ impl Trainer {
         };
         let mut terms = self.objective.evaluate(on_frames, targets(&images), sigma, &self.device)?;
         if let Some(vertex) = &vertex {
-            terms.total = terms.total + vertex.clone().mul_scalar(self.config.train.sampled.vertex_weight);
+            terms.total = terms.total + vertex.clone().mul_scalar(sampled.vertex_weight);
         }
         let row = LogRow {
             step: step + 1,
