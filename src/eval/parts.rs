@@ -407,10 +407,8 @@ pub fn superpixel_majority(superpixels: &[Superpixels], truth: &[Vec<u32>], true
 mod tests {
     use super::*;
 
-    /// The set cover (apes-part-extraction.md §3.3) on the sheets of the test below, with
-    /// exact correspondences: measured 0.723 and 0.386 strict (0.901 and 0.715 by the paper's
-    /// protocol; 8 and 6 parts of 10 and 11) when written — below the synchronised merging there
-    /// (README "Parts from a sprite sheet" says why it is not the default).
+    /// Each kind of oracle cleanup does to the built-in network's matches on one sheet what it
+    /// says, as the match quality against the truth shows.
     #[test]
     fn the_oracle_cleanup_mends_what_it_says() {
         let device = crate::backend::device();
@@ -444,6 +442,10 @@ mod tests {
         );
     }
 
+    /// The set cover (apes-part-extraction.md §3.3) on the sheets of the test below, with
+    /// exact correspondences: measured 0.723 and 0.386 strict (0.901 and 0.715 by the paper's
+    /// protocol; 8 and 6 parts of 10 and 11) when written — below the synchronised merging there
+    /// (README "Parts from a sprite sheet" says why it is not the default).
     #[test]
     fn the_set_cover_finds_parts_above_its_floor() {
         let options = PartsOptions {
