@@ -12,6 +12,7 @@ use std::path::{Path, PathBuf};
 use std::sync::Mutex;
 
 use crate::error::{Error, Result};
+use crate::folder_lock::{FolderLock, LOCK_FILE};
 
 /// The manifest of the files puppet wrote into a folder.
 pub const MANIFEST: &str = ".puppet-outputs";
@@ -50,6 +51,8 @@ pub struct Outputs {
     force: bool,
     claimed: Mutex<HashSet<PathBuf>>,
     written: Mutex<HashSet<PathBuf>>,
+    /// The folders this command fills, held until it is done.
+    locks: Mutex<Vec<FolderLock>>,
 }
 
 impl Outputs {
@@ -59,6 +62,7 @@ impl Outputs {
             force,
             claimed: Mutex::new(HashSet::new()),
             written: Mutex::new(HashSet::new()),
+            locks: Mutex::new(Vec::new()),
         }
     }
 
@@ -109,20 +113,38 @@ impl Outputs {
     }
 
     /// Claims a folder this command fills: it may exist if puppet made it (its manifest lists it in
-    /// the parent folder) or is empty, or (`force`) in any case.
+    /// the parent folder) or is empty, or (`force`) in any case. The folder is locked for as long
+    /// as these outputs live ([`FolderLock`]): another command filling it meanwhile is refused.
     ///
     /// # Errors
-    /// [`Error::WouldOverwrite`] otherwise.
+    /// [`Error::WouldOverwrite`] otherwise; [`Error::InUse`] while another process fills it.
     pub fn claim_folder(&self, dir: &Path) -> Result<()> {
-        if dir.exists() && !self.force {
-            let empty = std::fs::read_dir(dir).map_err(|e| Error::io(dir, e))?.next().is_none();
-            if !dir.is_dir() || !(empty || written_by_puppet(dir)?) {
+        let mut locks = self.locks.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
+        let key = absolute(dir);
+        if locks.iter().any(|held| absolute(held.dir()) == key) {
+            return Ok(());
+        }
+        // Locked first, so a folder another command is filling is refused as in use, not as
+        // someone else's; the lock is dropped again (and a folder it made removed) on refusal.
+        let existed = dir.exists();
+        if existed && !dir.is_dir() {
+            return Err(Error::WouldOverwrite {
+                path: dir.to_path_buf(),
+                reason: "is a file, where this command writes a folder".into(),
+            });
+        }
+        let lock = FolderLock::acquire(dir)?;
+        if existed && !self.force {
+            let mut entries = std::fs::read_dir(dir).map_err(|e| Error::io(dir, e))?;
+            let empty = entries.all(|e| e.is_ok_and(|e| e.file_name() == LOCK_FILE));
+            if !(empty || written_by_puppet(dir)?) {
                 return Err(Error::WouldOverwrite {
                     path: dir.to_path_buf(),
                     reason: "exists and was not made by puppet".into(),
                 });
             }
         }
+        locks.push(lock);
         Ok(())
     }
 
@@ -337,14 +359,30 @@ mod tests {
     fn folders_are_claimed_only_if_empty_or_made_by_puppet() {
         let dir = tempfile::tempdir().unwrap();
         let out = dir.path().join("model");
-        let run = Outputs::new(false);
-        run.claim_folder(&out).unwrap();
+        let claim = |dir: &Path| Outputs::new(false).claim_folder(dir);
+        claim(&out).unwrap();
+        assert!(!out.exists(), "a folder made only to lock it goes when the command is done");
         std::fs::create_dir(&out).unwrap();
-        run.claim_folder(&out).unwrap();
+        claim(&out).unwrap();
         std::fs::write(out.join("notes.txt"), b"mine").unwrap();
-        assert!(run.claim_folder(&out).is_err());
+        assert!(matches!(claim(&out), Err(Error::WouldOverwrite { .. })));
+        assert!(!out.join(LOCK_FILE).exists(), "a refusal leaves no lock behind");
         record(&out).unwrap();
-        run.claim_folder(&out).unwrap();
+        claim(&out).unwrap();
+        std::fs::write(dir.path().join("file"), b"").unwrap();
+        assert!(matches!(claim(&dir.path().join("file")), Err(Error::WouldOverwrite { .. })));
+    }
+
+    #[test]
+    fn a_claimed_folder_is_locked_until_its_command_is_done() {
+        let dir = tempfile::tempdir().unwrap();
+        let out = dir.path().join("model");
+        let first = Outputs::new(false);
+        first.claim_folder(&out).unwrap();
+        first.claim_folder(&out).unwrap();
+        assert!(matches!(Outputs::new(true).claim_folder(&out), Err(Error::InUse { .. })));
+        drop(first);
+        Outputs::new(false).claim_folder(&out).unwrap();
     }
 
     #[test]

@@ -162,6 +162,14 @@ pub enum Error {
         /// Why.
         problem: String,
     },
+    /// An output folder is being written by another running command.
+    #[error("{}: in use by {holder}; wait for it to finish or choose another output", .path.display())]
+    InUse {
+        /// The folder.
+        path: PathBuf,
+        /// The process holding it, as it described itself ("pid N: command line").
+        holder: String,
+    },
     /// A training run's folder already holds a checkpoint, and resuming was not asked for.
     #[error("{}: holds a checkpoint of an earlier run at step {step}; resume it or choose another output", .path.display())]
     RunExists {

@@ -11,6 +11,7 @@ const LAYERS: &[(&str, u8)] = &[
     ("error", 0),
     ("picture", 0),
     ("atomic_file", 0),
+    ("folder_lock", 0),
     ("progress", 0),
     ("rng", 0),
     ("backend", 0),
@@ -37,7 +38,9 @@ const LAYERS: &[(&str, u8)] = &[
 /// Imports allowed between modules of one layer (importer, imported): one-way, so no cycle.
 const SAME_LAYER: &[(&str, &str)] = &[
     ("atomic_file", "error"),
+    ("folder_lock", "error"),
     ("atomic_file", "user_file"),
+    ("atomic_file", "folder_lock"),
     ("user_file", "error"),
     ("picture", "error"),
     ("picture", "atomic_file"),

@@ -10,6 +10,7 @@
 
 // Layer 0, base (DESIGN.md "Layers of the code"; src/layering.rs checks the imports).
 pub mod atomic_file;
+pub mod folder_lock;
 pub mod backend;
 pub mod error;
 pub mod picture;
