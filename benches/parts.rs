@@ -21,7 +21,7 @@
 #![allow(missing_docs)]
 
 use criterion::{criterion_group, criterion_main, Criterion};
-use puppet::parts::deform::{deform_parts, DeformOptions};
+use puppet::parts::deform::{deform_parts, BendOptions};
 use puppet::parts::learn::{LearnConfig, PairSource, TrainedNet, Trainer};
 use puppet::parts::matching::network_correspondences;
 use puppet::parts::superpixels::slic;
@@ -51,7 +51,7 @@ fn parts(c: &mut Criterion) {
     });
     let found = find_parts(poses.clone(), &flows, &options).expect("parts");
     c.bench_function("parts/deform/10x128", |b| {
-        b.iter(|| deform_parts(poses, &found.segmentation, &flows, &DeformOptions::default()).expect("meshes"))
+        b.iter(|| deform_parts(poses, &found.segmentation, &flows, &BendOptions::default()).expect("meshes"))
     });
     let device = puppet::backend::device();
     let net = TrainedNet::shipped(&device).expect("the built-in network");

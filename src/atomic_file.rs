@@ -119,33 +119,53 @@ impl Outputs {
     /// # Errors
     /// [`Error::WouldOverwrite`] otherwise; [`Error::InUse`] while another process fills it.
     pub fn claim_folder(&self, dir: &Path) -> Result<()> {
-        let mut locks = self.locks.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
-        let key = absolute(dir);
-        if locks.iter().any(|held| absolute(held.dir()) == key) {
-            return Ok(());
-        }
-        // Locked first, so a folder another command is filling is refused as in use, not as
-        // someone else's; the lock is dropped again (and a folder it made removed) on refusal.
-        let existed = dir.exists();
-        if existed && !dir.is_dir() {
+        if dir.exists() && !dir.is_dir() {
             return Err(Error::WouldOverwrite {
                 path: dir.to_path_buf(),
                 reason: "is a file, where this command writes a folder".into(),
             });
         }
-        let lock = FolderLock::acquire(dir)?;
+        // Locked first, so a folder another command is filling is refused as in use, not as
+        // someone else's; on refusal the lock goes again (with a folder it made).
+        let existed = dir.exists();
+        let Some(lock) = self.lock_folder(dir)? else {
+            // Claimed before by this command.
+            return Ok(());
+        };
         if existed && !self.force {
             let mut entries = std::fs::read_dir(dir).map_err(|e| Error::io(dir, e))?;
             let empty = entries.all(|e| e.is_ok_and(|e| e.file_name() == LOCK_FILE));
             if !(empty || written_by_puppet(dir)?) {
+                self.unlock(&lock);
                 return Err(Error::WouldOverwrite {
                     path: dir.to_path_buf(),
                     reason: "exists and was not made by puppet".into(),
                 });
             }
         }
-        locks.push(lock);
         Ok(())
+    }
+
+    /// Locks a folder this command writes files into, for as long as these outputs live
+    /// ([`FolderLock`]), without claiming the folder itself (its other files stay the user's).
+    /// The folder's absolute path if this call took the lock, `None` if these outputs held it.
+    ///
+    /// # Errors
+    /// [`Error::InUse`] while another process writes into it; [`Error::Io`] if it cannot be made.
+    pub fn lock_folder(&self, dir: &Path) -> Result<Option<PathBuf>> {
+        let mut locks = self.locks.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
+        let key = absolute(dir);
+        if locks.iter().any(|held| absolute(held.dir()) == key) {
+            return Ok(None);
+        }
+        locks.push(FolderLock::acquire(dir)?);
+        Ok(Some(key))
+    }
+
+    /// Releases the lock [`Outputs::lock_folder`] took on `key`.
+    fn unlock(&self, key: &Path) {
+        let mut locks = self.locks.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
+        locks.retain(|held| absolute(held.dir()) != key);
     }
 
     /// Writes `bytes` to `path` atomically (claiming it first unless this run already has),

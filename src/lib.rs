@@ -2,7 +2,25 @@
 //! new frames with it (Neural Puppet, accessory rigs, APES — see `papers/`).
 //!
 //! The pipeline and layout are described in DESIGN.md; every command of the `puppet` binary is a
-//! thin wrapper over a function of this library.
+//! thin wrapper over a function of this library. The main types and entry points are here at
+//! the root; the modules hold the rest.
+//!
+//! ```no_run
+//! use std::path::Path;
+//!
+//! # fn main() -> puppet::Result<()> {
+//! // Artwork (PNG layers + character.toml, a label map, .ora or .psd) → a layered puppet.
+//! let artwork = puppet::load_artwork(Path::new("data/kenney/robot"), &puppet::ImportOptions::default())?;
+//! let (built, _report) = puppet::build(&artwork, &puppet::BuildOptions::default(), &puppet::Silent)?;
+//! // Its rest pose, drawn by the renderer every stage shares.
+//! let rest = puppet::render_crisp(&built, &built.rest_vertices(), built.width, built.height)?;
+//! rest.save_png(Path::new("rest.png"))?;
+//! # Ok(())
+//! # }
+//! ```
+//!
+//! `examples/` has whole programs: building, training a model, fitting, in-betweening and
+//! exporting to Spine.
 
 #![warn(missing_docs)]
 #![deny(rustdoc::broken_intra_doc_links)]
@@ -47,3 +65,23 @@ mod layering;
 pub(crate) mod test_util;
 
 pub use error::{Error, Result};
+
+// The crate root: the types and calls of each stage of the pipeline, in its order.
+pub use atomic_file::Outputs;
+pub use picture::Picture;
+pub use progress::{Progress, Silent};
+pub use puppet::artwork::load as load_artwork;
+pub use puppet::build::{build, BuildOptions};
+pub use puppet::layers::{Artwork, ImportOptions};
+pub use puppet::sequence::Frames;
+pub use puppet::Puppet;
+pub use render::{render_crisp, Background};
+pub use rig::{build_rigged, RigOptions};
+pub use model::{Model, ModelFolder};
+pub use train::{train, TrainConfig, TrainOptions, TrainSummary};
+pub use fit::{fit, FitOptions};
+pub use edit::manifold_path::Waypoints;
+pub use edit::{correspond, inbetween, Easing, InbetweenPath, Inbetweens, PoseEditor, PoseOptions};
+pub use appearance::{train_appearance, AppearanceConfig, AppearanceStage};
+pub use parts::{find_parts, Parts, PartsOptions};
+pub use export::spine::{skeleton as spine_skeleton, PoseAnimation, SpineSkeleton};

@@ -15,7 +15,7 @@
 //! one is missing the test says what and skips, unless `PUPPET_BROWSER_TESTS=1` (CI) makes that
 //! a failure.
 
-use std::io::BufRead as _;
+use std::io::{BufRead as _, Write as _};
 use std::path::{Path, PathBuf};
 use std::process::{Child, Command, Stdio};
 use std::time::Instant;
@@ -140,7 +140,12 @@ fn browser_editor_poses_plays_inbetweens_toggles_an_accessory_and_downloads() {
         if std::env::var("PUPPET_BROWSER_TESTS").as_deref() == Ok("1") {
             panic!("PUPPET_BROWSER_TESTS=1 but the browser test cannot run: missing {what}");
         }
-        println!("skipped: the browser test needs {what} (set PUPPET_BROWSER_TESTS=1 to make this a failure)");
+        // Past the harness's capture (which takes print! and eprint!), so `cargo test` shows it.
+        let _ = writeln!(
+            std::io::stderr(),
+            "browser_editor_poses_plays_inbetweens_toggles_an_accessory_and_downloads: SKIPPED, the browser test needs {what} \
+             (set PUPPET_BROWSER_TESTS=1 to make this a failure)"
+        );
         return;
     }
     let started = Instant::now();

@@ -236,6 +236,43 @@ fn a_killed_run_resumes_to_the_weights_of_an_uninterrupted_one() {
 }
 
 #[test]
+fn a_second_run_on_a_folder_in_use_is_refused_at_once_and_the_first_goes_on_alone() {
+    let tmp = tempfile::tempdir().unwrap();
+    let seq = synth(tmp.path(), 4, "64x64");
+    let cfg = config(tmp.path(), "busy", &seq, "steps = 100000
+checkpoint_every = 4
+");
+    let mut first = std::process::Command::new(env!("CARGO_BIN_EXE_puppet"))
+        .args(["-q", "train", cfg.to_str().unwrap()])
+        .spawn()
+        .unwrap();
+    let latest = tmp.path().join("busy/checkpoints/latest");
+    let start = Instant::now();
+    while std::fs::read_to_string(&latest).map_or(true, |l| l.trim() == "step-000000") {
+        assert!(start.elapsed() < Duration::from_secs(120), "no checkpoint appeared");
+        std::thread::sleep(Duration::from_millis(2));
+    }
+    let holder = format!("pid {}", first.id());
+    for args in [vec!["train", cfg.to_str().unwrap()], vec!["train", "--resume", cfg.to_str().unwrap()]] {
+        let asked = Instant::now();
+        let second = puppet(tmp.path(), &args);
+        assert!(asked.elapsed() < Duration::from_secs(1), "{args:?} took {:?} to refuse", asked.elapsed());
+        second.assert_error(&["busy", "in use by", &holder]);
+    }
+    first.kill().unwrap();
+    first.wait().unwrap();
+    // The first run's log holds each of its steps once, in order: nothing of the second's.
+    let text = std::fs::read_to_string(tmp.path().join("busy/log.csv")).unwrap();
+    let steps: Vec<u64> = text.lines().skip(1).map(|l| l.split(',').next().unwrap().parse().unwrap()).collect();
+    assert!(!steps.is_empty());
+    assert_eq!(steps, (1..=steps.len() as u64).collect::<Vec<_>>(), "{text}");
+    // The killed run's lock is gone with it: a resume goes on (a few steps, then pauses).
+    let done: u64 = std::fs::read_to_string(&latest).unwrap().trim()["step-".len()..].parse().unwrap();
+    let pause = (done + 4).to_string();
+    puppet(tmp.path(), &["train", "--resume", "--pause-at", &pause, cfg.to_str().unwrap()]).assert_ok();
+}
+
+#[test]
 fn a_diverging_run_stops_with_a_clear_message_and_keeps_its_checkpoint() {
     let tmp = tempfile::tempdir().unwrap();
     let seq = synth(tmp.path(), 4, "64x64");

@@ -6,7 +6,7 @@ use std::path::Path;
 
 use libfuzzer_sys::fuzz_target;
 use puppet::parts::flow::{parse_flo, Flow};
-use puppet::parts::pose::Pose;
+use puppet::parts::pose::SheetPose;
 use puppet::picture::Picture;
 
 fuzz_target!(|data: &[u8]| {
@@ -16,7 +16,7 @@ fuzz_target!(|data: &[u8]| {
     for k in [7, 8, 13, 22] {
         picture.pixels[k] = [1.0; 4];
     }
-    let pose = Pose::new("p", picture);
+    let pose = SheetPose::new("p", picture);
     let flow = Flow::from_displacements(&displacement, &pose, &pose);
     for i in 0..30 {
         if let Some(q) = flow.at(i) {

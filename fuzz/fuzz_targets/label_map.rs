@@ -13,16 +13,16 @@ use std::sync::OnceLock;
 use libfuzzer_sys::fuzz_target;
 use puppet::picture::Picture;
 use puppet::puppet::artwork::{label_map_layers, ImportOptions};
-use puppet::puppet::character::{parse_color, Character};
+use puppet::puppet::character::{parse_color, CharacterFile};
 
 #[path = "common.rs"]
 mod common;
 
-fn character() -> &'static Character {
-    static CHARACTER: OnceLock<Character> = OnceLock::new();
+fn character() -> &'static CharacterFile {
+    static CHARACTER: OnceLock<CharacterFile> = OnceLock::new();
     CHARACTER.get_or_init(|| {
         let text = include_str!("../../data/kenney/robot/character.toml");
-        Character::parse(text, Path::new("robot/character.toml")).expect("the robot's character.toml is valid")
+        CharacterFile::parse(text, Path::new("robot/character.toml")).expect("the robot's character.toml is valid")
     })
 }
 

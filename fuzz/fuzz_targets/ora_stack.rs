@@ -42,7 +42,7 @@ fuzz_target!(|data: &[u8]| {
         }
         zip.finish().expect("in memory");
     }
-    if let Ok(art) = ora::from_reader(Cursor::new(bytes), Path::new("fuzz/stack.ora"), &ImportOptions::default()) {
+    if let Ok(art) = ora::from_reader(Cursor::new(bytes), Path::new("fuzz/stack.ora"), &ImportOptions::default(), &puppet::progress::Silent) {
         common::check_artwork(&art);
     }
 });

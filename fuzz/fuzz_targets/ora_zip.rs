@@ -14,7 +14,7 @@ use puppet::puppet::ora;
 mod common;
 
 fuzz_target!(|data: &[u8]| {
-    if let Ok(art) = ora::from_reader(Cursor::new(data), Path::new("fuzz/robot.ora"), &ImportOptions::default()) {
+    if let Ok(art) = ora::from_reader(Cursor::new(data), Path::new("fuzz/robot.ora"), &ImportOptions::default(), &puppet::progress::Silent) {
         common::check_artwork(&art);
     }
 });

@@ -5,19 +5,15 @@
 
 use std::path::{Path, PathBuf};
 
-use anyhow::Context;
 use puppet::edit::correspond::{correspond, grid_points, load_points};
 use puppet::edit::pin::Pin;
 use puppet::edit::pin_overlay::pin_overlay;
-use puppet::eval::pck_pairs::{ordered_pairs, pck_pairs};
+use puppet::eval::pck_pairs::{score_sequence, HeldOut};
 use puppet::fit::fit;
-use puppet::fit::frame::{frame_check, load_frame};
+use puppet::fit::frame::load_frame;
 use puppet::model::Model;
-use puppet::picture::{contact_sheet, Picture};
+use puppet::picture::contact_sheet;
 use puppet::progress::Progress;
-use puppet::puppet::sequence::Frames;
-use puppet::synth::Truth;
-use puppet::train::trainer::SplitRecord;
 
 use super::args::{positive_f32, FitArgs, ModelArgs};
 use super::Session;
@@ -123,31 +119,9 @@ fn run_sequence(args: &CorrespondArgs, seq: &Path, s: &Session) -> anyhow::Resul
     let device = puppet::backend::device();
     let dir = &args.model.model;
     let model = Model::load(dir, &device)?;
-    let frames = Frames::load(seq, &frame_check(&model))?;
-    let truth = Truth::for_sequence(seq)?.with_context(|| format!("{}: no truth.json (PCK needs a synthetic sequence)", seq.display()))?;
-    let test: Vec<usize> = if args.odd {
-        (1..frames.frames.len()).step_by(2).collect()
-    } else {
-        let split =
-            SplitRecord::load(dir)?.with_context(|| format!("{}: no split.json (was it trained by `puppet train`?)", dir.display()))?;
-        split
-            .test_indices(&frames.names())
-            .with_context(|| format!("{}: the model's held-out frames are not all in {}", dir.display(), seq.display()))?
-    };
-    anyhow::ensure!(
-        test.len() >= 2,
-        "{}: fewer than two held-out frames, no pair to score",
-        dir.display()
-    );
-    s.ui.stage("fit", test.len() as u64);
-    let pictures: Vec<&Picture> = test.iter().map(|&t| &frames.frames[t]).collect();
-    let fitted = fit(&model, &pictures, &args.fit.options(dir, &model, &device, &s.ui)?, &device, &s.ui)?;
-    let mut fits = vec![Vec::new(); frames.frames.len()];
-    for (&t, pose) in test.iter().zip(fitted) {
-        fits[t] = pose;
-    }
-    let pairs = ordered_pairs(&test);
-    let scored = pck_pairs(&truth, &frames.root, &frames.files, &fits, &model.puppet, &pairs)?;
+    let held_out = if args.odd { HeldOut::Odd } else { HeldOut::Split };
+    let options = args.fit.options(dir, &model, &device, &s.ui)?;
+    let (scored, pairs) = score_sequence(dir, &model, seq, held_out, &options, &device, &s.ui)?;
     s.outputs.write(&args.output, &serde_json::to_vec(&scored)?)?;
     s.ui.finish();
     let table: Vec<String> = scored

@@ -2,12 +2,10 @@
 
 use std::path::PathBuf;
 
-use puppet::eval::parts::{score_synthetic_sheet, OracleCleanup, SheetScores, Source};
+use puppet::eval::parts::{score_label_maps, score_synthetic_sheet, OracleCleanup, SheetScores, Source};
 use puppet::parts::learn::TrainedNet;
-use puppet::parts::pose::{crop_like, load_poses, Layout};
-use puppet::parts::score::{labels_by_colour, part_iou};
+use puppet::parts::pose::Layout;
 use puppet::parts::{PartsOptions, ESTIMATED_RIGID_CHECK};
-use puppet::picture::Picture;
 use puppet::progress::Progress;
 
 use super::args::parse_size;
@@ -149,53 +147,10 @@ pub fn run(args: EvalPartsArgs, s: &Session) -> anyhow::Result<()> {
         anyhow::bail!("give --truth LABELS and the predicted label maps, or --synthetic FIRST..END");
     };
     let layout = args.grid.map(|(columns, rows)| Layout::Grid { columns, rows });
-    let (truth, sheet) = load_poses(truth_path, layout)?;
-    let predicted = match sheet {
-        Some(size) => {
-            let picture = Picture::load(predicted_path)?;
-            anyhow::ensure!(
-                (picture.width, picture.height) == size,
-                "{}: {}×{}, but the truth {} is {}×{}: the two sheets must be laid out alike",
-                predicted_path.display(),
-                picture.width,
-                picture.height,
-                truth_path.display(),
-                size.0,
-                size.1
-            );
-            crop_like(&picture, &truth)
-        }
-        None => {
-            let (predicted, _) = load_poses(predicted_path, None)?;
-            anyhow::ensure!(
-                predicted.len() == truth.len(),
-                "{} holds {} label maps, the truth {} holds {}",
-                predicted_path.display(),
-                predicted.len(),
-                truth_path.display(),
-                truth.len()
-            );
-            predicted
-        }
-    };
-    let (true_labels, true_parts) = labels_by_colour(&truth.iter().map(|p| &p.image).collect::<Vec<_>>());
-    let (predicted_labels, predicted_parts) = labels_by_colour(&predicted.iter().map(|p| &p.image).collect::<Vec<_>>());
-    for (t, p) in truth.iter().zip(&predicted) {
-        anyhow::ensure!(
-            t.image.width == p.image.width && t.image.height == p.image.height,
-            "{} is {}×{}, its truth {} is {}×{}",
-            p.name,
-            p.image.width,
-            p.image.height,
-            t.name,
-            t.image.width,
-            t.image.height
-        );
-    }
-    let scores = part_iou(&predicted_labels, &true_labels, predicted_parts, true_parts);
+    let (names, scores) = score_label_maps(truth_path, predicted_path, layout)?;
     let mut table = format!("{:<24} {:>7}\n", "pose", "IoU");
-    for (pose, iou) in truth.iter().zip(&scores.per_pose) {
-        table += &format!("{:<24} {:>7.3}\n", pose.name, iou);
+    for (name, iou) in names.iter().zip(&scores.per_pose) {
+        table += &format!("{:<24} {:>7.3}\n", name, iou);
     }
     table += &format!(
         "part IoU: paper {:.3}, strict {:.3}, merged {:.3}; parts {} predicted, {} true ({:+})",

@@ -124,6 +124,7 @@ fn run_spine(args: SpineArgs, s: &Session) -> anyhow::Result<()> {
         _ => own,
     };
     let skeleton = spine::skeleton(&puppet, &animations, &skins, &args.name, 1.0 / f64::from(args.fps))?;
+    s.outputs.lock_folder(&args.output)?;
     let written = spine::write(&skeleton, &args.output, &args.name, &s.outputs)?;
     let sizes: Vec<String> = written
         .iter()

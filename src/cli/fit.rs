@@ -85,6 +85,7 @@ pub fn run(args: FitArgs, s: &Session) -> anyhow::Result<()> {
     }
     let stems = unique_stems(&files);
     let out = &args.output;
+    s.outputs.lock_folder(out)?;
     let paths = |stem: &str| ["render.png", "overlay.png", "vertices.json"].map(|end| out.join(format!("{stem}_{end}")));
     let generated_path = |stem: &str| out.join(format!("{stem}_generated.png"));
     for stem in &stems {

@@ -11,7 +11,7 @@ use puppet::appearance::AppearanceStage;
 use puppet::edit::inbetween::{comparison_sheet, inbetween, write_inbetweens, InbetweenFiles, InbetweenPath, MAX_STEPS};
 use puppet::edit::manifold_path::Waypoints;
 use puppet::edit::timing::{eased_t, spacing_t, Easing};
-use puppet::eval::inbetween_eval::{inbetween_scores, InbetweenScore};
+use puppet::eval::inbetween_eval::{score_sequence, InbetweenScore};
 use puppet::fit::frame::{frame_check, load_frame, training_frames};
 use puppet::fit::FitOptions;
 use puppet::metrics::l2;
@@ -145,6 +145,7 @@ pub fn run(args: InbetweenArgs, s: &Session) -> anyhow::Result<()> {
         None => Vec::new(),
     };
     let stage = args.appearance.then(|| AppearanceStage::load(dir, &model, &device)).transpose()?;
+    s.outputs.lock_folder(out)?;
     let files = files(&args, out);
     let sheet_path = out.join("sheet.png");
     s.outputs.claim(&sheet_path)?;
@@ -221,25 +222,19 @@ fn files(args: &InbetweenArgs, out: &Path) -> InbetweenFiles {
 /// per gap.
 fn score(model: &Model, dir: &Path, seq: &Path, gaps: &[usize], options: &FitOptions, s: &Session) -> anyhow::Result<()> {
     let device = puppet::backend::device();
-    let frames = Frames::load(seq, &frame_check(model))?;
-    let trained = training_frames(dir, model, "the path along them is the straight line", &s.ui)?.unwrap_or_default();
-    let waypoints = Waypoints::of_frames(model, &trained.iter().collect::<Vec<_>>(), &device)?;
-    let n = frames.frames.len();
-    let even: Vec<usize> = (0..n).step_by(2).collect();
-    let odd: Vec<usize> = (1..n).step_by(2).collect();
     s.ui.stage("score", 0);
-    let scores = inbetween_scores(model, &frames.frames, &even, &odd, gaps, &waypoints, options, &device)?;
+    let table = score_sequence(dir, model, seq, gaps, options, &device, &s.ui)?;
     s.ui.finish();
-    for &gap in gaps {
-        let at_gap: Vec<&InbetweenScore> = scores.iter().filter(|s| s.gap == gap).collect();
-        if at_gap.is_empty() {
+    for at_gap in table {
+        let gap = at_gap.gap;
+        if at_gap.scores.is_empty() {
             s.ui.print(format!("gap {gap}: no odd frame lies between two even frames {} apart", gap + 1))?;
             continue;
         }
-        let mean = |f: fn(&InbetweenScore) -> f64| at_gap.iter().map(|s| f(s)).sum::<f64>() / at_gap.len() as f64;
+        let mean = |f: fn(&InbetweenScore) -> f64| at_gap.mean(f);
         s.ui.print(format!(
             "gap {gap}: {} in-betweens of {}: mean L2 — path rigid (default) {:.1}, path latent {:.1}, latent through the keyframes' fits straight {:.1}, plain latent {:.1}, vertex {:.1}, as-rigid-as-possible {:.1}, nearest even frame {:.1}, first keyframe held {:.1}, fit of the true frame {:.1}",
-            at_gap.len(),
+            at_gap.scores.len(),
             seq.display(),
             mean(|s| s.along_rigid),
             mean(|s| s.along_latent),

@@ -10,6 +10,8 @@ mod appearance;
 mod args;
 mod auto;
 mod build;
+#[cfg(test)]
+mod commands_doc;
 mod correspond;
 mod demo;
 mod eval;
@@ -162,7 +164,7 @@ fn advice(err: &puppet::Error) -> Option<&'static str> {
         E::WrongFolder {
             expected: FolderKind::Model,
             ..
-        } => "train one with `puppet train <config.toml>`, or run `puppet demo` to make out/demo/model",
+        } => "train one with `puppet train --artwork ART --frames DIR -o MODEL`, or run `puppet demo` to make out/demo/model",
         E::WrongFolder {
             expected: FolderKind::Puppet,
             ..

@@ -7,7 +7,7 @@ use anyhow::Context;
 use puppet::atomic_file::record;
 use puppet::parts::artwork::write_artwork;
 use puppet::parts::cover::CoverOptions;
-use puppet::parts::deform::{DeformOptions, Rebuild};
+use puppet::parts::deform::{BendOptions, Rebuild};
 use puppet::parts::flow::read_flows;
 use puppet::parts::learn::TrainedNet;
 use puppet::parts::matching::network_correspondences;
@@ -147,7 +147,7 @@ impl RebuildArg {
     /// The part finder's setting.
     pub fn rebuild(self) -> Rebuild {
         match self {
-            RebuildArg::Arap => Rebuild::Arap(DeformOptions::default()),
+            RebuildArg::Arap => Rebuild::Arap(BendOptions::default()),
             RebuildArg::Rigid => Rebuild::Rigid,
         }
     }
@@ -229,7 +229,7 @@ pub fn run(args: PartsArgs, s: &Session) -> anyhow::Result<()> {
 }
 
 /// Writes the poses as `dir/poses/pose_NNN.png`.
-fn cut_only(poses: &[puppet::parts::pose::Pose], dir: &std::path::Path, s: &Session) -> anyhow::Result<()> {
+fn cut_only(poses: &[puppet::parts::pose::SheetPose], dir: &std::path::Path, s: &Session) -> anyhow::Result<()> {
     let folder = dir.join("poses");
     let paths: Vec<_> = (0..poses.len()).map(|k| folder.join(format!("pose_{k:03}.png"))).collect();
     // Every file claimed before the first is written: a refusal changes nothing.

@@ -15,8 +15,7 @@ use puppet::puppet::artwork;
 use puppet::puppet::build::BuildOptions;
 use puppet::rig::outfit::dress;
 use puppet::rig::RigOptions;
-use puppet::serve::{folder_frames, model_frames, App, ServeOptions};
-use puppet::train::trainer::SplitRecord;
+use puppet::serve::{folder_frames, model_frames, model_outfits, App, ServeOptions};
 
 use super::args::LatentFitArgs;
 use super::Session;
@@ -63,27 +62,6 @@ pub struct ServeArgs {
     pub fit: LatentFitArgs,
 }
 
-/// The outfits to offer: those given, or every folder of `outfits/` beside the frames the model
-/// in `dir` trained on.
-fn outfit_paths(args: &ServeArgs, dir: &std::path::Path) -> anyhow::Result<Vec<PathBuf>> {
-    if !args.outfits.is_empty() {
-        return Ok(args.outfits.clone());
-    }
-    let Some(split) = SplitRecord::load(dir)? else {
-        return Ok(Vec::new());
-    };
-    let Some(folder) = split.frames.parent().map(|p| p.join("outfits")).filter(|p| p.is_dir()) else {
-        return Ok(Vec::new());
-    };
-    let mut found: Vec<PathBuf> = std::fs::read_dir(&folder)
-        .with_context(|| format!("cannot list {}", folder.display()))?
-        .filter_map(|e| e.ok().map(|e| e.path()))
-        .filter(|p| p.is_dir())
-        .collect();
-    found.sort();
-    Ok(found)
-}
-
 /// Runs `puppet serve` until interrupted.
 pub fn run(args: ServeArgs, s: &Session) -> anyhow::Result<()> {
     let dir = match &args.model {
@@ -118,7 +96,8 @@ pub fn run(args: ServeArgs, s: &Session) -> anyhow::Result<()> {
     };
     let explicit = !args.outfits.is_empty();
     let mut outfits = Vec::new();
-    for path in outfit_paths(&args, &dir)? {
+    let paths = if explicit { args.outfits.clone() } else { model_outfits(&dir)? };
+    for path in paths {
         let name = path
             .file_stem()
             .map_or_else(|| path.display().to_string(), |n| n.to_string_lossy().into_owned());

@@ -1,23 +1,36 @@
 //! `puppet train <config.toml>`: train a deformation network (neural-puppet.md §3.2).
 
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 
 use puppet::train::{self, TrainConfig, TrainOptions};
 
 use super::Session;
 
-/// Train the deformation network on a character's frames; the config names the puppet (or its
-/// artwork), the frames, the output model folder, and the settings (see configs/).
+/// Train the deformation network on a character's frames: `puppet train --artwork ART --frames
+/// DIR -o MODEL` with the default settings (configs/train.toml), or `puppet train CONFIG` with a
+/// config that names the puppet (or its artwork), the frames, the output model folder, and the
+/// settings (see configs/); --artwork, --frames and -o then replace the config's.
 ///
-/// Writes into the config's `output`: net.json, weights.bpk, puppet/, train.toml, split.json,
-/// log.csv, loss.png (with the held-out frames' loss) and checkpoints/. A killed run continues
-/// with --resume, losing at most `checkpoint_every` steps; a resume that does not match the
-/// checkpoint (another config — only train.steps may change —, split or puppet) is refused
+/// Writes into the output: net.json, weights.bpk, puppet/, train.toml (the config used),
+/// split.json, log.csv, loss.png (with the held-out frames' loss) and checkpoints/. A killed run
+/// continues with --resume, losing at most `checkpoint_every` steps; a resume that does not match
+/// the checkpoint (another config — only train.steps may change —, split or puppet) is refused
 /// without touching a file.
 #[derive(Debug, clap::Args)]
 pub struct TrainArgs {
-    /// The training config (TOML).
-    pub config: PathBuf,
+    /// The training config (TOML); without one, --artwork, --frames and -o are needed.
+    #[arg(required_unless_present_all = ["artwork", "frames", "output"])]
+    pub config: Option<PathBuf>,
+    /// The character: artwork (a folder with character.toml, .ora or .psd) or a built puppet
+    /// folder.
+    #[arg(long, value_name = "PATH")]
+    pub artwork: Option<PathBuf>,
+    /// The drawn frames (a folder of PNGs of the artwork's size, or one holding frames/).
+    #[arg(long, value_name = "DIR")]
+    pub frames: Option<PathBuf>,
+    /// The model folder to write.
+    #[arg(short, long, value_name = "DIR")]
+    pub output: Option<PathBuf>,
     /// Continue from the output folder's latest checkpoint.
     #[arg(long)]
     pub resume: bool,
@@ -26,35 +39,24 @@ pub struct TrainArgs {
     pub pause_at: Option<u64>,
 }
 
-/// Runs `puppet train`.
-pub fn run(args: TrainArgs, s: &Session) -> anyhow::Result<()> {
-    let config = TrainConfig::load(&args.config)?;
-    let options = TrainOptions {
-        resume: args.resume,
-        pause_at: args.pause_at,
-        force: s.outputs.forced(),
-    };
-    let summary = train::train(&config, &options, &s.ui)?;
-    s.ui.finish();
-    let (n_train, n_test) = summary.split;
-    let last = summary.last.map_or(String::new(), |r| {
-        let held_out = if r.held_out.is_finite() {
-            format!(", held-out {:.4e}", r.held_out)
-        } else {
-            String::new()
-        };
-        format!(", last loss {:.4e} (rec {:.4e}{held_out})", r.total, r.rec)
-    });
-    let state = run_state(summary.finished);
-    s.ui.say(format!(
-        "{state}: {} steps on {n_train} frames ({n_test} held out), batch {}, {:.1} images/s{last} → {}",
-        summary.steps,
-        summary.batch,
-        summary.images_per_second,
-        config.output.display()
-    ))
+impl TrainArgs {
+    /// The config these arguments ask for.
+    fn config(&self) -> anyhow::Result<TrainConfig> {
+        let (artwork, frames, output) = (self.artwork.as_deref(), self.frames.as_deref(), self.output.as_deref());
+        Ok(match (&self.config, artwork, frames, output) {
+            (Some(path), ..) => TrainConfig::load(path)?.replacing_paths(artwork, frames, output),
+            (None, Some(artwork), Some(frames), Some(output)) => {
+                TrainConfig::with_paths(TrainConfig::DEFAULT_SETTINGS, Path::new("configs/train.toml"), artwork, frames, output)?
+            }
+            // clap's `required_unless_present_all` leaves no other case.
+            (None, ..) => anyhow::bail!("give a training config, or --artwork, --frames and -o"),
+        })
+    }
 }
 
+/// Runs `puppet train`.
+pub fn run(args: TrainArgs, s: &Session) -> anyhow::Result<()> {
+    let config = args.config()?;
 /// How a training run ended, for its summary line.
 pub fn run_state(finished: bool) -> &'static str {
     if finished {
@@ -71,6 +73,10 @@ mod tests {
     #[test]
     fn parses_resume_and_pause() {
         parses(&["train", "configs/kenney-robot.toml", "--resume", "--pause-at", "100"]);
+        parses(&["train", "--artwork", "a.psd", "--frames", "f", "-o", "runs/a"]);
+        parses(&["train", "c.toml", "-o", "runs/b"]);
+        let missing = clap::Parser::try_parse_from(["puppet", "train", "--artwork", "a.psd", "-o", "x"]);
+        assert!(missing.map(|_: crate::cli::Cli| ()).is_err(), "without a config, --frames is needed too");
         assert!(clap::Parser::try_parse_from(["puppet", "train", "c.toml", "--pause-at", "x"])
             .map(|_: crate::cli::Cli| ())
             .is_err());

@@ -150,6 +150,8 @@ pub fn run(options: &DemoOptions, progress: &dyn Progress) -> Result<DemoSummary
     let started = Instant::now();
     let out = &options.output;
     let outputs = Outputs::new(options.force);
+    // One demo at a time in a folder (a second would delete the first's model under it).
+    outputs.lock_folder(out)?;
     // Everything is looked at before anything is written; each writer claims its own files.
     check_outputs(options)?;
     let model_dir = out.join("model");
@@ -180,6 +182,10 @@ pub fn run(options: &DemoOptions, progress: &dyn Progress) -> Result<DemoSummary
 
     // 1–2. Build (the config names the artwork) and train.
     let summary = train::train(&config, &TrainOptions::default(), progress)?;
+    // The run is finished and never resumed: its checkpoints (three quarters of the demo's
+    // bytes) are not what the page, `serve` or `fit` read.
+    let checkpoints = model_dir.join(crate::train::checkpoint::CHECKPOINT_DIR);
+    std::fs::remove_dir_all(&checkpoints).map_err(|e| Error::io(&checkpoints, e))?;
     record(&model_dir)?;
     lap("build the puppet + train", &mut timings);
 
@@ -281,7 +287,7 @@ pub fn run(options: &DemoOptions, progress: &dyn Progress) -> Result<DemoSummary
             to: names[b].clone(),
         });
         if outfit.is_none() {
-            if let Some(dir) = first_outfit(&options.character)? {
+            if let Some(dir) = crate::rig::outfit::outfits_in(&options.character)?.into_iter().next() {
                 outfit = Some(redress(&model, &dir, &ib, &frames.frames, (out, stem), &outputs, progress)?);
             }
         }
@@ -420,21 +426,6 @@ fn accessory_names(puppet: &crate::puppet::Puppet) -> Vec<String> {
         .collect()
 }
 
-/// The first folder (by name) under `character/outfits/`, if any.
-fn first_outfit(character: &Path) -> Result<Option<PathBuf>> {
-    let dir = character.join("outfits");
-    if !dir.is_dir() {
-        return Ok(None);
-    }
-    let mut found: Vec<PathBuf> = std::fs::read_dir(&dir)
-        .map_err(|e| Error::io(&dir, e))?
-        .filter_map(|entry| entry.ok().map(|e| e.path()))
-        .filter(|p| p.is_dir())
-        .collect();
-    found.sort();
-    Ok(found.into_iter().next())
-}
-
 /// The in-between `ib` of `model` (its files in `out` named after `stem`) drawn in the outfit in
 /// `dir`: `<stem>_dressed.gif` and `<stem>_dressed_sheet.png`.
 fn redress(
@@ -445,7 +436,7 @@ fn redress(
     (out, stem): (&Path, &str),
     outputs: &Outputs,
     progress: &dyn Progress,
-) -> Result<(page::Outfit, Model)> {
+) -> Result<(page::PageOutfit, Model)> {
     let started = Instant::now();
     let art = artwork::load(dir, &artwork::ImportOptions::default())?;
     let puppet = dress(&model.puppet, &art, &BuildOptions::default(), &RigOptions::default(), progress)?;
@@ -460,7 +451,7 @@ fn redress(
     let sheet = out.join(format!("{stem}_dressed_sheet.png"));
     comparison_sheet(&worn, &dressed, frames)?.save_png(&sheet)?;
     record(&sheet)?;
-    let outfit = page::Outfit {
+    let outfit = page::PageOutfit {
         name: dir.file_name().map_or_else(String::new, |n| n.to_string_lossy().into_owned()),
         accessories: accessory_names(&worn.puppet),
         stem: stem.to_string(),

@@ -20,7 +20,7 @@ pub struct Inbetween {
 
 /// The demo's in-between drawn in another outfit (issue 14: mix and match).
 #[derive(Clone, Debug)]
-pub struct Outfit {
+pub struct PageOutfit {
     /// The outfit's name (its folder).
     pub name: String,
     /// Its accessories, back to front.
@@ -72,7 +72,7 @@ pub struct PageData {
     /// The appearance stage, when the demo trained one.
     pub appearance: Option<Appearance>,
     /// The first in-between in another outfit, if the character has one (`outfits/`).
-    pub outfit: Option<Outfit>,
+    pub outfit: Option<PageOutfit>,
     /// The puppet's accessory layers (placed by the rig).
     pub accessories: Vec<String>,
     /// The dragged pin.
@@ -203,7 +203,7 @@ pub fn render(d: &PageData) -> String {
         let stem = escape(&o.stem);
         let _ = writeln!(
             s,
-            "<h3>The same in-between in another outfit</h3><p>Outfit “{}” ({}), drawn for the same rest body, rigged against the trained model's body in {:.0} ms and \
+            "<h3>The same in-between in another outfit</h3><p>PageOutfit “{}” ({}), drawn for the same rest body, rigged against the trained model's body in {:.0} ms and \
              put on the poses above — no retraining (accessory-rigs.md Fig. 1 F–H).</p><div class=\"row\"><figure><img src=\"{stem}_dressed.apng\" width=\"192\">\
              <figcaption>the in-between re-dressed (<a href=\"{stem}_dressed.gif\">GIF</a>)</figcaption></figure><figure><img src=\"{stem}_dressed_sheet.png\" width=\"800\"><figcaption>rows: ours, vertex-space, as-rigid-as-possible, nearest frame</figcaption></figure></div>",
             escape(&o.name),
@@ -293,7 +293,7 @@ mod tests {
                 to: "walk4".into(),
             }],
             appearance: None,
-            outfit: Some(Outfit {
+            outfit: Some(PageOutfit {
                 name: "cap".into(),
                 accessories: vec!["<hat>".into()],
                 stem: "inbetween_walk".into(),

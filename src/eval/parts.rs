@@ -3,17 +3,19 @@
 //! part per connected region" (what a tool without motion gets) and the superpixel-majority
 //! ceiling (the best any labelling of the superpixels could score).
 
+use std::path::Path;
 use std::time::Instant;
 
-use crate::error::Result;
+use crate::error::{Error, Result};
 use crate::geom::component_labels;
 use crate::parts::flow::{Correspondences, Flow};
 use crate::parts::learn::TrainedNet;
 use crate::parts::matching::network_correspondences;
-use crate::parts::pose::Pose;
-use crate::parts::score::{part_iou, PartScores};
+use crate::parts::pose::{crop_like, load_poses, Layout, SheetPose};
+use crate::parts::score::{labels_by_colour, part_iou, PartScores};
 use crate::parts::superpixels::{Superpixels, NONE};
 use crate::parts::{find_parts, PartsOptions};
+use crate::picture::Picture;
 use crate::progress::Silent;
 use crate::synth;
 use crate::synth::character::Role;
@@ -342,7 +344,7 @@ fn score_joints(
 
 /// Each pose's 4-connected foreground regions as parts, numbered by size (largest 0), so the
 /// strict matching can pair the same region across poses; and the most regions in a pose.
-pub fn connected_regions(poses: &[Pose]) -> (Vec<Vec<u32>>, usize) {
+pub fn connected_regions(poses: &[SheetPose]) -> (Vec<Vec<u32>>, usize) {
     let mut most = 0;
     let labels = poses
         .iter()
@@ -406,6 +408,25 @@ pub fn superpixel_majority(superpixels: &[Superpixels], truth: &[Vec<u32>], true
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn label_maps_score_against_themselves_and_a_sheet_of_another_size_is_named() {
+        let dir = tempfile::tempdir().unwrap();
+        let mut sheet = Picture::filled(8, 4, [0.0; 4]);
+        for (i, p) in sheet.pixels.iter_mut().enumerate() {
+            *p = if i % 8 < 4 { [1.0, 0.0, 0.0, 1.0] } else { [0.0, 0.0, 1.0, 1.0] };
+        }
+        let truth = dir.path().join("truth.png");
+        sheet.save_png(&truth).unwrap();
+        let grid = Some(Layout::Grid { columns: 2, rows: 1 });
+        let (names, scores) = score_label_maps(&truth, &truth, grid).unwrap();
+        assert_eq!(names.len(), 2);
+        assert_eq!((scores.paper, scores.strict), (1.0, 1.0));
+        let other = dir.path().join("other.png");
+        Picture::filled(6, 4, [1.0, 0.0, 0.0, 1.0]).save_png(&other).unwrap();
+        let err = score_label_maps(&truth, &other, grid).unwrap_err().to_string();
+        assert!(err.starts_with(&other.display().to_string()) && err.contains("6×4") && err.contains("8×4"), "{err}");
+    }
 
     /// Each kind of oracle cleanup does to the built-in network's matches on one sheet what it
     /// says, as the match quality against the truth shows.
@@ -506,4 +527,56 @@ mod tests {
             );
         }
     }
+}
+
+/// Predicted parts scored against true parts, both label maps drawn one flat colour per part
+/// (any colours: parts are matched, not named): either two sheets laid out alike (the truth's
+/// poses cut by its alpha or by `layout`, the prediction read at the same places) or two folders
+/// of per-pose label maps in the same order. The poses' names, in order, and their scores.
+///
+/// # Errors
+/// As [`load_poses`]; [`Error::Mismatch`] naming the prediction for a sheet of another size
+/// than the truth's, a folder of another count, or a label map of another size than its truth.
+pub fn score_label_maps(truth_path: &Path, predicted_path: &Path, layout: Option<Layout>) -> Result<(Vec<String>, PartScores)> {
+    let (truth, sheet) = load_poses(truth_path, layout)?;
+    let mismatch = |what: String, got: String, expected: String| {
+        Error::mismatch(what, got, expected).with_path(predicted_path)
+    };
+    let predicted = match sheet {
+        Some(size) => {
+            let picture = Picture::load(predicted_path)?;
+            if (picture.width, picture.height) != size {
+                return Err(mismatch(
+                    format!("the sheet's size (it must be laid out like the truth {})", truth_path.display()),
+                    format!("{}×{}", picture.width, picture.height),
+                    format!("{}×{}", size.0, size.1),
+                ));
+            }
+            crop_like(&picture, &truth)
+        }
+        None => {
+            let (predicted, _) = load_poses(predicted_path, None)?;
+            if predicted.len() != truth.len() {
+                return Err(mismatch(
+                    format!("the label maps (one per label map of the truth {})", truth_path.display()),
+                    predicted.len().to_string(),
+                    truth.len().to_string(),
+                ));
+            }
+            predicted
+        }
+    };
+    for (t, p) in truth.iter().zip(&predicted) {
+        if (t.image.width, t.image.height) != (p.image.width, p.image.height) {
+            return Err(mismatch(
+                format!("the size of {} (as its truth {})", p.name, t.name),
+                format!("{}×{}", p.image.width, p.image.height),
+                format!("{}×{}", t.image.width, t.image.height),
+            ));
+        }
+    }
+    let (true_labels, true_parts) = labels_by_colour(&truth.iter().map(|p| &p.image).collect::<Vec<_>>());
+    let (predicted_labels, predicted_parts) = labels_by_colour(&predicted.iter().map(|p| &p.image).collect::<Vec<_>>());
+    let scores = part_iou(&predicted_labels, &true_labels, predicted_parts, true_parts);
+    Ok((truth.into_iter().map(|p| p.name).collect(), scores))
 }

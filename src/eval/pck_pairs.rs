@@ -10,12 +10,20 @@
 
 use std::path::{Path, PathBuf};
 
+use burn::tensor::Device;
+
 use crate::edit::correspond::correspond;
 use crate::error::{Error, Result};
+use crate::fit::frame::frame_check;
+use crate::fit::{fit, FitOptions};
 use crate::metrics::{pck, PCK_ALPHAS};
+use crate::model::Model;
 use crate::picture::Picture;
+use crate::progress::Progress;
+use crate::puppet::sequence::Frames;
 use crate::puppet::Puppet;
 use crate::synth::Truth;
+use crate::train::trainer::SplitRecord;
 
 /// One ordered pair's keypoints and matches.
 #[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
@@ -193,4 +201,56 @@ mod tests {
         assert!(worse.ours[2] < scored.ours[2], "{:?} vs {:?}", worse.ours, scored.ours);
         assert!(pck_pairs(&truth, dir.path(), &files, &exact, &puppet, &[(0, 9)]).is_err());
     }
+}
+
+/// Which frames of a sequence a PCK score holds out.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum HeldOut {
+    /// The frames the model's split.json held out of its training.
+    Split,
+    /// The odd frames (a sequence the model never saw, scored as the in-between protocol does).
+    Odd,
+}
+
+/// The correspondence protocol on a synthetic sequence: the `held_out` frames are fitted with
+/// `fit_options`, and every ordered pair of them scored by [`pck_pairs`].
+///
+/// # Errors
+/// [`Error::Format`] naming the sequence if it has no truth.json, or the model folder if it has
+/// no split.json (for [`HeldOut::Split`]), if its held-out frames are not all in the sequence,
+/// or if fewer than two frames are held out; as [`Frames::load`], [`fit`] and [`pck_pairs`].
+pub fn score_sequence(
+    model_dir: &Path,
+    model: &Model,
+    sequence: &Path,
+    held_out: HeldOut,
+    fit_options: &FitOptions,
+    device: &Device,
+    progress: &dyn Progress,
+) -> Result<(PckPairs, Vec<(usize, usize)>)> {
+    let frames = Frames::load(sequence, &frame_check(model))?;
+    let truth = Truth::for_sequence(sequence)?
+        .ok_or_else(|| Error::format(sequence, "no truth.json (PCK needs a synthetic sequence)"))?;
+    let test: Vec<usize> = match held_out {
+        HeldOut::Odd => (1..frames.frames.len()).step_by(2).collect(),
+        HeldOut::Split => SplitRecord::load(model_dir)?
+            .ok_or_else(|| Error::format(model_dir, "no split.json (was the model trained by puppet?)"))?
+            .test_indices(&frames.names())
+            .ok_or_else(|| {
+                Error::format(model_dir, format!("the model's held-out frames are not all in {}", sequence.display()))
+            })?,
+    };
+    if test.len() < 2 {
+        return Err(Error::format(model_dir, "fewer than two held-out frames, no pair to score"));
+    }
+    progress.stage("fit", test.len() as u64);
+    let pictures: Vec<&Picture> = test.iter().map(|&t| &frames.frames[t]).collect();
+    let fitted = fit(model, &pictures, fit_options, device, progress)?;
+    let mut fits = vec![Vec::new(); frames.frames.len()];
+    for (&t, pose) in test.iter().zip(fitted) {
+        fits[t] = pose;
+    }
+    let pairs = ordered_pairs(&test);
+    let scored = pck_pairs(&truth, &frames.root, &frames.files, &fits, &model.puppet, &pairs)?;
+    Ok((scored, pairs))
 }

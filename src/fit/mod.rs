@@ -231,6 +231,21 @@ impl FitOptions {
 /// rounds of a limb search ([`LimbSearch`]) and `options.vertex_steps` Adam steps on the
 /// vertices themselves. Returns the template vertices of each frame in frame pixels.
 ///
+/// ```no_run
+/// # fn main() -> puppet::Result<()> {
+/// use std::path::Path;
+/// let device = puppet::backend::device();
+/// // A model folder written by `puppet train` (or `puppet demo`: out/demo/model).
+/// let model = puppet::Model::load(Path::new("out/demo/model"), &device)?;
+/// let frame = puppet::fit::frame::load_frame(Path::new("my_drawing.png"), &model)?;
+/// let options = puppet::FitOptions::for_model(Path::new("out/demo/model"), 50, 100)?;
+/// let poses = puppet::fit(&model, &[&frame], &options, &device, &puppet::Silent)?;
+/// let drawn = puppet::render_crisp(&model.puppet, &poses[0], model.puppet.width, model.puppet.height)?;
+/// drawn.save_png(Path::new("fitted.png"))?;
+/// # Ok(())
+/// # }
+/// ```
+///
 /// # Errors
 /// As [`fit_latents`].
 pub fn fit(

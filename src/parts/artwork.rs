@@ -62,7 +62,7 @@ pub fn part_name(k: usize) -> String {
 
 /// Where [`write_artwork`] put things.
 #[derive(Clone, Debug)]
-pub struct Written {
+pub struct WrittenArtwork {
     /// `character.toml`, for `puppet build`.
     pub character: PathBuf,
     /// `parts.png`.
@@ -97,7 +97,7 @@ pub fn label_picture(labels: &[u32], width: u32) -> Picture {
 ///
 /// # Errors
 /// As [`Outputs::claim`] and [`Outputs::write`]; [`crate::Error::Image`] if a PNG cannot be encoded.
-pub fn write_artwork(parts: &Parts, dir: &Path, name: &str, sheet_size: Option<(u32, u32)>, outputs: &Outputs) -> Result<Written> {
+pub fn write_artwork(parts: &Parts, dir: &Path, name: &str, sheet_size: Option<(u32, u32)>, outputs: &Outputs) -> Result<WrittenArtwork> {
     let seg = &parts.segmentation;
     let width = parts.poses[seg.reference].image.width;
     let png = |picture: &Picture, path: PathBuf| -> Result<(PathBuf, Vec<u8>)> { Ok((path.clone(), picture.png_bytes(&path)?)) };
@@ -138,7 +138,7 @@ pub fn write_artwork(parts: &Parts, dir: &Path, name: &str, sheet_size: Option<(
     for (path, bytes) in &files {
         outputs.write(path, bytes)?;
     }
-    Ok(Written {
+    Ok(WrittenArtwork {
         character,
         preview,
         pose_labels,

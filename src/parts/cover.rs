@@ -18,7 +18,7 @@ use rayon::prelude::*;
 
 use super::deform::Rebuild;
 use super::flow::Correspondences;
-use super::pose::Pose;
+use super::pose::SheetPose;
 use super::reconstruct::redraw;
 use super::segment::{reference_pose, segment, settle, SegmentOptions, Segmentation};
 use super::skeleton::skeleton;
@@ -88,7 +88,7 @@ pub struct CoverReport {
 /// As [`segment`]; [`Error::Setting`] for options out of range; [`Error::Geometry`] if the LP
 /// solver fails.
 pub fn cover(
-    poses: &[Pose],
+    poses: &[SheetPose],
     superpixels: &[Superpixels],
     flows: &Correspondences,
     options: &SegmentOptions,
@@ -175,7 +175,7 @@ pub fn cover(
 
 /// The parts [`segment`] finds on poses `s` and `t` alone, as masks of pose `s`.
 fn pair_candidates(
-    poses: &[Pose],
+    poses: &[SheetPose],
     superpixels: &[Superpixels],
     flows: &Correspondences,
     options: &SegmentOptions,
@@ -208,7 +208,7 @@ fn pair_candidates(
 /// `tolerance` of where the candidate's similarity puts it (in `s` itself, the candidate's own
 /// pixels).
 fn carried_shares(
-    poses: &[Pose],
+    poses: &[SheetPose],
     superpixels: &[Superpixels],
     flows: &Correspondences,
     s: usize,
@@ -411,7 +411,7 @@ fn prune(mut selection: Vec<usize>, z: &[f64], candidates: &[Candidate], element
 /// The parts of a selection, settled: each reference superpixel given to the selected
 /// candidate carrying most of it there, then [`settle`].
 fn selected_parts(
-    poses: &[Pose],
+    poses: &[SheetPose],
     superpixels: &[Superpixels],
     flows: &Correspondences,
     options: &SegmentOptions,
@@ -450,7 +450,7 @@ fn selected_parts(
 
 /// Mean squared error, over the poses' pixels and premultiplied channels, of every pose
 /// rebuilt from the parts.
-fn rebuild_error(poses: &[Pose], seg: &Segmentation, flows: &Correspondences, how: &Rebuild) -> Result<f64> {
+fn rebuild_error(poses: &[SheetPose], seg: &Segmentation, flows: &Correspondences, how: &Rebuild) -> Result<f64> {
     let order = skeleton(seg, poses[seg.reference].width()).order;
     let meshes = how.meshes(poses, seg, flows)?;
     let mut total = 0.0;

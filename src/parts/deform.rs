@@ -9,7 +9,7 @@
 use rayon::prelude::*;
 
 use super::flow::{Correspondences, Flow};
-use super::pose::Pose;
+use super::pose::SheetPose;
 use super::segment::Segmentation;
 use super::superpixels::NONE;
 use crate::error::{Error, Result};
@@ -18,7 +18,7 @@ use crate::geom::{ArapFit, MeshPoint};
 
 /// How parts are bent into the poses.
 #[derive(Clone, Debug, PartialEq)]
-pub struct DeformOptions {
+pub struct BendOptions {
     /// Control-mesh vertex spacing as a share of the pose's larger side.
     pub spacing: f32,
     /// Weight of the ARAP energy against the pull of the correspondences (per correspondence).
@@ -30,9 +30,9 @@ pub struct DeformOptions {
     pub outlier: f32,
 }
 
-impl Default for DeformOptions {
+impl Default for BendOptions {
     fn default() -> Self {
-        DeformOptions {
+        BendOptions {
             spacing: 1.0 / 24.0,
             stiffness: 1.0,
             iterations: 10,
@@ -47,7 +47,7 @@ pub enum Rebuild {
     /// Each part moved by its similarity.
     Rigid,
     /// Each part's control mesh bent by ARAP towards its correspondences (the paper's).
-    Arap(DeformOptions),
+    Arap(BendOptions),
 }
 
 impl Rebuild {
@@ -55,7 +55,7 @@ impl Rebuild {
     ///
     /// # Errors
     /// As [`deform_parts`].
-    pub fn meshes(&self, poses: &[Pose], seg: &Segmentation, flows: &Correspondences) -> Result<Option<Vec<PartMesh>>> {
+    pub fn meshes(&self, poses: &[SheetPose], seg: &Segmentation, flows: &Correspondences) -> Result<Option<Vec<PartMesh>>> {
         match self {
             Rebuild::Rigid => Ok(None),
             Rebuild::Arap(options) => deform_parts(poses, seg, flows, options).map(Some),
@@ -184,7 +184,7 @@ impl Grid {
 ///
 /// # Errors
 /// [`Error::Setting`] for options out of range.
-pub fn deform_parts(poses: &[Pose], seg: &Segmentation, flows: &Correspondences, options: &DeformOptions) -> Result<Vec<PartMesh>> {
+pub fn deform_parts(poses: &[SheetPose], seg: &Segmentation, flows: &Correspondences, options: &BendOptions) -> Result<Vec<PartMesh>> {
     if !(options.spacing > 0.0 && options.spacing <= 1.0) {
         return Err(Error::setting("deform spacing", options.spacing, "a share of the pose in (0, 1]"));
     }
@@ -257,7 +257,7 @@ struct Part<'a> {
 impl Part<'_> {
     /// The mesh placed by `motion`, then pulled towards the correspondences of `flow` that lie
     /// within `outlier` pixels of that placement; the placement alone with fewer than three.
-    fn bend(&self, motion: Similarity, flow: Option<&Flow>, options: &DeformOptions, outlier: f32) -> Vec<[f32; 2]> {
+    fn bend(&self, motion: Similarity, flow: Option<&Flow>, options: &BendOptions, outlier: f32) -> Vec<[f32; 2]> {
         let placed: Vec<[f32; 2]> = self.rest.iter().map(|&v| motion.apply(v)).collect();
         let Some(flow) = flow else { return placed };
         let (pulled, targets): (Vec<MeshPoint>, Vec<[f64; 2]>) = self
@@ -292,7 +292,7 @@ mod tests {
 
     /// Two 32 × 32 poses of one 12 × 5 bar at (8, 12); the second's correspondences from the
     /// first given by `to` for every bar pixel, the part's motion by `motion`.
-    fn bar(to: impl Fn([f32; 2]) -> [f32; 2], motion: Similarity) -> (Vec<Pose>, Segmentation, Correspondences) {
+    fn bar(to: impl Fn([f32; 2]) -> [f32; 2], motion: Similarity) -> (Vec<SheetPose>, Segmentation, Correspondences) {
         let (w, h) = (32usize, 32usize);
         let mut image = Picture::filled(w as u32, h as u32, [0.0; 4]);
         let mut labels = vec![NONE; w * h];
@@ -307,7 +307,7 @@ mod tests {
                 flow.to[i] = to([x as f32, y as f32]);
             }
         }
-        let pose = Pose::new("p", image);
+        let pose = SheetPose::new("p", image);
         let mut flows = Correspondences::new(2, w * h);
         flows.set(0, 1, flow).unwrap();
         let seg = Segmentation {
@@ -323,7 +323,7 @@ mod tests {
     fn a_part_moved_rigidly_is_placed_by_its_motion() {
         let motion = Similarity::new(0.3, 1.0, [2.0, -1.5]);
         let (poses, seg, flows) = bar(|p| motion.apply(p), motion);
-        let meshes = deform_parts(&poses, &seg, &flows, &DeformOptions::default()).unwrap();
+        let meshes = deform_parts(&poses, &seg, &flows, &BendOptions::default()).unwrap();
         let mesh = &meshes[0];
         assert!(mesh.triangles.len() >= 2);
         assert_eq!(mesh.posed[0].as_ref(), Some(&mesh.rest));
@@ -344,9 +344,9 @@ mod tests {
         };
         let (poses, seg, flows) = bar(bend, Similarity::new(0.15, 1.0, [0.0, 1.0]));
         // On this small pose the default outlier limit (2 px) would drop the bend itself.
-        let options = DeformOptions {
+        let options = BendOptions {
             outlier: 0.25,
-            ..DeformOptions::default()
+            ..BendOptions::default()
         };
         let meshes = deform_parts(&poses, &seg, &flows, &options).unwrap();
         let mesh = &meshes[0];
@@ -355,7 +355,7 @@ mod tests {
                 .filter(|&i| seg.labels[0][i] == 0)
                 .map(|i| [(i % 32) as f32, (i / 32) as f32])
                 .collect::<Vec<_>>(),
-            DeformOptions::default().spacing * 32.0,
+            BendOptions::default().spacing * 32.0,
         );
         let posed: Vec<[f64; 2]> = mesh.posed[1].as_ref().unwrap().iter().map(|v| v.map(f64::from)).collect();
         let (mut bent, mut rigid) = (0.0f32, 0.0f32);
@@ -374,17 +374,17 @@ mod tests {
     fn settings_out_of_range_are_refused() {
         let (poses, seg, flows) = bar(|p| p, Similarity::IDENTITY);
         for options in [
-            DeformOptions {
+            BendOptions {
                 spacing: 0.0,
-                ..DeformOptions::default()
+                ..BendOptions::default()
             },
-            DeformOptions {
+            BendOptions {
                 stiffness: f64::NAN,
-                ..DeformOptions::default()
+                ..BendOptions::default()
             },
-            DeformOptions {
+            BendOptions {
                 outlier: -1.0,
-                ..DeformOptions::default()
+                ..BendOptions::default()
             },
         ] {
             assert!(deform_parts(&poses, &seg, &flows, &options).is_err(), "{options:?}");

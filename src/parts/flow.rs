@@ -2,7 +2,7 @@
 //! pair of poses, where each foreground pixel of the first lies in the second. They come from
 //! the generator's truth (the oracle, `synth`), or from a correspondence method.
 
-use super::pose::Pose;
+use super::pose::SheetPose;
 use super::superpixels::{Superpixels, NONE};
 use crate::error::{Error, Result};
 use crate::geom::similarity::{Moments, Similarity};
@@ -244,13 +244,13 @@ impl Flow {
     ///
     /// # Panics
     /// If the sizes differ (a caller bug).
-    pub fn from_displacements(displacement: &[[f32; 2]], from: &Pose, to: &Pose) -> Flow {
+    pub fn from_displacements(displacement: &[[f32; 2]], from: &SheetPose, to: &SheetPose) -> Flow {
         Self::snapped(displacement, from, &nearest_foreground(&to.mask, to.width(), to.height()))
     }
 
     /// [`Flow::from_displacements`] with the target pose's nearest-foreground map already made
     /// (one per pose, not one per pair).
-    pub(super) fn snapped(displacement: &[[f32; 2]], from: &Pose, nearest: &[usize]) -> Flow {
+    pub(super) fn snapped(displacement: &[[f32; 2]], from: &SheetPose, nearest: &[usize]) -> Flow {
         let (w, h) = (from.width(), from.height());
         assert!(
             displacement.len() == w * h && nearest.len() == w * h,
@@ -314,7 +314,7 @@ pub(super) fn nearest_foreground(mask: &[bool], w: usize, h: usize) -> Vec<usize
 ///
 /// # Errors
 /// [`Error::Io`] naming a missing or unreadable file; as [`parse_flo`].
-pub fn read_flows(dir: &std::path::Path, poses: &[Pose]) -> Result<Correspondences> {
+pub fn read_flows(dir: &std::path::Path, poses: &[SheetPose]) -> Result<Correspondences> {
     let (w, h) = (poses[0].image.width, poses[0].image.height);
     let mut out = Correspondences::new(poses.len(), w as usize * h as usize);
     let nearest: Vec<Vec<usize>> = poses.iter().map(|p| nearest_foreground(&p.mask, p.width(), p.height())).collect();
@@ -390,7 +390,7 @@ mod tests {
         let mut b = Picture::filled(4, 1, [0.0; 4]);
         b.pixels[2] = [1.0; 4];
         b.pixels[3] = [1.0; 4];
-        let (a, b) = (Pose::new("a", a), Pose::new("b", b));
+        let (a, b) = (SheetPose::new("a", a), SheetPose::new("b", b));
         let d = parse_flo(&flo(4, 1, &[[1.0, 0.0], [0.0, 0.0], [2e9, 0.0], [0.0, 0.0]]), path, 4, 1).expect("a valid file");
         assert!(d[2][0].is_nan(), "unknown flow is NaN");
         // Pixel 0 lands on pixel 1, off the character: moved to pixel 2.

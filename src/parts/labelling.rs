@@ -3,7 +3,7 @@
 //! a neighbour, and parts too small to trust are dropped.
 
 use super::flow::Correspondences;
-use super::pose::Pose;
+use super::pose::SheetPose;
 use super::superpixels::{Superpixels, NONE};
 use crate::geom::similarity::Similarity;
 
@@ -159,7 +159,7 @@ pub(super) fn distance_to(labels: &[u32], part: u32, w: usize, h: usize) -> Vec<
 #[allow(clippy::too_many_arguments)]
 pub(super) fn label_pose(
     t: usize,
-    pose: &Pose,
+    pose: &SheetPose,
     sp: &Superpixels,
     flows: &Correspondences,
     motions: &[Vec<Similarity>],
@@ -222,7 +222,7 @@ pub(super) fn safe_inverse(s: &Similarity) -> Similarity {
 }
 
 /// Foreground pixels left unlabelled take their superpixel's most common label.
-pub(super) fn fill_from_superpixels(labels: &mut [u32], sp: &Superpixels, pose: &Pose) {
+pub(super) fn fill_from_superpixels(labels: &mut [u32], sp: &Superpixels, pose: &SheetPose) {
     let mut votes: Vec<std::collections::BTreeMap<u32, usize>> = vec![Default::default(); sp.count];
     for (i, &l) in labels.iter().enumerate() {
         if l != NONE && sp.labels[i] != NONE {

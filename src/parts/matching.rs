@@ -8,7 +8,7 @@ use burn::tensor::{Device, Int, Tensor, TensorData};
 use rayon::prelude::*;
 
 use super::flow::{nearest_foreground, Correspondences, Flow};
-use super::pose::Pose;
+use super::pose::SheetPose;
 use crate::error::Result;
 use crate::model::correspondence::CorrespondenceNet;
 use crate::model::letterbox::Letterbox;
@@ -33,7 +33,7 @@ pub struct WorkingPose {
 
 impl WorkingPose {
     /// The pose letterboxed into `size`².
-    pub fn new(pose: &Pose, size: u32) -> Self {
+    pub fn new(pose: &SheetPose, size: u32) -> Self {
         let letterbox = Letterbox::new(pose.width() as u32, pose.height() as u32, size);
         let planes = letterbox.premultiplied_planes(&pose.image);
         let pixels = (size * size) as usize;
@@ -115,7 +115,7 @@ pub fn nearest(a: &Foreground, b: &Foreground, device: &Device) -> Vec<Option<us
 pub fn network_correspondences(
     net: &CorrespondenceNet,
     size: u32,
-    poses: &[Pose],
+    poses: &[SheetPose],
     device: &Device,
     progress: &dyn Progress,
 ) -> Result<Correspondences> {
@@ -147,7 +147,7 @@ pub fn network_correspondences(
 
 /// The flow from pose `from` to the pose whose nearest-foreground map is `snap`, given each
 /// working pixel's nearest match.
-fn landing(from: &Pose, snap: &[usize], a: &WorkingPose, b: &WorkingPose, nearest: &[Option<usize>]) -> Flow {
+fn landing(from: &SheetPose, snap: &[usize], a: &WorkingPose, b: &WorkingPose, nearest: &[Option<usize>]) -> Flow {
     let (width, size) = (from.width(), a.letterbox.size as usize);
     let displacement: Vec<[f32; 2]> = (0..from.mask.len())
         .map(|i| {

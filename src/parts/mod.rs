@@ -28,9 +28,9 @@ use crate::error::{Error, Result};
 use crate::metrics::l2;
 use crate::picture::Picture;
 use cover::{CoverOptions, CoverReport};
-use deform::{DeformOptions, PartMesh, Rebuild};
+use deform::{BendOptions, PartMesh, Rebuild};
 use flow::Correspondences;
-use pose::Pose;
+use pose::SheetPose;
 use segment::{SegmentOptions, Segmentation};
 use skeleton::Skeleton;
 use superpixels::Superpixels;
@@ -72,7 +72,7 @@ impl Default for PartsOptions {
             rigid_check: 0.0,
             segment: SegmentOptions::default(),
             select: Selection::Synchronised,
-            rebuild: Rebuild::Arap(DeformOptions::default()),
+            rebuild: Rebuild::Arap(BendOptions::default()),
         }
     }
 }
@@ -90,7 +90,7 @@ pub const MAX_SUPERPIXELS: usize = 2000;
 #[derive(Clone, Debug)]
 pub struct Parts {
     /// The poses.
-    pub poses: Vec<Pose>,
+    pub poses: Vec<SheetPose>,
     /// Superpixels of each pose.
     pub superpixels: Vec<Superpixels>,
     /// The parts in every pose, and their motions.
@@ -129,7 +129,7 @@ impl Parts {
 ///
 /// # Errors
 /// [`Error::Setting`] for options out of range; as [`segment::segment`].
-pub fn find_parts(poses: Vec<Pose>, flows: &Correspondences, options: &PartsOptions) -> Result<Parts> {
+pub fn find_parts(poses: Vec<SheetPose>, flows: &Correspondences, options: &PartsOptions) -> Result<Parts> {
     if !(1..=MAX_SUPERPIXELS).contains(&options.superpixels) {
         return Err(Error::setting(
             "superpixels",

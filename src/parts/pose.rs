@@ -29,7 +29,7 @@ pub const MAX_CELLS: usize = 4096;
 
 /// One pose: its picture and foreground mask.
 #[derive(Clone, Debug, PartialEq)]
-pub struct Pose {
+pub struct SheetPose {
     /// Where it came from, for messages and outputs (`sheet.png#3`, `walk_02.png`).
     pub name: String,
     /// The pose, straight alpha.
@@ -41,11 +41,11 @@ pub struct Pose {
     pub origin: [i64; 2],
 }
 
-impl Pose {
+impl SheetPose {
     /// A pose of `image`, its mask from the alpha.
     pub fn new(name: impl Into<String>, image: Picture) -> Self {
         let mask = image.pixels.iter().map(|p| p[3] >= FOREGROUND_ALPHA).collect();
-        Pose {
+        SheetPose {
             name: name.into(),
             image,
             mask,
@@ -97,7 +97,7 @@ pub enum Layout {
 /// [`Error::Format`] naming `path` when the grid does not divide the sheet, when nothing is
 /// drawn, when there is a single pose, or when drawn groups differ so much in size that poses
 /// must be touching (then a grid is needed).
-pub fn split_sheet(sheet: &Picture, path: &Path, layout: Layout) -> Result<Vec<Pose>> {
+pub fn split_sheet(sheet: &Picture, path: &Path, layout: Layout) -> Result<Vec<SheetPose>> {
     let poses = match layout {
         Layout::Grid { columns, rows } => split_grid(sheet, path, columns, rows)?,
         Layout::Alpha => split_alpha(sheet, path)?,
@@ -106,7 +106,7 @@ pub fn split_sheet(sheet: &Picture, path: &Path, layout: Layout) -> Result<Vec<P
     Ok(poses)
 }
 
-fn split_grid(sheet: &Picture, path: &Path, columns: u32, rows: u32) -> Result<Vec<Pose>> {
+fn split_grid(sheet: &Picture, path: &Path, columns: u32, rows: u32) -> Result<Vec<SheetPose>> {
     if columns == 0 || rows == 0 || sheet.width % columns != 0 || sheet.height % rows != 0 {
         return Err(Error::format(
             path,
@@ -127,7 +127,7 @@ fn split_grid(sheet: &Picture, path: &Path, columns: u32, rows: u32) -> Result<V
     for r in 0..rows {
         for c in 0..columns {
             let cell = crop(sheet, [c * w, r * h], [w, h], |_, _| true);
-            let pose = Pose::new(cell_name(path, (r * columns + c) as usize), cell).at([(c * w) as i64, (r * h) as i64]);
+            let pose = SheetPose::new(cell_name(path, (r * columns + c) as usize), cell).at([(c * w) as i64, (r * h) as i64]);
             if pose.area() > 0 {
                 poses.push(pose);
             }
@@ -165,7 +165,7 @@ struct Group {
     area: usize,
 }
 
-fn split_alpha(sheet: &Picture, path: &Path) -> Result<Vec<Pose>> {
+fn split_alpha(sheet: &Picture, path: &Path) -> Result<Vec<SheetPose>> {
     let (w, h) = (sheet.width as usize, sheet.height as usize);
     let drawn: Vec<bool> = sheet.pixels.iter().map(|p| p[3] > JOIN_ALPHA).collect();
     let mut edges = Vec::new();
@@ -285,7 +285,7 @@ fn split_alpha(sheet: &Picture, path: &Path) -> Result<Vec<Pose>> {
                     }
                 }
             }
-            Pose::new(cell_name(path, k), image).at(origin)
+            SheetPose::new(cell_name(path, k), image).at(origin)
         })
         .collect();
     Ok(poses)
@@ -304,7 +304,7 @@ fn check_group_sizes(groups: &[Group], path: &Path) -> Result<()> {
             path,
             format!(
                 "the poses cannot be split by their alpha: drawing {k} (at {}, {}) covers {} pixels, \
-                 {:.1}× the median pose, so poses must be touching; give the grid (--grid COLUMNSxROWS)",
+                 {:.1}× the median pose, so poses must be touching; give the sheet's grid of columns and rows",
                 g.bounds[0],
                 g.bounds[1],
                 g.area,
@@ -316,7 +316,7 @@ fn check_group_sizes(groups: &[Group], path: &Path) -> Result<()> {
 }
 
 /// Poses read from a sheet or folder, and the sheet's size (`None` for a folder).
-pub type LoadedPoses = (Vec<Pose>, Option<(u32, u32)>);
+pub type LoadedPoses = (Vec<SheetPose>, Option<(u32, u32)>);
 
 /// The poses at `path`: a folder of pose images (natural order), or a sheet cut by `layout`
 /// (by its alpha when `None`), checked ([`check`]); and the sheet's size for a sheet.
@@ -326,11 +326,11 @@ pub type LoadedPoses = (Vec<Pose>, Option<(u32, u32)>);
 pub fn load_poses(path: &Path, layout: Option<Layout>) -> Result<LoadedPoses> {
     if path.is_dir() {
         let frames = Frames::load(path, &FrameCheck::default())?;
-        let poses: Vec<Pose> = frames
+        let poses: Vec<SheetPose> = frames
             .names()
             .into_iter()
             .zip(frames.frames)
-            .map(|(name, image)| Pose::new(name, image))
+            .map(|(name, image)| SheetPose::new(name, image))
             .collect();
         check(&poses, path)?;
         Ok((poses, None))
@@ -343,7 +343,7 @@ pub fn load_poses(path: &Path, layout: Option<Layout>) -> Result<LoadedPoses> {
 
 /// The pixels of `sheet` where each of `poses` lies (its origin and size), for a second sheet
 /// laid out like the first (a label map of the same poses); named as the poses.
-pub fn crop_like(sheet: &Picture, poses: &[Pose]) -> Vec<Pose> {
+pub fn crop_like(sheet: &Picture, poses: &[SheetPose]) -> Vec<SheetPose> {
     poses
         .iter()
         .map(|p| {
@@ -357,7 +357,7 @@ pub fn crop_like(sheet: &Picture, poses: &[Pose]) -> Vec<Pose> {
                     }
                 }
             }
-            Pose::new(p.name.clone(), image).at(p.origin)
+            SheetPose::new(p.name.clone(), image).at(p.origin)
         })
         .collect()
 }
@@ -367,7 +367,7 @@ pub fn crop_like(sheet: &Picture, poses: &[Pose]) -> Vec<Pose> {
 ///
 /// # Errors
 /// [`Error::Format`] naming `source` and the pose.
-pub fn check(poses: &[Pose], source: &Path) -> Result<()> {
+pub fn check(poses: &[SheetPose], source: &Path) -> Result<()> {
     match poses {
         [] => return Err(Error::format(source, "nothing is drawn: every pixel is transparent")),
         [only] => {
@@ -422,7 +422,7 @@ pub fn check(poses: &[Pose], source: &Path) -> Result<()> {
 pub const SAME_PALETTE: f32 = 0.25;
 
 /// The colour histogram of a pose's foreground: 8 levels per channel, summing to 1.
-fn palette(pose: &Pose) -> Vec<f32> {
+fn palette(pose: &SheetPose) -> Vec<f32> {
     let mut h = vec![0.0f32; 512];
     for (p, &m) in pose.image.pixels.iter().zip(&pose.mask) {
         if m {
@@ -439,7 +439,7 @@ fn palette(pose: &Pose) -> Vec<f32> {
 ///
 /// # Errors
 /// [`Error::Format`] naming `source`, the pose and its best overlap.
-pub fn check_one_character(poses: &[Pose], source: &Path) -> Result<()> {
+pub fn check_one_character(poses: &[SheetPose], source: &Path) -> Result<()> {
     let palettes: Vec<Vec<f32>> = poses.iter().map(palette).collect();
     for (k, a) in palettes.iter().enumerate() {
         let best = palettes
@@ -497,7 +497,7 @@ mod tests {
         blob(&mut alone, [50, 65], 2);
         assert_eq!(
             poses[0].area(),
-            Pose::new("", alone).area(),
+            SheetPose::new("", alone).area(),
             "the detached piece belongs to its pose"
         );
     }
@@ -520,7 +520,7 @@ mod tests {
             blob(&mut touching, [x, 30], 12);
         }
         let err = split_sheet(&touching, path, Layout::Alpha).expect_err("touching").to_string();
-        assert!(err.contains("--grid"), "{err}");
+        assert!(err.contains("grid of columns and rows"), "{err}");
         let err = split_sheet(&one, path, Layout::Grid { columns: 5, rows: 1 })
             .expect_err("grid")
             .to_string();
@@ -536,7 +536,7 @@ mod tests {
         let mut poses = split_sheet(&sheet, Path::new("s.png"), Layout::Alpha).expect("two poses");
         check_one_character(&poses, Path::new("s.png")).expect("one character");
         let stranger = poses[1].image.mapped(|p| if p[3] > 0.0 { [0.1, 0.3, 0.9, 1.0] } else { p });
-        poses.push(Pose::new("blue", stranger));
+        poses.push(SheetPose::new("blue", stranger));
         let err = check_one_character(&poses, Path::new("s.png"))
             .expect_err("a blue stranger")
             .to_string();
@@ -546,7 +546,7 @@ mod tests {
     #[test]
     fn sheets_needing_too_many_correspondences_are_refused_before_any_is_made() {
         // 3 poses of 7000 × 7000 pixels: 6 ordered pairs × 49 M pixels, past the limit.
-        let big = Pose {
+        let big = SheetPose {
             name: "big".into(),
             image: Picture {
                 width: 7000,

@@ -4,7 +4,7 @@
 //! B), the parts stacked back to front in the found order.
 
 use super::deform::PartMesh;
-use super::pose::Pose;
+use super::pose::SheetPose;
 use super::segment::Segmentation;
 use super::superpixels::NONE;
 use crate::geom::triangle::barycentric;
@@ -12,7 +12,7 @@ use crate::picture::Picture;
 
 /// Pose `t` redrawn from the reference's parts of `seg`, stacked back to front in `order`: each
 /// part bent by its mesh (`meshes`, one per part), or moved by its similarity without meshes.
-pub fn redraw(poses: &[Pose], seg: &Segmentation, meshes: Option<&[PartMesh]>, order: &[usize], t: usize) -> Picture {
+pub fn redraw(poses: &[SheetPose], seg: &Segmentation, meshes: Option<&[PartMesh]>, order: &[usize], t: usize) -> Picture {
     match meshes {
         Some(meshes) => draw_meshes(poses, seg, meshes, order, t),
         None => rebuild(poses, seg, order, t),
@@ -21,7 +21,7 @@ pub fn redraw(poses: &[Pose], seg: &Segmentation, meshes: Option<&[PartMesh]>, o
 
 /// [`redraw`] with meshes: every pixel a part's posed triangle covers takes the reference pixel
 /// its rest triangle holds there, if that pixel is the part's.
-fn draw_meshes(poses: &[Pose], seg: &Segmentation, meshes: &[PartMesh], order: &[usize], t: usize) -> Picture {
+fn draw_meshes(poses: &[SheetPose], seg: &Segmentation, meshes: &[PartMesh], order: &[usize], t: usize) -> Picture {
     let reference = &poses[seg.reference];
     let (w, h) = (reference.width(), reference.height());
     let labels = &seg.labels[seg.reference];
@@ -61,7 +61,7 @@ fn draw_meshes(poses: &[Pose], seg: &Segmentation, meshes: &[PartMesh], order: &
 }
 
 /// [`redraw`] without meshes: each part moved by its similarity.
-fn rebuild(poses: &[Pose], seg: &Segmentation, order: &[usize], t: usize) -> Picture {
+fn rebuild(poses: &[SheetPose], seg: &Segmentation, order: &[usize], t: usize) -> Picture {
     let reference = &poses[seg.reference];
     let (w, h) = (reference.width(), reference.height());
     let labels = &seg.labels[seg.reference];
@@ -100,7 +100,7 @@ fn part_pixel_at(z: [f32; 2], p: usize, labels: &[u32], w: usize, h: usize) -> O
 mod tests {
     use super::*;
     use crate::geom::similarity::Similarity;
-    use crate::parts::deform::{deform_parts, DeformOptions};
+    use crate::parts::deform::{deform_parts, BendOptions};
     use crate::parts::flow::{Correspondences, Flow};
 
     #[test]
@@ -112,7 +112,7 @@ mod tests {
             image.pixels[k] = [1.0, 0.0, 0.0, 1.0];
             labels[k] = 0;
         }
-        let pose = Pose::new("p", image);
+        let pose = SheetPose::new("p", image);
         let poses = vec![pose.clone(), pose];
         let seg = Segmentation {
             reference: 0,
@@ -135,7 +135,7 @@ mod tests {
             }
         });
         flows.set(0, 1, Flow { to: to.collect() }).unwrap();
-        let meshes = deform_parts(&poses, &seg, &flows, &DeformOptions::default()).unwrap();
+        let meshes = deform_parts(&poses, &seg, &flows, &BendOptions::default()).unwrap();
         assert_eq!(redraw(&poses, &seg, Some(&meshes), &[0], 1).pixels, moved.pixels);
         assert_eq!(redraw(&poses, &seg, Some(&meshes), &[0], 0).pixels, poses[0].image.pixels);
     }

@@ -12,7 +12,7 @@ use rayon::prelude::*;
 
 use super::flow::Correspondences;
 use super::labelling::{distance_to, drop_small_parts, keep_largest_pieces, label_pose};
-use super::pose::Pose;
+use super::pose::SheetPose;
 use super::superpixels::{Superpixels, NONE};
 use crate::error::{Error, Result};
 use crate::geom::similarity::{Moments, Similarity};
@@ -104,7 +104,7 @@ fn merge_cost(a: &[Moments], b: &[Moments]) -> f64 {
 /// # Errors
 /// [`Error::Mismatch`] if correspondences are missing or sizes differ; [`Error::Setting`] for a
 /// reference out of range or options out of range.
-pub fn segment(poses: &[Pose], superpixels: &[Superpixels], flows: &Correspondences, options: &SegmentOptions) -> Result<Segmentation> {
+pub fn segment(poses: &[SheetPose], superpixels: &[Superpixels], flows: &Correspondences, options: &SegmentOptions) -> Result<Segmentation> {
     flows.check_complete()?;
     if flows.poses() != poses.len() || superpixels.len() != poses.len() {
         return Err(Error::mismatch(
@@ -201,7 +201,7 @@ pub fn segment(poses: &[Pose], superpixels: &[Superpixels], flows: &Corresponden
 ///
 /// # Errors
 /// [`Error::Setting`] for a reference out of range.
-pub(super) fn reference_pose(poses: &[Pose], options: &SegmentOptions) -> Result<usize> {
+pub(super) fn reference_pose(poses: &[SheetPose], options: &SegmentOptions) -> Result<usize> {
     match options.reference {
         Some(r) if r >= poses.len() => Err(Error::setting("reference pose", r, format!("a pose number below {}", poses.len()))),
         Some(r) => Ok(r),
@@ -217,7 +217,7 @@ pub(super) fn reference_pose(poses: &[Pose], options: &SegmentOptions) -> Result
 /// is fixed), and every pixel of every pose takes the part whose motions explain it best.
 /// `flows` must be complete and the options checked.
 pub(super) fn settle(
-    poses: &[Pose],
+    poses: &[SheetPose],
     superpixels: &[Superpixels],
     flows: &Correspondences,
     options: &SegmentOptions,
@@ -273,7 +273,7 @@ pub(super) fn settle(
 
 /// The reference pose and what refining its parts needs.
 struct Reference<'a> {
-    pose: &'a Pose,
+    pose: &'a SheetPose,
     sp: &'a Superpixels,
     flows: &'a Correspondences,
     index: usize,
@@ -511,7 +511,7 @@ mod tests {
                     *label = part as u32;
                 }
             }
-            poses.push(Pose::new("pose", image));
+            poses.push(SheetPose::new("pose", image));
             truth.push(labels);
         }
         let mut flows = Correspondences::new(poses.len(), n * n);

@@ -2,7 +2,7 @@
 //! "Voting pairs"): k-means in CIELAB colour and position, each centre searching a 2S × 2S
 //! window, then every superpixel made one connected piece.
 
-use super::pose::Pose;
+use super::pose::SheetPose;
 use crate::geom::component_labels;
 
 /// Marks a background pixel in [`Superpixels::labels`].
@@ -40,7 +40,7 @@ fn lab(rgb: [f32; 3]) -> [f32; 3] {
 /// (the weight of position against CIELAB colour; SLIC's usual 10). Every superpixel is one
 /// 4-connected piece of at least a quarter of the nominal size `S²` unless the piece it lies in
 /// is smaller. Deterministic.
-pub fn slic(pose: &Pose, target: usize, compactness: f32) -> Superpixels {
+pub fn slic(pose: &SheetPose, target: usize, compactness: f32) -> Superpixels {
     let (w, h) = (pose.width(), pose.height());
     let area = pose.area();
     if area == 0 {
@@ -245,7 +245,7 @@ mod tests {
     use super::*;
     use crate::picture::Picture;
 
-    fn two_colour_pose() -> Pose {
+    fn two_colour_pose() -> SheetPose {
         // A 60 × 40 rectangle, red on the left half and blue on the right, on transparency.
         let mut image = Picture::filled(80, 60, [0.0; 4]);
         for y in 10..50 {
@@ -253,7 +253,7 @@ mod tests {
                 image.pixels[y * 80 + x] = if x < 40 { [0.9, 0.1, 0.1, 1.0] } else { [0.1, 0.1, 0.9, 1.0] };
             }
         }
-        Pose::new("test", image)
+        SheetPose::new("test", image)
     }
 
     #[test]
@@ -290,7 +290,7 @@ mod tests {
 
     #[test]
     fn an_empty_pose_has_no_superpixels() {
-        let pose = Pose::new("empty", Picture::filled(16, 16, [0.0; 4]));
+        let pose = SheetPose::new("empty", Picture::filled(16, 16, [0.0; 4]));
         assert_eq!(slic(&pose, 10, 10.0).count, 0);
     }
 }

@@ -9,7 +9,7 @@
 
 use std::path::{Path, PathBuf};
 
-use super::character::{parse_color, Character};
+use super::character::{parse_color, CharacterFile};
 // The import's types live in `layers`, below the .ora and .psd readers that build them too;
 // callers know them from here.
 pub use super::layers::{over, ArtLayer, Artwork, ImportOptions, DEFAULT_MAX_LAYERS, DEFAULT_MAX_TOTAL_PIXELS};
@@ -45,7 +45,7 @@ pub fn load_reporting(path: &Path, opts: &ImportOptions, progress: &dyn Progress
         });
     }
     if path.extension().is_some_and(|e| e.eq_ignore_ascii_case("ora")) {
-        return super::ora::load(path, opts);
+        return super::ora::load(path, opts, progress);
     }
     if path.extension().is_some_and(|e| e.eq_ignore_ascii_case("psd")) {
         return super::psd::load(path, opts, progress);
@@ -55,7 +55,7 @@ pub fn load_reporting(path: &Path, opts: &ImportOptions, progress: &dyn Progress
     } else {
         path.to_path_buf()
     };
-    let character = Character::load(&toml_path)?;
+    let character = CharacterFile::load(&toml_path)?;
     let dir = toml_path.parent().unwrap_or(Path::new("."));
     let name = character.name.clone().unwrap_or_else(|| folder_name(dir));
     let layers = match &character.labels {
@@ -92,7 +92,7 @@ fn folder_name(dir: &Path) -> String {
 
 /// Loads the layer-PNG form, checking every layer's size from its header against the first
 /// readable one (and the limits) before decoding it, and every layer for emptiness.
-fn load_layer_pngs(character: &Character, dir: &Path, toml_path: &Path, opts: &ImportOptions) -> Result<Vec<ArtLayer>> {
+fn load_layer_pngs(character: &CharacterFile, dir: &Path, toml_path: &Path, opts: &ImportOptions) -> Result<Vec<ArtLayer>> {
     let files: Vec<PathBuf> = character
         .layers
         .iter()
@@ -150,10 +150,10 @@ fn load_layer_pngs(character: &Character, dir: &Path, toml_path: &Path, opts: &I
 /// the image with no label — every problem at once.
 ///
 /// # Panics
-/// If `character` is not of the label-map form (a caller bug: [`Character::parse`] checks that
+/// If `character` is not of the label-map form (a caller bug: [`CharacterFile::parse`] checks that
 /// every layer has a valid colour when `labels` is present).
 pub fn label_map_layers(
-    character: &Character,
+    character: &CharacterFile,
     map: &[u8],
     map_path: &Path,
     image: &[u8],
@@ -169,7 +169,7 @@ pub fn label_map_layers(
 
 /// Cuts the reference image into one layer per label-map colour (label-map form).
 fn cut_label_map(
-    character: &Character,
+    character: &CharacterFile,
     map: &Picture,
     map_path: &Path,
     image: &Picture,

@@ -39,7 +39,7 @@ use crate::user_file;
 /// The parsed and validated `character.toml`.
 #[derive(Clone, Debug, PartialEq, Deserialize)]
 #[serde(deny_unknown_fields)]
-pub struct Character {
+pub struct CharacterFile {
     /// Display name.
     pub name: Option<String>,
     /// Name of the root body layer.
@@ -85,13 +85,13 @@ fn body() -> LayerKind {
     LayerKind::Body
 }
 
-impl Character {
+impl CharacterFile {
     /// Reads and validates `path`.
     ///
     /// # Errors
     /// [`Error::Io`] if unreadable; [`Error::Limit`] if larger than [`user_file::CONFIG`];
     /// [`Error::Format`] for text that is not UTF-8, bad TOML, unknown keys, or a structural
-    /// problem (see [`Character::parse`]).
+    /// problem (see [`CharacterFile::parse`]).
     pub fn load(path: &Path) -> Result<Self> {
         let text = user_file::read_text(path, user_file::CONFIG)?;
         Self::parse(&text, path)
@@ -106,7 +106,7 @@ impl Character {
     /// # Errors
     /// [`Error::Format`] naming `path`, or [`Error::Partial`] listing every problem found.
     pub fn parse(text: &str, path: &Path) -> Result<Self> {
-        let character: Character =
+        let character: CharacterFile =
             toml::from_str(text).map_err(|e| Error::format(path, format!("invalid character.toml: {}", e.message())))?;
         character.validate(path)?;
         Ok(character)
@@ -224,7 +224,7 @@ impl LayeredOverrides {
     /// is of another form (module doc).
     ///
     /// # Errors
-    /// As [`Character::load`] for an unreadable file or bad TOML; [`Error::Format`] naming the
+    /// As [`CharacterFile::load`] for an unreadable file or bad TOML; [`Error::Format`] naming the
     /// file for unknown keys or a layer named twice.
     pub fn load_beside(path: &Path) -> Result<Option<Self>> {
         if !path.is_file() {
@@ -279,8 +279,8 @@ pub fn parse_color(text: &str) -> std::result::Result<[u8; 3], String> {
 mod tests {
     use super::*;
 
-    fn parse(text: &str) -> Result<Character> {
-        Character::parse(text, Path::new("dir/character.toml"))
+    fn parse(text: &str) -> Result<CharacterFile> {
+        CharacterFile::parse(text, Path::new("dir/character.toml"))
     }
 
     const LAYERS: &str =
@@ -350,7 +350,7 @@ mod tests {
         let path = dir.path().join("character.toml");
         let padding = "#".repeat(user_file::CONFIG as usize);
         std::fs::write(&path, format!("{LAYERS}{padding}\n")).unwrap();
-        let err = Character::load(&path).unwrap_err();
+        let err = CharacterFile::load(&path).unwrap_err();
         assert!(
             matches!(err.innermost(), Error::Limit { limit, .. } if *limit == user_file::CONFIG),
             "{err}"

@@ -10,6 +10,7 @@ use super::rig_data::RigOverrides;
 use super::LayerKind;
 use crate::error::{Error, Result};
 use crate::picture::{ImageLimits, Picture};
+use crate::progress::Progress;
 
 /// One layer of imported artwork, full reference-frame size, straight alpha.
 #[derive(Clone, Debug, PartialEq)]
@@ -144,34 +145,44 @@ pub(super) fn place(pic: &Picture, offset: [i64; 2], opacity: f32, width: u32, h
 }
 
 /// Finishes the import of a layered file (`.ora`, `.psd`) whose canvas-sized `layers` are back →
-/// front: reports fully transparent layers and duplicate names together with the `problems`
-/// found while reading, then applies the `character.toml` beside the file if it is one of
-/// [`LayeredOverrides`] (kinds, root, name, joints, rig); otherwise takes the body layer with the
-/// most opaque pixels as the root and the file's stem as the name, and joins every overlapping
-/// pair.
+/// front: reports duplicate names together with the `problems` found while reading, skips fully
+/// transparent layers (layered files often carry an empty one) with a warning naming each, then
+/// applies the `character.toml` beside the file if it is one of [`LayeredOverrides`] (kinds,
+/// root, name, joints, rig); otherwise takes the body layer with the most opaque pixels as the
+/// root and the file's stem as the name, and joins every overlapping pair.
 ///
 /// # Errors
-/// Every problem at once ([`Error::collect`]); [`Error::Format`] if no body layer is left;
+/// Every problem at once ([`Error::collect`]), the transparent layers among them when anything
+/// else is wrong or nothing else is left; [`Error::Format`] if no body layer is left;
 /// [`Error::Layer`] naming the `character.toml` for a layer, root or joint it names that the
 /// file does not have, or an accessory root.
-pub(super) fn assemble(path: &Path, mut layers: Vec<ArtLayer>, mut problems: Vec<Error>) -> Result<Artwork> {
+pub(super) fn assemble(path: &Path, layers: Vec<ArtLayer>, mut problems: Vec<Error>, progress: &dyn Progress) -> Result<Artwork> {
     let mut names = std::collections::HashSet::new();
     for layer in &layers {
-        if layer.picture.pixels.iter().all(|p| p[3] == 0.0) {
-            problems.push(Error::layer(path, &layer.name, "fully transparent (no pixel has alpha > 0)"));
-        }
         if !names.insert(layer.name.as_str()) {
             problems.push(Error::layer(path, &layer.name, "duplicate layer name (rename it in the editor)"));
         }
     }
+    let (mut layers, empty): (Vec<ArtLayer>, Vec<ArtLayer>) =
+        layers.into_iter().partition(|l| l.picture.pixels.iter().any(|p| p[3] > 0.0));
+    let transparent = |l: &ArtLayer| Error::layer(path, &l.name, "fully transparent (no pixel has alpha > 0)");
+    if !problems.is_empty() || layers.is_empty() {
+        problems.extend(empty.iter().map(transparent));
+    }
     Error::collect(problems)?;
+    for layer in &empty {
+        progress.warn(&format!("{}; skipped", transparent(layer)));
+    }
     let toml_path = path.parent().unwrap_or(Path::new(".")).join("character.toml");
     let overrides = LayeredOverrides::load_beside(&toml_path)?;
     let index = |layers: &[ArtLayer], name: &str| -> Result<usize> {
         layers
             .iter()
             .position(|l| l.name == name)
-            .ok_or_else(|| Error::layer(&toml_path, name, format!("{} has no such layer", path.display())))
+            .ok_or_else(|| {
+                let why = if empty.iter().any(|l| l.name == name) { " (it is fully transparent and was skipped)" } else { "" };
+                Error::layer(&toml_path, name, format!("{} has no such layer{why}", path.display()))
+            })
     };
     let mut joint_pairs = None;
     let mut chosen_root = None;

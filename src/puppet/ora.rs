@@ -22,6 +22,7 @@ use super::layers::{assemble, place, ArtLayer, Artwork, ImportOptions};
 use super::LayerKind;
 use crate::error::{Error, Result};
 use crate::picture::Picture;
+use crate::progress::Progress;
 use crate::user_file;
 
 /// The most bytes `stack.xml` may inflate to (a real one is a few kilobytes).
@@ -53,8 +54,8 @@ pub fn max_file_bytes(opts: &ImportOptions) -> u64 {
 /// # Errors
 /// [`Error::Io`] if unreadable; [`Error::Limit`] if it is longer than [`max_file_bytes`]; as
 /// [`from_reader`] for its contents.
-pub fn load(path: &Path, opts: &ImportOptions) -> Result<Artwork> {
-    from_reader(user_file::open(path, max_file_bytes(opts))?, path, opts)
+pub fn load(path: &Path, opts: &ImportOptions, progress: &dyn Progress) -> Result<Artwork> {
+    from_reader(user_file::open(path, max_file_bytes(opts))?, path, opts, progress)
 }
 
 /// Reads the bytes of a `.ora` archive from `reader`; `path` names it in errors and gives the
@@ -64,7 +65,7 @@ pub fn load(path: &Path, opts: &ImportOptions) -> Result<Artwork> {
 /// [`Error::Format`] for a bad zip, a missing or malformed `stack.xml`, or a layer whose PNG is
 /// absent; [`Error::Layer`] for an undecodable or fully transparent layer; [`Error::Limit`] for a
 /// canvas, layer count or entry past the limits.
-pub fn from_reader(reader: impl Read + Seek, path: &Path, opts: &ImportOptions) -> Result<Artwork> {
+pub fn from_reader(reader: impl Read + Seek, path: &Path, opts: &ImportOptions, progress: &dyn Progress) -> Result<Artwork> {
     let mut zip = zip::ZipArchive::new(reader).map_err(|e| Error::format(path, format!("not a valid OpenRaster zip: {e}")))?;
     let stack_xml = read_entry(&mut zip, "stack.xml", MAX_STACK_XML, path)?
         .ok_or_else(|| Error::format(path, "no stack.xml in the archive (not an OpenRaster file?)"))?;
@@ -103,7 +104,7 @@ pub fn from_reader(reader: impl Read + Seek, path: &Path, opts: &ImportOptions) 
             Err(e) => problems.push(Error::layer(path, &entry.name, e.to_string())),
         }
     }
-    assemble(path, layers, problems)
+    assemble(path, layers, problems, progress)
 }
 
 /// The entry `name` inflated, at most `limit` bytes; `None` if the archive has no such entry.
@@ -265,6 +266,7 @@ mod tests {
             Cursor::new(archive(stack_xml.as_bytes())),
             Path::new("c.ora"),
             &ImportOptions::default(),
+            &crate::progress::Silent,
         )
     }
 

@@ -108,7 +108,7 @@ pub fn from_bytes(bytes: &[u8], path: &Path, opts: &ImportOptions, progress: &dy
             Err(problem) => problems.push(Error::layer(path, &record.name, problem)),
         }
     }
-    assemble(path, layers, problems)
+    assemble(path, layers, problems, progress)
 }
 
 /// A cursor over the file's bytes whose reads fail, with the offset, where the file ends.
@@ -775,6 +775,18 @@ mod tests {
         let err = import(&bytes).0.unwrap_err().to_string();
         assert!(err.contains("c.psd: layer \"arm\": duplicate layer name"), "{err}");
         assert!(err.contains("c.psd: layer \"glass\": fully transparent"), "{err}");
+    }
+
+    #[test]
+    fn a_transparent_layer_in_good_artwork_is_skipped_with_a_warning_naming_it() {
+        let (art, warnings) = import(&doc(
+            2,
+            2,
+            &[layer(b"arm", [0, 0, 1, 1], [255; 4]), layer(b"glass", [0, 0, 2, 2], [0; 4])],
+        ));
+        let names: Vec<String> = art.unwrap().layers.into_iter().map(|l| l.name).collect();
+        assert_eq!(names, ["arm"]);
+        assert_eq!(warnings, ["c.psd: layer \"glass\": fully transparent (no pixel has alpha > 0); skipped"]);
     }
 
     #[test]

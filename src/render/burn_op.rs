@@ -19,7 +19,7 @@ use burn::backend::tensor::FloatTensor;
 use burn::backend::{Autodiff, Backend, TensorMetadata};
 use burn::tensor::{read_sync, Tensor, TensorData};
 
-use super::soft_raster::{Frames, Params, Saved, SoftRasterizer};
+use super::soft_raster::{RasterFrames, Params, Saved, SoftRasterizer};
 use crate::backend::Inner;
 use crate::error::{Error, Result};
 
@@ -175,7 +175,7 @@ impl Call {
     }
 
     /// Packs rendered frames as one `[B, 5, H, W]` tensor (channels RGBA, M).
-    fn pack(&self, f: &Frames<f32>) -> <Inner as burn::backend::BackendTypes>::FloatTensorPrimitive {
+    fn pack(&self, f: &RasterFrames<f32>) -> <Inner as burn::backend::BackendTypes>::FloatTensorPrimitive {
         let n = self.width * self.height;
         let mut packed = vec![0f32; self.batch * 5 * n];
         for b in 0..self.batch {

@@ -36,7 +36,7 @@ use crate::puppet::{LayerKind, Mesh, Puppet};
 use dag::{layer_dag, topological_order, DagOptions};
 use deform::bind_point;
 use mask::Mask;
-use pins::{pin_sites, Context, PinOptions, PinSite};
+use pins::{pin_sites, PinContext, PinOptions, PinSite};
 
 /// How a rig is built.
 #[derive(Clone, Debug, PartialEq)]
@@ -142,7 +142,7 @@ pub fn rig_puppet(
         .collect();
     let mut out = puppet.clone();
     out.joints.retain(|j| is_body(j.a.layer) && is_body(j.b.layer));
-    let cx = Context {
+    let cx = PinContext {
         puppet,
         masks: &masks,
         body_part: &body_part,

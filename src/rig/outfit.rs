@@ -22,6 +22,28 @@ use super::{rig_puppet, RigOptions};
 /// intersection over union: a puppet's layers may extend under the layers in front of them.)
 pub const BODY_MATCH_WARNING: f32 = 0.9;
 
+/// The folder beside a character's frames that holds its other outfits, one artwork each.
+pub const OUTFITS_FOLDER: &str = "outfits";
+
+/// The outfits of the character in `dir`: the folders of `dir/outfits/`, by name (none if there
+/// is no such folder).
+///
+/// # Errors
+/// [`Error::Io`] naming the folder if it exists but cannot be listed.
+pub fn outfits_in(dir: &std::path::Path) -> Result<Vec<std::path::PathBuf>> {
+    let folder = dir.join(OUTFITS_FOLDER);
+    if !folder.is_dir() {
+        return Ok(Vec::new());
+    }
+    let mut found: Vec<std::path::PathBuf> = std::fs::read_dir(&folder)
+        .map_err(|e| Error::io(&folder, e))?
+        .filter_map(|entry| entry.ok().map(|e| e.path()))
+        .filter(|p| p.is_dir())
+        .collect();
+    found.sort();
+    Ok(found)
+}
+
 /// `puppet` without the accessories `names`, nor any accessory that follows one of them in the
 /// rig (each such one is reported through `progress`).
 ///

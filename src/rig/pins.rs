@@ -65,7 +65,7 @@ pub struct PinSite {
 
 /// What the pin placement of one child reads: every layer's mask, each layer's body part (the
 /// body layer it hangs from, itself for a body layer), and which body layers are jointed.
-pub struct Context<'a> {
+pub struct PinContext<'a> {
     /// The puppet (layer kinds and names).
     pub puppet: &'a Puppet,
     /// Every layer's rest mask.
@@ -78,7 +78,7 @@ pub struct Context<'a> {
 
 /// The pin sites of accessory `child` for its `edges` (module doc), with `overrides`' extra pins
 /// added and unpinned regions cleared.
-pub fn pin_sites(cx: &Context, child: usize, edges: &[&RigEdge], overrides: &RigOverrides, options: &PinOptions) -> Vec<PinSite> {
+pub fn pin_sites(cx: &PinContext, child: usize, edges: &[&RigEdge], overrides: &RigOverrides, options: &PinOptions) -> Vec<PinSite> {
     let masks = cx.masks;
     let c = &masks[child];
     let mut sites = Vec::new();
@@ -239,7 +239,7 @@ fn outline_mask(mask: &Mask) -> Mask {
 }
 
 /// The overlap constraint's outline samples (module doc).
-fn overlap_outline(cx: &Context, child: usize, parent: usize, options: &PinOptions) -> Vec<[f32; 2]> {
+fn overlap_outline(cx: &PinContext, child: usize, parent: usize, options: &PinOptions) -> Vec<[f32; 2]> {
     // Sampled as finely as the occlusion pins walk it, so a crossing shorter than the spacing
     // counts.
     let crosses = cx.masks[parent]
@@ -337,7 +337,7 @@ mod tests {
             rig: None,
         };
         let body_part: Vec<usize> = (0..masks.len()).map(|_| 0).collect();
-        let cx = Context {
+        let cx = PinContext {
             puppet: &puppet,
             masks: &masks,
             body_part: &body_part,

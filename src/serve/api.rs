@@ -19,6 +19,7 @@ use serde::Deserialize;
 use serde_json::json;
 
 use super::error::ApiError;
+use super::guard::{check, HostGuard};
 use super::export::{export, redrawn_strip, ExportStyle, Format};
 use super::state::{App, EditorPose};
 use crate::edit::inbetween::MAX_STEPS;
@@ -58,8 +59,9 @@ pub const MAX_HIDDEN: usize = 256;
 /// The longest frame time of a download, milliseconds (APNG's limit is 65,535).
 pub const MAX_DELAY_MS: u32 = 10_000;
 
-/// The routes over `app` (see the module doc of [`crate::serve`] for the list).
-pub fn router(app: Arc<App>) -> Router {
+/// The routes over `app` (see the module doc of [`crate::serve`] for the list), answering only
+/// what `guard` lets through (its own host names; changes from its own pages).
+pub fn router(app: Arc<App>, guard: HostGuard) -> Router {
     Router::new()
         .route("/", get(page))
         .route("/api/puppet", get(puppet))
@@ -83,6 +85,7 @@ pub fn router(app: Arc<App>) -> Router {
         })
         .layer(DefaultBodyLimit::max(MAX_BODY))
         .with_state(app)
+        .layer(axum::middleware::from_fn_with_state(guard, check))
 }
 
 async fn page() -> Html<&'static str> {

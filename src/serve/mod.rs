@@ -42,6 +42,7 @@
 pub mod api;
 pub mod error;
 pub mod export;
+pub mod guard;
 mod session;
 pub mod state;
 #[cfg(test)]
@@ -49,12 +50,15 @@ mod tests;
 
 pub use api::router;
 pub use error::ApiError;
-pub use state::{folder_frames, model_frames, App, EditorFrame, EditorPose, Outfit, ServeOptions};
+pub use guard::HostGuard;
+pub use state::{folder_frames, model_frames, model_outfits, App, EditorFrame, EditorPose, Outfit, ServeOptions};
 
-/// Serves the editor of `app` on `listener` until the process ends.
+/// Serves the editor of `app` on `listener` until the process ends, to the names of the address
+/// it listens on ([`HostGuard`]).
 ///
 /// # Errors
 /// The listener's I/O error, if accepting connections fails for good.
 pub async fn serve(listener: tokio::net::TcpListener, app: std::sync::Arc<App>) -> std::io::Result<()> {
-    axum::serve(listener, router(app)).await
+    let guard = HostGuard::new(listener.local_addr()?);
+    axum::serve(listener, router(app, guard)).await
 }

@@ -22,6 +22,7 @@ use crate::model::Model;
 use crate::picture::Picture;
 use crate::puppet::sequence::Frames;
 use crate::puppet::Puppet;
+use crate::rig::outfit::outfits_in;
 use crate::train::trainer::SplitRecord;
 
 /// The most sessions kept unless [`ServeOptions::max_sessions`] says otherwise: each holds a
@@ -106,6 +107,21 @@ pub fn model_frames(model_dir: &Path, model: &Model) -> Result<(Vec<EditorFrame>
         return Ok((Vec::new(), Vec::new()));
     }
     folder_frames(&split.frames, model, &split.test)
+}
+
+/// The outfits of the model in `model_dir`: the folders of the `outfits/` folder beside the frames
+/// it trained on (its split.json names them), by name; none if it has none.
+///
+/// # Errors
+/// As [`SplitRecord::load`] and [`outfits_in`].
+pub fn model_outfits(model_dir: &Path) -> Result<Vec<std::path::PathBuf>> {
+    let Some(split) = SplitRecord::load(model_dir)? else {
+        return Ok(Vec::new());
+    };
+    match split.frames.parent() {
+        Some(character) => outfits_in(character),
+        None => Ok(Vec::new()),
+    }
 }
 
 /// The frames in `dir` (or `dir/frames`), natural order, those named in `held_out` marked so.
@@ -349,7 +365,7 @@ impl App {
         match &self.options.appearance {
             Some(stage) => Ok((stage, &self.device)),
             None => Err(ApiError::unprocessable(
-                "this editor has no appearance stage: train one (`puppet appearance train --model DIR`) and start `puppet serve --appearance`",
+                "this editor has no appearance stage: train one for the model, then start the editor with it",
             )),
         }
     }

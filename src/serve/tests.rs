@@ -9,7 +9,7 @@ use serde_json::{json, Value};
 use tower::ServiceExt as _;
 
 use super::api::{MAX_BODY, MAX_INBETWEENS, MAX_PINS};
-use super::{router, App, EditorFrame, ServeOptions};
+use super::{router, App, EditorFrame, HostGuard, ServeOptions};
 use crate::appearance::AppearanceStage;
 use crate::fit::FitOptions;
 use crate::model::appearance::AppearanceNetConfig;
@@ -34,6 +34,11 @@ fn app(max_sessions: usize) -> Arc<App> {
     Arc::new(App::new(model, frames, Vec::new(), options, &device).unwrap())
 }
 
+/// The guard of an editor on 127.0.0.1:8080.
+fn local() -> HostGuard {
+    HostGuard::new(([127, 0, 0, 1], 8080).into())
+}
+
 /// Sends one request to the router in-process; returns the status and the body (JSON parsed
 /// where it is JSON, else `Value::Null`) and the raw bytes.
 async fn call(app: &Arc<App>, method: &str, uri: &str, body: &str) -> (StatusCode, Value, Vec<u8>) {
@@ -43,7 +48,7 @@ async fn call(app: &Arc<App>, method: &str, uri: &str, body: &str) -> (StatusCod
         .header("content-type", "application/json")
         .body(Body::from(body.to_string()))
         .unwrap();
-    let response = router(app.clone()).oneshot(request).await.unwrap();
+    let response = router(app.clone(), local()).oneshot(request).await.unwrap();
     let status = response.status();
     let bytes = axum::body::to_bytes(response.into_body(), 1 << 26).await.unwrap().to_vec();
     (status, serde_json::from_slice(&bytes).unwrap_or(Value::Null), bytes)
@@ -451,7 +456,7 @@ async fn downloads_are_files_named_for_what_they_hold() {
             .body(Body::from(body.to_string()))
             .unwrap()
     };
-    let response = router(app.clone())
+    let response = router(app.clone(), local())
         .oneshot(request(json!({ "format": "png", "session": session, "background": "#ffffff" })))
         .await
         .unwrap();
@@ -462,7 +467,7 @@ async fn downloads_are_files_named_for_what_they_hold() {
     let picture = image::load_from_memory(&png).unwrap().to_rgba8();
     assert_eq!(picture.dimensions(), (48, 40));
     assert!(picture.pixels().all(|p| p[3] == 255), "a white background is opaque");
-    let response = router(app.clone())
+    let response = router(app.clone(), local())
         .oneshot(request(
             json!({ "format": "sheet", "inbetween": { "from": 0, "to": 2, "count": 2 } }),
         ))
@@ -480,7 +485,7 @@ async fn upload(app: &Arc<App>, query: &str, bytes: Vec<u8>) -> (StatusCode, Val
         .header("content-type", "image/png")
         .body(Body::from(bytes))
         .unwrap();
-    let response = router(app.clone()).oneshot(request).await.unwrap();
+    let response = router(app.clone(), local()).oneshot(request).await.unwrap();
     let status = response.status();
     let bytes = axum::body::to_bytes(response.into_body(), 1 << 26).await.unwrap();
     (status, serde_json::from_slice(&bytes).unwrap_or(Value::Null))
@@ -633,6 +638,67 @@ async fn an_editor_without_an_appearance_stage_says_how_to_get_one() {
     ] {
         let (status, answer, _) = call(&app, "POST", route, &body.to_string()).await;
         assert_eq!(status, StatusCode::UNPROCESSABLE_ENTITY, "{route}");
-        assert!(answer["error"].as_str().unwrap().contains("--appearance"), "{route}: {answer}");
+        assert!(answer["error"].as_str().unwrap().contains("no appearance stage"), "{route}: {answer}");
     }
+}
+
+/// Sends `method uri` with `headers` and a JSON body; the status and the answer.
+async fn call_with(app: &Arc<App>, method: &str, uri: &str, headers: &[(&str, &str)], body: &str) -> (StatusCode, Value) {
+    let mut request = Request::builder().method(method).uri(uri);
+    for (name, value) in headers {
+        request = request.header(*name, *value);
+    }
+    let response = router(app.clone(), local())
+        .oneshot(request.body(Body::from(body.to_string())).unwrap())
+        .await
+        .unwrap();
+    let status = response.status();
+    let bytes = axum::body::to_bytes(response.into_body(), 1 << 26).await.unwrap();
+    (status, serde_json::from_slice(&bytes).unwrap_or(Value::Null))
+}
+
+#[tokio::test]
+async fn a_foreign_host_name_is_refused_so_a_rebound_page_cannot_read_the_artwork() {
+    let app = app(4);
+    for uri in ["/api/puppet", "/api/texture/0/0.png", "/api/frames", "/"] {
+        let (status, answer) = call_with(&app, "GET", uri, &[("host", "evil.example.com:8080")], "").await;
+        assert_eq!(status, StatusCode::FORBIDDEN, "{uri}");
+        assert!(answer["error"].as_str().unwrap().contains("evil.example.com"), "{answer}");
+    }
+    for host in ["127.0.0.1:8080", "localhost:8080"] {
+        let (status, _) = call_with(&app, "GET", "/api/puppet", &[("host", host)], "").await;
+        assert_eq!(status, StatusCode::OK, "{host}");
+    }
+}
+
+#[tokio::test]
+async fn changes_from_another_origin_are_refused_and_nothing_changes() {
+    let app = app(4);
+    let frames = |app: &Arc<App>| app.frames().len();
+    let before = frames(&app);
+    let puppet = &app.model().puppet;
+    let png = crate::render::render_crisp(puppet, &puppet.rest_vertices(), 48, 40)
+        .unwrap()
+        .png_bytes(std::path::Path::new("x.png"))
+        .unwrap();
+    let foreign = [("host", "127.0.0.1:8080"), ("origin", "http://evil.example.com"), ("content-type", "text/plain")];
+    let request = Request::builder()
+        .method("POST")
+        .uri("/api/upload?name=x.png")
+        .header("host", "127.0.0.1:8080")
+        .header("origin", "http://evil.example.com")
+        .header("content-type", "text/plain")
+        .body(Body::from(png))
+        .unwrap();
+    let response = router(app.clone(), local()).oneshot(request).await.unwrap();
+    assert_eq!(response.status(), StatusCode::FORBIDDEN);
+    assert_eq!(frames(&app), before, "the refused upload added no frame");
+    let (status, _) = call_with(&app, "POST", "/api/session", &foreign, r#"{"frame": 0}"#).await;
+    assert_eq!(status, StatusCode::FORBIDDEN);
+    let cross_site = [("host", "127.0.0.1:8080"), ("sec-fetch-site", "cross-site")];
+    let (status, _) = call_with(&app, "POST", "/api/session", &cross_site, r#"{"frame": 0}"#).await;
+    assert_eq!(status, StatusCode::FORBIDDEN);
+    let own = [("host", "127.0.0.1:8080"), ("origin", "http://127.0.0.1:8080"), ("content-type", "application/json")];
+    let (status, answer) = call_with(&app, "POST", "/api/session", &own, r#"{"frame": 0}"#).await;
+    assert_eq!(status, StatusCode::OK, "{answer}");
 }

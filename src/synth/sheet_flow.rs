@@ -12,7 +12,7 @@ use crate::error::{Error, Result};
 use crate::parts::flow::{Correspondences, Flow};
 use crate::parts::learn::{PairSource, TrainingPair};
 use crate::parts::matching::WorkingPose;
-use crate::parts::pose::{check, crop_like, Pose};
+use crate::parts::pose::{check, crop_like, SheetPose};
 use crate::parts::superpixels::NONE;
 use crate::picture::Picture;
 
@@ -131,7 +131,7 @@ pub struct GeneratedSheet {
     /// The generated sequence (character, frames, truth).
     pub sequence: super::Sequence,
     /// Its frames as poses.
-    pub poses: Vec<Pose>,
+    pub poses: Vec<SheetPose>,
     /// The true part of each pixel of each pose ([`NONE`] on the background).
     pub labels: Vec<Vec<u32>>,
 }
@@ -166,7 +166,7 @@ impl GeneratedSheet {
             .frames
             .iter()
             .enumerate()
-            .map(|(k, f)| Pose::new(format!("pose {k}"), f.image.clone()))
+            .map(|(k, f)| SheetPose::new(format!("pose {k}"), f.image.clone()))
             .collect();
         Ok(GeneratedSheet { sequence, poses, labels })
     }
@@ -229,7 +229,7 @@ impl PairSource for SyntheticPairs {
 #[derive(Clone, Debug)]
 pub struct TruthSheet {
     /// The poses, cut by the sheet's grid.
-    pub poses: Vec<Pose>,
+    pub poses: Vec<SheetPose>,
     /// The true part of each pixel of each pose.
     pub labels: Vec<Vec<u32>>,
     /// The sheet's size.
@@ -251,7 +251,7 @@ impl TruthSheet {
         let layout = truth.sheet.clone().ok_or_else(|| {
             Error::format(
                 &truth_path,
-                "this truth describes a frame sequence, not a sprite sheet (`puppet synth --sprite-sheet` writes one)",
+                "this truth describes a frame sequence, not a sprite sheet",
             )
         })?;
         let sheet_path = dir.join(&layout.file);
@@ -279,13 +279,13 @@ impl TruthSheet {
             ));
         }
         // Cells by position, not by content: the truth numbers every cell, drawn or not.
-        let cells: Vec<Pose> = (0..truth.frames.len() as u32)
+        let cells: Vec<SheetPose> = (0..truth.frames.len() as u32)
             .map(|k| {
                 let origin = [
                     i64::from(k % layout.columns * truth.width),
                     i64::from(k / layout.columns * truth.height),
                 ];
-                Pose::new(format!("{}#{k}", layout.file), Picture::filled(truth.width, truth.height, [0.0; 4])).at(origin)
+                SheetPose::new(format!("{}#{k}", layout.file), Picture::filled(truth.width, truth.height, [0.0; 4])).at(origin)
             })
             .collect();
         let poses = crop_like(&sheet, &cells);

@@ -285,6 +285,38 @@ impl TrainConfig {
         Ok(config)
     }
 
+    /// The settings used when no config file is given (`configs/train.toml`): every key but the
+    /// three paths.
+    pub const DEFAULT_SETTINGS: &'static str = include_str!("../../configs/train.toml");
+
+    /// A config of `settings` (TOML text of every key but the paths, as
+    /// [`TrainConfig::DEFAULT_SETTINGS`]; `source` names it in errors) for the given artwork or
+    /// puppet, frames and output folder, each relative to the working directory.
+    ///
+    /// # Errors
+    /// As [`TrainConfig::parse`]; [`Error::Format`] if `settings` names a path itself.
+    pub fn with_paths(settings: &str, source: &Path, puppet: &Path, frames: &Path, output: &Path) -> Result<Self> {
+        let mut table: toml::Table = toml::from_str(settings).map_err(|e| Error::format(source, format!("invalid training config: {e}")))?;
+        for (key, path) in [("puppet", puppet), ("frames", frames), ("output", output)] {
+            if table.contains_key(key) {
+                return Err(Error::format(source, format!("names `{key}` itself, where the settings leave the paths to the caller")));
+            }
+            table.insert(key.into(), toml::Value::String(canonical(path).to_string_lossy().into_owned()));
+        }
+        let text = toml::to_string(&table).map_err(|e| Error::format(source, e.to_string()))?;
+        Self::parse(&text, source)
+    }
+
+    /// This config with some of its paths replaced (each relative to the working directory).
+    pub fn replacing_paths(mut self, puppet: Option<&Path>, frames: Option<&Path>, output: Option<&Path>) -> Self {
+        for (field, new) in [(&mut self.puppet, puppet), (&mut self.frames, frames), (&mut self.output, output)] {
+            if let Some(path) = new {
+                *field = canonical(path);
+            }
+        }
+        self
+    }
+
     /// Checks values that TOML types cannot: ranges and the input size.
     ///
     /// # Errors
@@ -383,6 +415,27 @@ mod tests {
         let path = dir.path().join("train.toml");
         std::fs::write(&path, text).unwrap();
         (dir, path)
+    }
+
+    #[test]
+    fn the_default_settings_are_the_robots_recipe_with_the_paths_given() {
+        let dir = tempfile::tempdir().unwrap();
+        let source = Path::new("configs/train.toml");
+        let config = TrainConfig::with_paths(
+            TrainConfig::DEFAULT_SETTINGS,
+            source,
+            &dir.path().join("art.psd"),
+            &dir.path().join("frames"),
+            &dir.path().join("run"),
+        )
+        .unwrap();
+        assert_eq!(config.output, canonical(&dir.path().join("run")));
+        let robot = TrainConfig::load(Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/configs/kenney-robot.toml"))).unwrap();
+        let same = robot.replacing_paths(Some(&config.puppet), Some(&config.frames), Some(&config.output));
+        assert_eq!(config, same, "configs/train.toml keeps configs/kenney-robot.toml's settings");
+        let named = "output = \"x\"\n[train]\nsteps = 5\n";
+        let err = TrainConfig::with_paths(named, source, Path::new("a"), Path::new("f"), Path::new("o")).unwrap_err();
+        assert!(err.to_string().contains("names `output` itself"), "{err}");
     }
 
     #[test]

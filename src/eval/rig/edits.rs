@@ -15,7 +15,7 @@ use crate::user_file;
 /// A body layer an edit acts on, found by geometry, not by name.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "lowercase")]
-pub enum Role {
+pub enum EditRole {
     /// The body layer highest in the frame (least mean y of its rest vertices).
     Head,
     /// The root body layer; when the root is the head, the largest other body layer (the head
@@ -31,14 +31,14 @@ pub enum Edit {
     /// Scale a layer (and the body layers hanging from it) horizontally about its centroid.
     Widen {
         /// Which layer.
-        layer: Role,
+        layer: EditRole,
         /// The factor.
         factor: f32,
     },
     /// Turn a layer (and the body layers hanging from it) about its joint with its parent.
     Tilt {
         /// Which layer.
-        layer: Role,
+        layer: EditRole,
         /// Degrees, counter-clockwise on screen.
         degrees: f32,
     },
@@ -76,28 +76,28 @@ pub fn default_edits() -> Vec<NamedEdit> {
         named(
             "head wider 10%",
             Edit::Widen {
-                layer: Role::Head,
+                layer: EditRole::Head,
                 factor: 1.1,
             },
         ),
         named(
             "head wider 20%",
             Edit::Widen {
-                layer: Role::Head,
+                layer: EditRole::Head,
                 factor: 1.2,
             },
         ),
         named(
             "head tilt +12°",
             Edit::Tilt {
-                layer: Role::Head,
+                layer: EditRole::Head,
                 degrees: 12.0,
             },
         ),
         named(
             "head tilt -12°",
             Edit::Tilt {
-                layer: Role::Head,
+                layer: EditRole::Head,
                 degrees: -12.0,
             },
         ),
@@ -105,7 +105,7 @@ pub fn default_edits() -> Vec<NamedEdit> {
         named(
             "body wider 15%",
             Edit::Widen {
-                layer: Role::Torso,
+                layer: EditRole::Torso,
                 factor: 1.15,
             },
         ),
@@ -232,15 +232,15 @@ pub(super) fn body_layers(puppet: &Puppet) -> impl Iterator<Item = usize> + '_ {
     (0..puppet.layers.len()).filter(|&l| puppet.layers[l].kind == LayerKind::Body)
 }
 
-/// The body layer playing `role` (doc of [`Role`]).
-fn role(puppet: &Puppet, role: Role) -> usize {
+/// The body layer playing `role` (doc of [`EditRole`]).
+fn role(puppet: &Puppet, role: EditRole) -> usize {
     let head = body_layers(puppet)
         .min_by(|&a, &b| top(puppet, a).total_cmp(&top(puppet, b)))
         .unwrap_or(puppet.root);
     match role {
-        Role::Head => head,
-        Role::Torso if puppet.root != head => puppet.root,
-        Role::Torso => body_layers(puppet)
+        EditRole::Head => head,
+        EditRole::Torso if puppet.root != head => puppet.root,
+        EditRole::Torso => body_layers(puppet)
             .filter(|&l| l != head)
             .max_by(|&a, &b| puppet.layers[a].mesh.area().total_cmp(&puppet.layers[b].mesh.area()))
             .unwrap_or(head),
@@ -269,7 +269,7 @@ fn hanging(puppet: &Puppet, layer: usize) -> Vec<usize> {
 /// Each body layer's parent in the joint tree rooted at the torso (breadth first).
 fn body_tree(puppet: &Puppet) -> Vec<Option<usize>> {
     let n = puppet.layers.len();
-    let torso = role(puppet, Role::Torso);
+    let torso = role(puppet, EditRole::Torso);
     let mut parent = vec![None; n];
     let mut seen = vec![false; n];
     seen[torso] = true;

@@ -20,7 +20,7 @@ use crate::error::{Error, Result};
 
 /// A batch of rendered images and silhouettes.
 #[derive(Clone, Debug, PartialEq)]
-pub struct Frames<T> {
+pub struct RasterFrames<T> {
     /// Number of images B.
     pub batch: usize,
     /// Width W in pixels.
@@ -359,7 +359,7 @@ impl SoftRasterizer {
     /// # Errors
     /// [`crate::Error::Mismatch`] if the sizes disagree, [`crate::Error::Geometry`] if a coordinate
     /// is not finite or the image is empty, [`crate::Error::Setting`] if `params` is invalid.
-    pub fn forward<T: Real>(&self, vertices: &[T], batch: usize, width: usize, height: usize, params: &Params) -> Result<Frames<T>> {
+    pub fn forward<T: Real>(&self, vertices: &[T], batch: usize, width: usize, height: usize, params: &Params) -> Result<RasterFrames<T>> {
         self.render(vertices, batch, width, height, params, false).map(|(f, _)| f)
     }
 
@@ -375,7 +375,7 @@ impl SoftRasterizer {
         width: usize,
         height: usize,
         params: &Params,
-    ) -> Result<(Frames<T>, Saved<T>)> {
+    ) -> Result<(RasterFrames<T>, Saved<T>)> {
         let (frames, bands) = self.render(vertices, batch, width, height, params, true)?;
         let saved = Saved {
             vertices: vertices.to_vec(),
@@ -397,7 +397,7 @@ impl SoftRasterizer {
         height: usize,
         params: &Params,
         save: bool,
-    ) -> Result<(Frames<T>, Vec<BandRecords>)> {
+    ) -> Result<(RasterFrames<T>, Vec<BandRecords>)> {
         params.validate()?;
         self.validate_input(vertices, batch, width, height)?;
         let (mut image, mut mask) = (vec![T::zero(); batch * height * width * 4], vec![T::zero(); batch * height * width]);
@@ -426,7 +426,7 @@ impl SoftRasterizer {
         tasks
             .into_par_iter()
             .for_each(|(b, band, img, msk, saved)| render_band(&ctxs[b], band, width, img, msk, saved));
-        let frames = Frames {
+        let frames = RasterFrames {
             batch,
             width,
             height,

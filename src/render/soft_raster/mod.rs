@@ -58,7 +58,7 @@ use num_traits::{Float, NumCast};
 use crate::error::{Error, Result};
 use crate::puppet::Puppet;
 
-pub use forward::{Frames, Saved};
+pub use forward::{RasterFrames, Saved};
 
 /// The float type of the kernels: `f32` for speed, `f64` in gradient checks.
 pub trait Real: Float + From<f32> + Send + Sync + std::fmt::Debug + 'static {}
