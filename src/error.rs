@@ -67,6 +67,14 @@ pub enum Error {
         /// What is wrong with it.
         problem: String,
     },
+    /// A sprite sheet whose poses cannot be told apart by their alpha: its grid must be given.
+    #[error("{}: {problem}", .path.display())]
+    SheetLayout {
+        /// The sheet.
+        path: PathBuf,
+        /// Why the poses cannot be split.
+        problem: String,
+    },
     /// One layer of a character is wrong.
     #[error("{}: layer {layer:?}: {problem}", .path.display())]
     Layer {

@@ -12,6 +12,7 @@
 use std::fs::{File, OpenOptions};
 use std::io::{Read, Seek, Write};
 use std::path::{Path, PathBuf};
+use std::sync::{Arc, Mutex, Weak};
 
 use crate::error::{Error, Result};
 
@@ -22,15 +23,26 @@ pub const LOCK_FILE: &str = ".puppet-lock";
 /// bounded whatever the file holds.
 const DESCRIPTION_LIMIT: u64 = 4096;
 
-/// An exclusive hold on an output folder, released when dropped (and by the system when the
-/// process ends).
-#[derive(Debug)]
+/// An exclusive hold on an output folder, released when the last hold on it in this process is
+/// dropped (and by the system when the process ends). Within one process holds are shared: a
+/// library call that locks the folder its caller already holds (`auto` running the demo's
+/// pipeline into its own output) goes on; only other processes are kept out.
+#[derive(Debug, Clone)]
 pub struct FolderLock {
+    held: Arc<Held>,
+}
+
+/// The system's lock on one folder's lock file, shared by this process's holds on it.
+#[derive(Debug)]
+struct Held {
     file: File,
     path: PathBuf,
     /// The folder, when this lock created it (removed again on release if still empty).
     created: Option<PathBuf>,
 }
+
+/// The folders this process holds, by absolute path.
+static HELD: Mutex<Vec<(PathBuf, Weak<Held>)>> = Mutex::new(Vec::new());
 
 impl FolderLock {
     /// Locks `dir` for this process, creating it if it does not exist.
@@ -39,20 +51,39 @@ impl FolderLock {
     /// [`Error::InUse`] naming the holder when another process holds the folder;
     /// [`Error::Io`] naming the folder or the lock file when either cannot be made or locked.
     pub fn acquire(dir: &Path) -> Result<Self> {
+        let key = std::path::absolute(dir).map_err(|e| Error::io(dir, e))?;
+        let mut held = HELD.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
+        held.retain(|(_, weak)| weak.strong_count() > 0);
+        if let Some(shared) = held.iter().find(|(k, _)| *k == key).and_then(|(_, weak)| weak.upgrade()) {
+            return Ok(FolderLock { held: shared });
+        }
         let created = (!dir.exists()).then(|| dir.to_path_buf());
         std::fs::create_dir_all(dir).map_err(|e| Error::io(dir, e))?;
-        let path = dir.join(LOCK_FILE);
-        let lock = Self::try_acquire(&path, created.clone());
-        if lock.is_err() {
-            if let Some(made) = &created {
-                // Only an empty folder goes: the refusal leaves the disk as it found it.
-                let _ = std::fs::remove_dir(made);
+        let lock = Held::acquire(&dir.join(LOCK_FILE), created.clone());
+        match lock {
+            Ok(lock) => {
+                let lock = Arc::new(lock);
+                held.push((key, Arc::downgrade(&lock)));
+                Ok(FolderLock { held: lock })
+            }
+            Err(e) => {
+                if let Some(made) = &created {
+                    // Only an empty folder goes: the refusal leaves the disk as it found it.
+                    let _ = std::fs::remove_dir(made);
+                }
+                Err(e)
             }
         }
-        lock
     }
 
-    fn try_acquire(path: &Path, created: Option<PathBuf>) -> Result<Self> {
+    /// The locked folder.
+    pub fn dir(&self) -> &Path {
+        self.held.path.parent().unwrap_or(&self.held.path)
+    }
+}
+
+impl Held {
+    fn acquire(path: &Path, created: Option<PathBuf>) -> Result<Self> {
         loop {
             let mut file = OpenOptions::new()
                 .read(true)
@@ -80,21 +111,16 @@ impl FolderLock {
             file.rewind().map_err(|e| Error::io(path, e))?;
             let command: Vec<String> = std::env::args().collect();
             writeln!(file, "pid {}: {}", std::process::id(), command.join(" ")).map_err(|e| Error::io(path, e))?;
-            return Ok(FolderLock {
+            return Ok(Held {
                 file,
                 path: path.to_path_buf(),
                 created,
             });
         }
     }
-
-    /// The locked folder.
-    pub fn dir(&self) -> &Path {
-        self.path.parent().unwrap_or(&self.path)
-    }
 }
 
-impl Drop for FolderLock {
+impl Drop for Held {
     fn drop(&mut self) {
         // Removed while still locked, so a process that opened it meanwhile sees it gone (above).
         let _ = std::fs::remove_file(&self.path);
@@ -135,42 +161,56 @@ fn same_file(_file: &File, path: &Path) -> bool {
 mod tests {
     use super::*;
 
-    #[test]
-    fn a_second_lock_on_a_folder_is_refused_naming_the_holder() {
-        let dir = tempfile::tempdir().unwrap();
-        let out = dir.path().join("run");
-        let first = FolderLock::acquire(&out).unwrap();
-        let refused = FolderLock::acquire(&out).unwrap_err();
-        let message = refused.to_string();
-        assert!(matches!(refused, Error::InUse { .. }), "{message}");
-        assert!(message.contains(&format!("pid {}", std::process::id())), "{message}");
-        assert!(message.contains(&out.display().to_string()), "{message}");
-        assert_eq!(first.dir(), out);
-        drop(first);
-        assert!(!out.exists(), "the folder the lock made, still empty, goes with it");
-        let again = FolderLock::acquire(&out).unwrap();
-        std::fs::write(out.join("output.txt"), b"kept").unwrap();
-        drop(again);
-        assert_eq!(std::fs::read(out.join("output.txt")).unwrap(), b"kept");
-        assert!(!out.join(LOCK_FILE).exists());
+    /// Another process holding `dir`'s lock (util-linux's flock(1), the same system lock), until
+    /// the returned child is killed.
+    fn held_elsewhere(dir: &Path) -> std::process::Child {
+        let child = std::process::Command::new("flock")
+            .arg(dir.join(LOCK_FILE))
+            .args(["sleep", "60"])
+            .spawn()
+            .expect("flock(1) runs");
+        let start = std::time::Instant::now();
+        while !dir.join(LOCK_FILE).exists() {
+            assert!(start.elapsed().as_secs() < 10, "flock did not create the lock file");
+            std::thread::sleep(std::time::Duration::from_millis(5));
+        }
+        // flock creates the file, then locks it.
+        std::thread::sleep(std::time::Duration::from_millis(200));
+        child
     }
 
     #[test]
-    fn a_refused_lock_leaves_a_folder_it_did_not_make() {
+    fn a_folder_another_process_holds_is_refused_and_free_once_it_exits() {
         let dir = tempfile::tempdir().unwrap();
-        let _held = FolderLock::acquire(dir.path()).unwrap();
-        assert!(FolderLock::acquire(dir.path()).is_err());
-        assert!(dir.path().join(LOCK_FILE).exists(), "the holder's file stays");
-    }
-
-    #[test]
-    fn a_stale_lock_file_without_a_holder_does_not_block() {
-        let dir = tempfile::tempdir().unwrap();
-        // What a killed run leaves: the file, but no lock (the system dropped it with the process).
-        std::fs::write(dir.path().join(LOCK_FILE), b"pid 999999: puppet train gone.toml\n").unwrap();
+        let mut other = held_elsewhere(dir.path());
+        let refused = FolderLock::acquire(dir.path()).unwrap_err();
+        assert!(matches!(refused, Error::InUse { .. }), "{refused}");
+        assert!(refused.to_string().contains(&dir.path().display().to_string()), "{refused}");
+        other.kill().unwrap();
+        other.wait().unwrap();
+        // What a killed holder leaves: the file, but no lock (the system dropped it).
         let lock = FolderLock::acquire(dir.path()).unwrap();
         let text = std::fs::read_to_string(dir.path().join(LOCK_FILE)).unwrap();
         assert!(text.starts_with(&format!("pid {}:", std::process::id())), "{text}");
         drop(lock);
+        assert!(!dir.path().join(LOCK_FILE).exists());
+    }
+
+    #[test]
+    fn holds_within_one_process_are_shared_and_the_last_releases() {
+        let dir = tempfile::tempdir().unwrap();
+        let out = dir.path().join("run");
+        let first = FolderLock::acquire(&out).unwrap();
+        let nested = FolderLock::acquire(&out).unwrap();
+        assert_eq!(first.dir(), out);
+        drop(first);
+        assert!(out.join(LOCK_FILE).exists(), "the nested hold keeps it");
+        std::fs::write(out.join("output.txt"), b"kept").unwrap();
+        drop(nested);
+        assert!(!out.join(LOCK_FILE).exists());
+        assert_eq!(std::fs::read(out.join("output.txt")).unwrap(), b"kept");
+        let made = dir.path().join("empty");
+        drop(FolderLock::acquire(&made).unwrap());
+        assert!(!made.exists(), "a folder the lock made, still empty, goes with it");
     }
 }

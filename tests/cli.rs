@@ -106,7 +106,7 @@ fn unconnected_body_layer_is_reported() {
 fn kenney(name: &str, expected_joints: &[[&str; 2]]) {
     let tmp = tempfile::tempdir().unwrap();
     let art = repo().join("data/kenney").join(name);
-    let character = puppet::puppet::character::Character::load(&art.join("character.toml")).unwrap();
+    let character = puppet::puppet::character::CharacterFile::load(&art.join("character.toml")).unwrap();
     let p = build_and_check(tmp.path(), &art, character.layers.len());
     let joined: Vec<[&str; 2]> = p
         .joints

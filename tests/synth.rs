@@ -192,7 +192,7 @@ fn a_dressed_character_draws_its_accessories_where_the_truth_puts_them() {
     let dir = tempfile::tempdir().unwrap();
     let seq = generate(&dressed(3, Motion::Walk), &Silent).unwrap();
     write_sequence(&seq, dir.path(), &Silent).unwrap();
-    let spec = puppet::puppet::character::Character::load(&dir.path().join("template/character.toml")).unwrap();
+    let spec = puppet::puppet::character::CharacterFile::load(&dir.path().join("template/character.toml")).unwrap();
     let accessories: Vec<&str> = spec
         .layers
         .iter()
@@ -379,7 +379,7 @@ fn template_parses_and_its_layers_overlap_at_every_joint() {
         let seq = generate(&opts(seed, 1, 128, Motion::Walk), &Silent).unwrap();
         write_sequence(&seq, dir.path(), &Silent).unwrap();
         let toml = dir.path().join("template/character.toml");
-        let spec = puppet::puppet::character::Character::load(&toml).unwrap();
+        let spec = puppet::puppet::character::CharacterFile::load(&toml).unwrap();
         assert_eq!(spec.layers.len(), seq.character.parts.len());
         assert_eq!(spec.layers[spec.root_index()].name, "torso");
         let joints = spec.joints.clone().unwrap();

@@ -159,7 +159,7 @@ fn training_lowers_the_reconstruction_loss_and_fit_and_eval_run() {
     );
     let l2 = |m: &serde_json::Value| m["l2"].as_f64().unwrap();
     // (On this 60-step model the decoder barely responds to z: ~3 % here; 35 % on the walker of
-    // configs/synth-walk.toml, README.)
+    // configs/synth-walk.toml, docs/results.md "Fitting the synthetic walker".)
     assert!(
         l2(&refined) < 0.99 * l2(&plain),
         "refining should lower L2: {} → {}",
@@ -183,6 +183,23 @@ fn training_lowers_the_reconstruction_loss_and_fit_and_eval_run() {
     );
 }
 
+/// Starts `puppet train config` in the background and waits until it has checkpointed trained
+/// weights (the untrained ones are checkpointed at once, as step 0); the process and the path
+/// of `output`'s `checkpoints/latest`.
+fn train_until_a_trained_checkpoint(config: &Path, output: &Path) -> (std::process::Child, PathBuf) {
+    let child = std::process::Command::new(env!("CARGO_BIN_EXE_puppet"))
+        .args(["-q", "train", config.to_str().unwrap()])
+        .spawn()
+        .unwrap();
+    let latest = output.join("checkpoints/latest");
+    let start = Instant::now();
+    while std::fs::read_to_string(&latest).map_or(true, |l| l.trim() == "step-000000") {
+        assert!(start.elapsed() < Duration::from_secs(120), "no checkpoint appeared");
+        std::thread::sleep(Duration::from_millis(2));
+    }
+    (child, latest)
+}
+
 #[test]
 fn a_killed_run_resumes_to_the_weights_of_an_uninterrupted_one() {
     let tmp = tempfile::tempdir().unwrap();
@@ -195,17 +212,8 @@ fn a_killed_run_resumes_to_the_weights_of_an_uninterrupted_one() {
     puppet(tmp.path(), &["train", whole.to_str().unwrap()]).assert_ok();
 
     let cut = config(tmp.path(), "cut", &seq, settings);
-    let mut child = std::process::Command::new(env!("CARGO_BIN_EXE_puppet"))
-        .args(["-q", "train", cut.to_str().unwrap()])
-        .spawn()
-        .unwrap();
-    let latest = tmp.path().join("cut/checkpoints/latest");
-    let start = Instant::now();
-    // The untrained weights are checkpointed at once (step 0); wait for a trained one.
-    while std::fs::read_to_string(&latest).map_or(true, |l| l.trim() == "step-000000") {
-        assert!(start.elapsed() < Duration::from_secs(120), "no checkpoint appeared");
-        std::thread::sleep(Duration::from_millis(2));
-    }
+    let (mut child, latest) = train_until_a_trained_checkpoint(&cut, &tmp.path().join("cut"));
+    // The killed run's lock goes with it: the resume below is not refused as in use.
     child.kill().unwrap();
     child.wait().unwrap();
     let at_kill = std::fs::read_to_string(&latest).unwrap();
@@ -239,19 +247,8 @@ fn a_killed_run_resumes_to_the_weights_of_an_uninterrupted_one() {
 fn a_second_run_on_a_folder_in_use_is_refused_at_once_and_the_first_goes_on_alone() {
     let tmp = tempfile::tempdir().unwrap();
     let seq = synth(tmp.path(), 4, "64x64");
-    let cfg = config(tmp.path(), "busy", &seq, "steps = 100000
-checkpoint_every = 4
-");
-    let mut first = std::process::Command::new(env!("CARGO_BIN_EXE_puppet"))
-        .args(["-q", "train", cfg.to_str().unwrap()])
-        .spawn()
-        .unwrap();
-    let latest = tmp.path().join("busy/checkpoints/latest");
-    let start = Instant::now();
-    while std::fs::read_to_string(&latest).map_or(true, |l| l.trim() == "step-000000") {
-        assert!(start.elapsed() < Duration::from_secs(120), "no checkpoint appeared");
-        std::thread::sleep(Duration::from_millis(2));
-    }
+    let cfg = config(tmp.path(), "busy", &seq, "steps = 100000\ncheckpoint_every = 4\n");
+    let (mut first, latest) = train_until_a_trained_checkpoint(&cfg, &tmp.path().join("busy"));
     let holder = format!("pid {}", first.id());
     for args in [vec!["train", cfg.to_str().unwrap()], vec!["train", "--resume", cfg.to_str().unwrap()]] {
         let asked = Instant::now();

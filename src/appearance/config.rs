@@ -12,7 +12,7 @@
 //! dropout = 0.5             # in the generator's inner decoder blocks (pix2pix)
 //! residual = true           # ours: G draws a correction added to the render (pix2pix: false)
 //! epochs = 200              # passes over the training frames
-//! batch = 1                 # frames per step (pix2pix's; README "The appearance stage" says why)
+//! batch = 1                 # frames per step (pix2pix's; docs/appearance.md says why)
 //! learning_rate = 2e-4      # both optimisers, constant (pix2pix's first half)
 //! fit = "default"           # how training frames are fitted: "default" (eval's) or "one-pass"
 //! seed = 1

@@ -174,6 +174,7 @@ fn advice(err: &puppet::Error) -> Option<&'static str> {
             ..
         } => "make one with `puppet synth -o <dir>`, or give a folder of PNG frames",
         E::Diverged { .. } => "try a lower train.learning_rate, then --resume",
+        E::SheetLayout { .. } => "pass --grid COLUMNSxROWS",
         _ => return None,
     })
 }

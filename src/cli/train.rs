@@ -57,6 +57,32 @@ impl TrainArgs {
 /// Runs `puppet train`.
 pub fn run(args: TrainArgs, s: &Session) -> anyhow::Result<()> {
     let config = args.config()?;
+    let options = TrainOptions {
+        resume: args.resume,
+        pause_at: args.pause_at,
+        force: s.outputs.forced(),
+    };
+    let summary = train::train(&config, &options, &s.ui)?;
+    s.ui.finish();
+    let (n_train, n_test) = summary.split;
+    let last = summary.last.map_or(String::new(), |r| {
+        let held_out = if r.held_out.is_finite() {
+            format!(", held-out {:.4e}", r.held_out)
+        } else {
+            String::new()
+        };
+        format!(", last loss {:.4e} (rec {:.4e}{held_out})", r.total, r.rec)
+    });
+    let state = run_state(summary.finished);
+    s.ui.say(format!(
+        "{state}: {} steps on {n_train} frames ({n_test} held out), batch {}, {:.1} images/s{last} → {}",
+        summary.steps,
+        summary.batch,
+        summary.images_per_second,
+        config.output.display()
+    ))
+}
+
 /// How a training run ended, for its summary line.
 pub fn run_state(finished: bool) -> &'static str {
     if finished {

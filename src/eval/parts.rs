@@ -466,7 +466,7 @@ mod tests {
     /// The set cover (apes-part-extraction.md §3.3) on the sheets of the test below, with
     /// exact correspondences: measured 0.723 and 0.386 strict (0.901 and 0.715 by the paper's
     /// protocol; 8 and 6 parts of 10 and 11) when written — below the synchronised merging there
-    /// (README "Parts from a sprite sheet" says why it is not the default).
+    /// (docs/results.md "The paper's set cover" says why it is not the default).
     #[test]
     fn the_set_cover_finds_parts_above_its_floor() {
         let options = PartsOptions {

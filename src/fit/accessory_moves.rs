@@ -7,7 +7,8 @@
 //! outline — still holds), and the accessory as placed and moved pays the ARAP energy against its
 //! rest shape that a body layer pays, at the same weight: it bends as a body layer may. Where the
 //! rig's skinning stretches an accessory the moves may relax it too. Measured against paying for
-//! the moves alone (the ARAP energy of the rest shape moved by them; README), this keeps the
+//! the moves alone (the ARAP energy of the rest shape moved by them; docs/results.md "The
+//! dressed walk"), this keeps the
 //! accessories nearer their truth and on their parents at the same L2.
 
 use std::sync::Arc;

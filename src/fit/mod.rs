@@ -43,34 +43,31 @@ use plausible::JointRanges;
 /// The most frames fitted in one batch (one rasterizer, objective and network input each).
 pub const BATCH: usize = 16;
 
-/// Latent steps unless asked otherwise: on the synthetic walker (README) 50 steps take the
-/// held-out L2 from 4947 to 3340 and 100 to 3253 (the true pose renders at 3213).
+/// Latent steps unless asked otherwise: most of what latent steps gain comes in the first fifty
+/// (docs/results.md "Fitting the synthetic walker").
 pub const DEFAULT_LATENT_STEPS: usize = 50;
 
-/// Vertex steps per round after the latent ones unless asked otherwise (README): on the
-/// synthetic walker one round of 100 steps takes the held-out L2 from 3360 to 2793, three rounds
-/// with the limb search to 2758; on the Kenney robot's held-out frames 7040 → 4024 → 3065.
+/// Vertex steps per round after the latent ones unless asked otherwise (docs/results.md
+/// "Fitting the synthetic walker" and "Cheaper settings on the walker").
 pub const DEFAULT_VERTEX_STEPS: usize = 100;
 
-/// The share of each round's vertex steps taken at half size unless asked otherwise (README): on
-/// the walker and the Kenney characters' held-out and leave-one-out frames the default fit's L2
-/// is within noise of all steps at full size, in about two thirds of the time.
+/// The share of each round's vertex steps taken at half size unless asked otherwise: as good a
+/// fit as all steps at full size, in less time (docs/results.md "Half-size vertex steps").
 pub const DEFAULT_VERTEX_COARSE_SHARE: f32 = 0.75;
 
 /// The least share by which a round must lower a frame's L2 for it to take the next unless asked
-/// otherwise (README): on the walker 12 of 19 frames skip their third round, 18 % less time for
-/// L2 +0.1 %.
+/// otherwise: rounds that stop paying are skipped (docs/results.md "Rounds that stop paying").
 pub const DEFAULT_MIN_ROUND_GAIN: f64 = 0.005;
 
-/// Steps on a rigged model's accessories after its body's fit unless asked otherwise (README
-/// "Rigged accessories in training and every edit").
+/// Steps on a rigged model's accessories after its body's fit unless asked otherwise
+/// (docs/results.md "The dressed walk").
 pub const DEFAULT_ACCESSORY_STEPS: usize = 50;
 
 /// How much smaller the square of the coarse vertex steps is ([`FitOptions::vertex_coarse_share`]).
 const COARSE_FACTOR: usize = 2;
 
 /// The plausibility term's weight unless asked otherwise: off, as it did not win on the Kenney
-/// robot's held-out frames (README "Plausible fits").
+/// robot's held-out frames (docs/results.md "Plausible fits").
 pub const DEFAULT_PLAUSIBILITY_WEIGHT: f32 = 0.0;
 
 /// How far past the training poses' turns a fit may turn a limb unless asked otherwise (degrees).
@@ -277,7 +274,7 @@ pub fn fit_with_latents(
     // One batch's many small steps keep about one core busy, so from four frames on they are
     // split into batches fitted side by side: two, or more of at most `BATCH`. A frame's fit
     // does not depend on the frames beside it (`Analysis::descend`) as long as it has company: a
-    // frame fitted alone lands a little elsewhere (README "Fitting"; Burn's kernels for a single
+    // frame fitted alone lands a little elsewhere (docs/results.md "Frames in two batches side by side"; Burn's kernels for a single
     // row sum in another order, the likely cause). So no batch holds one frame unless one is
     // all there is, and the split depends on the frame count, not on the machine's cores: a fit
     // is the same wherever it runs.

@@ -41,7 +41,7 @@ pub struct CoverOptions {
     pub tolerance: f32,
     /// How the poses are rebuilt to score a selection. Rigid by default, not the paper's ARAP:
     /// bent parts rebuild a pose well even when a selection merges parts that move apart, so
-    /// ARAP tells selections apart less well (README "Parts from a sprite sheet").
+    /// ARAP tells selections apart less well (docs/results.md "Scoring the cover by ARAP").
     pub score: Rebuild,
 }
 

@@ -78,7 +78,7 @@ impl Default for PartsOptions {
 }
 
 /// [`PartsOptions::rigid_check`] for estimated correspondences (network or flow), pixels, chosen
-/// on the tuning seeds (README "Parts from a sprite sheet"); exact correspondences take none,
+/// on the tuning seeds (docs/results.md "Joints, rebuilt poses and tuning"); exact correspondences take none,
 /// as any check only drops true ones there.
 pub const ESTIMATED_RIGID_CHECK: f32 = 4.0;
 

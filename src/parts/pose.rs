@@ -300,9 +300,9 @@ fn check_group_sizes(groups: &[Group], path: &Path) -> Result<()> {
     areas.sort_unstable();
     let median = areas[areas.len() / 2];
     if let Some((k, g)) = groups.iter().enumerate().find(|(_, g)| g.area * 10 > median * 18) {
-        return Err(Error::format(
-            path,
-            format!(
+        return Err(Error::SheetLayout {
+            path: path.to_path_buf(),
+            problem: format!(
                 "the poses cannot be split by their alpha: drawing {k} (at {}, {}) covers {} pixels, \
                  {:.1}× the median pose, so poses must be touching; give the sheet's grid of columns and rows",
                 g.bounds[0],
@@ -310,7 +310,7 @@ fn check_group_sizes(groups: &[Group], path: &Path) -> Result<()> {
                 g.area,
                 g.area as f32 / median.max(1) as f32
             ),
-        ));
+        });
     }
     Ok(())
 }

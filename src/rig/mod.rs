@@ -76,7 +76,7 @@ impl Default for RigOptions {
             alpha_threshold: 0.5,
             weight_floor: 1e-3,
             // The paper's. Affine skinning follows a body that moves on its own far better, but
-            // a network trained through it learns far worse (README "Accessory rigs"): a small
+            // a network trained through it learns far worse (docs/results.md "Affine skinning"): a small
             // turn of a body triangle under a pin swings the whole accessory.
             skinning: Skinning::Translation,
             // The weights are stored as f32 and dropped below `weight_floor`, so the active-set

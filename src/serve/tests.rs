@@ -479,16 +479,7 @@ async fn downloads_are_files_named_for_what_they_hold() {
 
 /// Uploads `bytes` as `name`; the status and the answer.
 async fn upload(app: &Arc<App>, query: &str, bytes: Vec<u8>) -> (StatusCode, Value) {
-    let request = Request::builder()
-        .method("POST")
-        .uri(format!("/api/upload{query}"))
-        .header("content-type", "image/png")
-        .body(Body::from(bytes))
-        .unwrap();
-    let response = router(app.clone(), local()).oneshot(request).await.unwrap();
-    let status = response.status();
-    let bytes = axum::body::to_bytes(response.into_body(), 1 << 26).await.unwrap();
-    (status, serde_json::from_slice(&bytes).unwrap_or(Value::Null))
+    call_with(app, "POST", &format!("/api/upload{query}"), &[("content-type", "image/png")], bytes).await
 }
 
 #[tokio::test]
@@ -642,14 +633,14 @@ async fn an_editor_without_an_appearance_stage_says_how_to_get_one() {
     }
 }
 
-/// Sends `method uri` with `headers` and a JSON body; the status and the answer.
-async fn call_with(app: &Arc<App>, method: &str, uri: &str, headers: &[(&str, &str)], body: &str) -> (StatusCode, Value) {
+/// Sends `method uri` with `headers` and `body`; the status and the answer (JSON, or null).
+async fn call_with(app: &Arc<App>, method: &str, uri: &str, headers: &[(&str, &str)], body: impl Into<Body>) -> (StatusCode, Value) {
     let mut request = Request::builder().method(method).uri(uri);
     for (name, value) in headers {
         request = request.header(*name, *value);
     }
     let response = router(app.clone(), local())
-        .oneshot(request.body(Body::from(body.to_string())).unwrap())
+        .oneshot(request.body(body.into()).unwrap())
         .await
         .unwrap();
     let status = response.status();
@@ -682,16 +673,8 @@ async fn changes_from_another_origin_are_refused_and_nothing_changes() {
         .png_bytes(std::path::Path::new("x.png"))
         .unwrap();
     let foreign = [("host", "127.0.0.1:8080"), ("origin", "http://evil.example.com"), ("content-type", "text/plain")];
-    let request = Request::builder()
-        .method("POST")
-        .uri("/api/upload?name=x.png")
-        .header("host", "127.0.0.1:8080")
-        .header("origin", "http://evil.example.com")
-        .header("content-type", "text/plain")
-        .body(Body::from(png))
-        .unwrap();
-    let response = router(app.clone(), local()).oneshot(request).await.unwrap();
-    assert_eq!(response.status(), StatusCode::FORBIDDEN);
+    let (status, _) = call_with(&app, "POST", "/api/upload?name=x.png", &foreign, png).await;
+    assert_eq!(status, StatusCode::FORBIDDEN);
     assert_eq!(frames(&app), before, "the refused upload added no frame");
     let (status, _) = call_with(&app, "POST", "/api/session", &foreign, r#"{"frame": 0}"#).await;
     assert_eq!(status, StatusCode::FORBIDDEN);

@@ -157,7 +157,7 @@ pub fn train(config: &TrainConfig, options: &TrainOptions, progress: &dyn Progre
     };
     let puppet = load_or_build_puppet(&config.puppet, &image_limits, config.model.rig, progress)?;
     if puppet.rig.as_ref().is_some_and(|r| r.skinning == Skinning::Affine) {
-        // README "Accessory rigs" has the measurement.
+        // docs/results.md "Affine skinning" has the measurement.
         progress.warn("the rig skins accessories by affine maps ([rig] skinning = \"affine\"): networks trained through it learn far worse than through the default translations");
     }
     let frames = Frames::load(&config.frames, &config.frame_check(puppet.width, puppet.height))?;

@@ -102,8 +102,8 @@ pub struct BbwOptions {
     pub tolerance: f64,
     /// Most iterations (active set, then projected Newton if it cycles) for one handle before
     /// [`BbwError::NotConverged`]. Default 1000: a few dozen suffice on the benches/data meshes
-    /// and random distorted grids, but dense pins on real art need a few hundred (README
-    /// "Accessory rigs").
+    /// and random distorted grids, but dense pins on real art need a few hundred (docs/results.md
+    /// "DiceBear characters").
     pub max_iterations: usize,
     /// ADMM iterations (on one factorisation shared by all handles) that estimate each handle's
     /// active set before the exact active-set method; 0 starts that method from the
