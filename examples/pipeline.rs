@@ -11,7 +11,10 @@
 
 use std::path::{Path, PathBuf};
 
-use puppet::{BuildOptions, FitOptions, Frames, ImportOptions, InbetweenPath, Model, Outputs, PoseAnimation, Silent, TrainConfig, TrainOptions, Waypoints};
+use puppet::{
+    BuildOptions, FitOptions, Frames, ImportOptions, InbetweenPath, Model, Outputs, PoseAnimation, Silent, TrainConfig, TrainOptions,
+    Waypoints,
+};
 
 fn main() -> puppet::Result<()> {
     let mut args = std::env::args().skip(1);
@@ -47,7 +50,14 @@ fn run(out: &Path, steps: u64) -> puppet::Result<()> {
     config.train.checkpoint_every = steps;
     config.train.eval_every = steps;
     let resume = puppet::train::checkpoint::latest(&config.output)?.is_some();
-    let summary = puppet::train(&config, &TrainOptions { resume, ..TrainOptions::default() }, &Silent)?;
+    let summary = puppet::train(
+        &config,
+        &TrainOptions {
+            resume,
+            ..TrainOptions::default()
+        },
+        &Silent,
+    )?;
     println!("trained {} steps", summary.steps);
 
     // 3. Fit two drawn frames: the network's one pass, then search on the latent.
@@ -89,7 +99,14 @@ mod tests {
     fn the_pipeline_runs_on_the_robot_and_writes_each_stage() {
         let dir = tempfile::tempdir().unwrap();
         super::run(dir.path(), 2).unwrap();
-        for file in ["rest.png", "fit_1.png", "inbetween_4.png", "model/weights.bpk", "spine/robot.json", "spine/robot.atlas"] {
+        for file in [
+            "rest.png",
+            "fit_1.png",
+            "inbetween_4.png",
+            "model/weights.bpk",
+            "spine/robot.json",
+            "spine/robot.atlas",
+        ] {
             assert!(dir.path().join(file).is_file(), "{file}");
         }
         // Run again: training resumes at its end, and every output is replaced as puppet's own.

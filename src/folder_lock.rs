@@ -164,7 +164,10 @@ mod tests {
     /// Another process holding `dir`'s lock (util-linux's flock(1), the same system lock), until
     /// the returned child is killed.
     fn held_elsewhere(dir: &Path) -> std::process::Child {
+        // --no-fork: flock execs the command itself, so killing it releases the lock (a forked
+        // child would keep the locked file open).
         let child = std::process::Command::new("flock")
+            .arg("--no-fork")
             .arg(dir.join(LOCK_FILE))
             .args(["sleep", "60"])
             .spawn()

@@ -28,9 +28,9 @@
 
 // Layer 0, base (DESIGN.md "Layers of the code"; src/layering.rs checks the imports).
 pub mod atomic_file;
-pub mod folder_lock;
 pub mod backend;
 pub mod error;
+pub mod folder_lock;
 pub mod picture;
 pub mod progress;
 pub mod rng;
@@ -67,7 +67,14 @@ pub(crate) mod test_util;
 pub use error::{Error, Result};
 
 // The crate root: the types and calls of each stage of the pipeline, in its order.
+pub use appearance::{train_appearance, AppearanceConfig, AppearanceStage};
 pub use atomic_file::Outputs;
+pub use edit::manifold_path::Waypoints;
+pub use edit::{correspond, inbetween, Easing, InbetweenPath, Inbetweens, PoseEditor, PoseOptions};
+pub use export::spine::{skeleton as spine_skeleton, PoseAnimation, SpineSkeleton};
+pub use fit::{fit, FitOptions};
+pub use model::{Model, ModelFolder};
+pub use parts::{find_parts, Parts, PartsOptions};
 pub use picture::Picture;
 pub use progress::{Progress, Silent};
 pub use puppet::artwork::load as load_artwork;
@@ -77,11 +84,4 @@ pub use puppet::sequence::Frames;
 pub use puppet::Puppet;
 pub use render::{render_crisp, Background};
 pub use rig::{build_rigged, RigOptions};
-pub use model::{Model, ModelFolder};
 pub use train::{train, TrainConfig, TrainOptions, TrainSummary};
-pub use fit::{fit, FitOptions};
-pub use edit::manifold_path::Waypoints;
-pub use edit::{correspond, inbetween, Easing, InbetweenPath, Inbetweens, PoseEditor, PoseOptions};
-pub use appearance::{train_appearance, AppearanceConfig, AppearanceStage};
-pub use parts::{find_parts, Parts, PartsOptions};
-pub use export::spine::{skeleton as spine_skeleton, PoseAnimation, SpineSkeleton};

@@ -250,17 +250,28 @@ fn a_second_run_on_a_folder_in_use_is_refused_at_once_and_the_first_goes_on_alon
     let cfg = config(tmp.path(), "busy", &seq, "steps = 100000\ncheckpoint_every = 4\n");
     let (mut first, latest) = train_until_a_trained_checkpoint(&cfg, &tmp.path().join("busy"));
     let holder = format!("pid {}", first.id());
-    for args in [vec!["train", cfg.to_str().unwrap()], vec!["train", "--resume", cfg.to_str().unwrap()]] {
+    for args in [
+        vec!["train", cfg.to_str().unwrap()],
+        vec!["train", "--resume", cfg.to_str().unwrap()],
+    ] {
         let asked = Instant::now();
         let second = puppet(tmp.path(), &args);
-        assert!(asked.elapsed() < Duration::from_secs(1), "{args:?} took {:?} to refuse", asked.elapsed());
+        assert!(
+            asked.elapsed() < Duration::from_secs(1),
+            "{args:?} took {:?} to refuse",
+            asked.elapsed()
+        );
         second.assert_error(&["busy", "in use by", &holder]);
     }
     first.kill().unwrap();
     first.wait().unwrap();
     // The first run's log holds each of its steps once, in order: nothing of the second's.
     let text = std::fs::read_to_string(tmp.path().join("busy/log.csv")).unwrap();
-    let steps: Vec<u64> = text.lines().skip(1).map(|l| l.split(',').next().unwrap().parse().unwrap()).collect();
+    let steps: Vec<u64> = text
+        .lines()
+        .skip(1)
+        .map(|l| l.split(',').next().unwrap().parse().unwrap())
+        .collect();
     assert!(!steps.is_empty());
     assert_eq!(steps, (1..=steps.len() as u64).collect::<Vec<_>>(), "{text}");
     // The killed run's lock is gone with it: a resume goes on (a few steps, then pauses).

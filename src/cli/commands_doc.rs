@@ -45,7 +45,10 @@ fn page() -> String {
          The guide (docs/guide.md) shows them at work.\n",
     );
     for (path, help) in commands() {
-        let title = std::iter::once("puppet").chain(path.iter().map(String::as_str)).collect::<Vec<_>>().join(" ");
+        let title = std::iter::once("puppet")
+            .chain(path.iter().map(String::as_str))
+            .collect::<Vec<_>>()
+            .join(" ");
         text.push_str(&format!("\n## {title}\n\n```text\n{}\n```\n", help.trim_end()));
     }
     text

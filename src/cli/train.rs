@@ -45,9 +45,13 @@ impl TrainArgs {
         let (artwork, frames, output) = (self.artwork.as_deref(), self.frames.as_deref(), self.output.as_deref());
         Ok(match (&self.config, artwork, frames, output) {
             (Some(path), ..) => TrainConfig::load(path)?.replacing_paths(artwork, frames, output),
-            (None, Some(artwork), Some(frames), Some(output)) => {
-                TrainConfig::with_paths(TrainConfig::DEFAULT_SETTINGS, Path::new("configs/train.toml"), artwork, frames, output)?
-            }
+            (None, Some(artwork), Some(frames), Some(output)) => TrainConfig::with_paths(
+                TrainConfig::DEFAULT_SETTINGS,
+                Path::new("configs/train.toml"),
+                artwork,
+                frames,
+                output,
+            )?,
             // clap's `required_unless_present_all` leaves no other case.
             (None, ..) => anyhow::bail!("give a training config, or --artwork, --frames and -o"),
         })
@@ -102,7 +106,10 @@ mod tests {
         parses(&["train", "--artwork", "a.psd", "--frames", "f", "-o", "runs/a"]);
         parses(&["train", "c.toml", "-o", "runs/b"]);
         let missing = clap::Parser::try_parse_from(["puppet", "train", "--artwork", "a.psd", "-o", "x"]);
-        assert!(missing.map(|_: crate::cli::Cli| ()).is_err(), "without a config, --frames is needed too");
+        assert!(
+            missing.map(|_: crate::cli::Cli| ()).is_err(),
+            "without a config, --frames is needed too"
+        );
         assert!(clap::Parser::try_parse_from(["puppet", "train", "c.toml", "--pause-at", "x"])
             .map(|_: crate::cli::Cli| ())
             .is_err());

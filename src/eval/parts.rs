@@ -425,7 +425,10 @@ mod tests {
         let other = dir.path().join("other.png");
         Picture::filled(6, 4, [1.0, 0.0, 0.0, 1.0]).save_png(&other).unwrap();
         let err = score_label_maps(&truth, &other, grid).unwrap_err().to_string();
-        assert!(err.starts_with(&other.display().to_string()) && err.contains("6×4") && err.contains("8×4"), "{err}");
+        assert!(
+            err.starts_with(&other.display().to_string()) && err.contains("6×4") && err.contains("8×4"),
+            "{err}"
+        );
     }
 
     /// Each kind of oracle cleanup does to the built-in network's matches on one sheet what it
@@ -539,9 +542,7 @@ mod tests {
 /// than the truth's, a folder of another count, or a label map of another size than its truth.
 pub fn score_label_maps(truth_path: &Path, predicted_path: &Path, layout: Option<Layout>) -> Result<(Vec<String>, PartScores)> {
     let (truth, sheet) = load_poses(truth_path, layout)?;
-    let mismatch = |what: String, got: String, expected: String| {
-        Error::mismatch(what, got, expected).with_path(predicted_path)
-    };
+    let mismatch = |what: String, got: String, expected: String| Error::mismatch(what, got, expected).with_path(predicted_path);
     let predicted = match sheet {
         Some(size) => {
             let picture = Picture::load(predicted_path)?;

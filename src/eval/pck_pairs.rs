@@ -229,15 +229,17 @@ pub fn score_sequence(
     progress: &dyn Progress,
 ) -> Result<(PckPairs, Vec<(usize, usize)>)> {
     let frames = Frames::load(sequence, &frame_check(model))?;
-    let truth = Truth::for_sequence(sequence)?
-        .ok_or_else(|| Error::format(sequence, "no truth.json (PCK needs a synthetic sequence)"))?;
+    let truth = Truth::for_sequence(sequence)?.ok_or_else(|| Error::format(sequence, "no truth.json (PCK needs a synthetic sequence)"))?;
     let test: Vec<usize> = match held_out {
         HeldOut::Odd => (1..frames.frames.len()).step_by(2).collect(),
         HeldOut::Split => SplitRecord::load(model_dir)?
             .ok_or_else(|| Error::format(model_dir, "no split.json (was the model trained by puppet?)"))?
             .test_indices(&frames.names())
             .ok_or_else(|| {
-                Error::format(model_dir, format!("the model's held-out frames are not all in {}", sequence.display()))
+                Error::format(
+                    model_dir,
+                    format!("the model's held-out frames are not all in {}", sequence.display()),
+                )
             })?,
     };
     if test.len() < 2 {

@@ -104,7 +104,12 @@ fn merge_cost(a: &[Moments], b: &[Moments]) -> f64 {
 /// # Errors
 /// [`Error::Mismatch`] if correspondences are missing or sizes differ; [`Error::Setting`] for a
 /// reference out of range or options out of range.
-pub fn segment(poses: &[SheetPose], superpixels: &[Superpixels], flows: &Correspondences, options: &SegmentOptions) -> Result<Segmentation> {
+pub fn segment(
+    poses: &[SheetPose],
+    superpixels: &[Superpixels],
+    flows: &Correspondences,
+    options: &SegmentOptions,
+) -> Result<Segmentation> {
     flows.check_complete()?;
     if flows.poses() != poses.len() || superpixels.len() != poses.len() {
         return Err(Error::mismatch(

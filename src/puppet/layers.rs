@@ -163,8 +163,7 @@ pub(super) fn assemble(path: &Path, layers: Vec<ArtLayer>, mut problems: Vec<Err
             problems.push(Error::layer(path, &layer.name, "duplicate layer name (rename it in the editor)"));
         }
     }
-    let (mut layers, empty): (Vec<ArtLayer>, Vec<ArtLayer>) =
-        layers.into_iter().partition(|l| l.picture.pixels.iter().any(|p| p[3] > 0.0));
+    let (mut layers, empty): (Vec<ArtLayer>, Vec<ArtLayer>) = layers.into_iter().partition(|l| l.picture.pixels.iter().any(|p| p[3] > 0.0));
     let transparent = |l: &ArtLayer| Error::layer(path, &l.name, "fully transparent (no pixel has alpha > 0)");
     if !problems.is_empty() || layers.is_empty() {
         problems.extend(empty.iter().map(transparent));
@@ -176,13 +175,14 @@ pub(super) fn assemble(path: &Path, layers: Vec<ArtLayer>, mut problems: Vec<Err
     let toml_path = path.parent().unwrap_or(Path::new(".")).join("character.toml");
     let overrides = LayeredOverrides::load_beside(&toml_path)?;
     let index = |layers: &[ArtLayer], name: &str| -> Result<usize> {
-        layers
-            .iter()
-            .position(|l| l.name == name)
-            .ok_or_else(|| {
-                let why = if empty.iter().any(|l| l.name == name) { " (it is fully transparent and was skipped)" } else { "" };
-                Error::layer(&toml_path, name, format!("{} has no such layer{why}", path.display()))
-            })
+        layers.iter().position(|l| l.name == name).ok_or_else(|| {
+            let why = if empty.iter().any(|l| l.name == name) {
+                " (it is fully transparent and was skipped)"
+            } else {
+                ""
+            };
+            Error::layer(&toml_path, name, format!("{} has no such layer{why}", path.display()))
+        })
     };
     let mut joint_pairs = None;
     let mut chosen_root = None;

@@ -786,7 +786,10 @@ mod tests {
         ));
         let names: Vec<String> = art.unwrap().layers.into_iter().map(|l| l.name).collect();
         assert_eq!(names, ["arm"]);
-        assert_eq!(warnings, ["c.psd: layer \"glass\": fully transparent (no pixel has alpha > 0); skipped"]);
+        assert_eq!(
+            warnings,
+            ["c.psd: layer \"glass\": fully transparent (no pixel has alpha > 0); skipped"]
+        );
     }
 
     #[test]

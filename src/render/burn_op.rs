@@ -19,7 +19,7 @@ use burn::backend::tensor::FloatTensor;
 use burn::backend::{Autodiff, Backend, TensorMetadata};
 use burn::tensor::{read_sync, Tensor, TensorData};
 
-use super::soft_raster::{RasterFrames, Params, Saved, SoftRasterizer};
+use super::soft_raster::{Params, RasterFrames, Saved, SoftRasterizer};
 use crate::backend::Inner;
 use crate::error::{Error, Result};
 

@@ -19,8 +19,8 @@ use serde::Deserialize;
 use serde_json::json;
 
 use super::error::ApiError;
-use super::guard::{check, HostGuard};
 use super::export::{export, redrawn_strip, ExportStyle, Format};
+use super::guard::{check, HostGuard};
 use super::state::{App, EditorPose};
 use crate::edit::inbetween::MAX_STEPS;
 use crate::edit::pin::Pin;

@@ -115,10 +115,23 @@ mod tests {
     #[test]
     fn loopback_names_and_the_listening_address_are_served_and_other_names_are_not() {
         let g = guard("127.0.0.1:8080");
-        for host in ["localhost", "LOCALHOST:8080", "127.0.0.1:8080", "127.0.0.1", "[::1]:8080", "127.0.0.2"] {
+        for host in [
+            "localhost",
+            "LOCALHOST:8080",
+            "127.0.0.1:8080",
+            "127.0.0.1",
+            "[::1]:8080",
+            "127.0.0.2",
+        ] {
             assert!(g.serves_host(host), "{host}");
         }
-        for host in ["evil.example.com", "evil.example.com:8080", "192.168.1.5:8080", "localhost.evil.com", ""] {
+        for host in [
+            "evil.example.com",
+            "evil.example.com:8080",
+            "192.168.1.5:8080",
+            "localhost.evil.com",
+            "",
+        ] {
             assert!(!g.serves_host(host), "{host}");
         }
         let lan = guard("192.168.1.5:8080");

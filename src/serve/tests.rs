@@ -629,7 +629,10 @@ async fn an_editor_without_an_appearance_stage_says_how_to_get_one() {
     ] {
         let (status, answer, _) = call(&app, "POST", route, &body.to_string()).await;
         assert_eq!(status, StatusCode::UNPROCESSABLE_ENTITY, "{route}");
-        assert!(answer["error"].as_str().unwrap().contains("no appearance stage"), "{route}: {answer}");
+        assert!(
+            answer["error"].as_str().unwrap().contains("no appearance stage"),
+            "{route}: {answer}"
+        );
     }
 }
 
@@ -672,7 +675,11 @@ async fn changes_from_another_origin_are_refused_and_nothing_changes() {
         .unwrap()
         .png_bytes(std::path::Path::new("x.png"))
         .unwrap();
-    let foreign = [("host", "127.0.0.1:8080"), ("origin", "http://evil.example.com"), ("content-type", "text/plain")];
+    let foreign = [
+        ("host", "127.0.0.1:8080"),
+        ("origin", "http://evil.example.com"),
+        ("content-type", "text/plain"),
+    ];
     let (status, _) = call_with(&app, "POST", "/api/upload?name=x.png", &foreign, png).await;
     assert_eq!(status, StatusCode::FORBIDDEN);
     assert_eq!(frames(&app), before, "the refused upload added no frame");
@@ -681,7 +688,11 @@ async fn changes_from_another_origin_are_refused_and_nothing_changes() {
     let cross_site = [("host", "127.0.0.1:8080"), ("sec-fetch-site", "cross-site")];
     let (status, _) = call_with(&app, "POST", "/api/session", &cross_site, r#"{"frame": 0}"#).await;
     assert_eq!(status, StatusCode::FORBIDDEN);
-    let own = [("host", "127.0.0.1:8080"), ("origin", "http://127.0.0.1:8080"), ("content-type", "application/json")];
+    let own = [
+        ("host", "127.0.0.1:8080"),
+        ("origin", "http://127.0.0.1:8080"),
+        ("content-type", "application/json"),
+    ];
     let (status, answer) = call_with(&app, "POST", "/api/session", &own, r#"{"frame": 0}"#).await;
     assert_eq!(status, StatusCode::OK, "{answer}");
 }

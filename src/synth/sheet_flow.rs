@@ -248,12 +248,10 @@ impl TruthSheet {
     pub fn load(dir: &Path) -> Result<Self> {
         let truth_path = dir.join(super::truth::TRUTH_FILE);
         let truth = Truth::load(&truth_path)?;
-        let layout = truth.sheet.clone().ok_or_else(|| {
-            Error::format(
-                &truth_path,
-                "this truth describes a frame sequence, not a sprite sheet",
-            )
-        })?;
+        let layout = truth
+            .sheet
+            .clone()
+            .ok_or_else(|| Error::format(&truth_path, "this truth describes a frame sequence, not a sprite sheet"))?;
         let sheet_path = dir.join(&layout.file);
         let sheet = Picture::load(&sheet_path)?;
         let labels_path = dir.join(&layout.labels);

@@ -296,10 +296,14 @@ impl TrainConfig {
     /// # Errors
     /// As [`TrainConfig::parse`]; [`Error::Format`] if `settings` names a path itself.
     pub fn with_paths(settings: &str, source: &Path, puppet: &Path, frames: &Path, output: &Path) -> Result<Self> {
-        let mut table: toml::Table = toml::from_str(settings).map_err(|e| Error::format(source, format!("invalid training config: {e}")))?;
+        let mut table: toml::Table =
+            toml::from_str(settings).map_err(|e| Error::format(source, format!("invalid training config: {e}")))?;
         for (key, path) in [("puppet", puppet), ("frames", frames), ("output", output)] {
             if table.contains_key(key) {
-                return Err(Error::format(source, format!("names `{key}` itself, where the settings leave the paths to the caller")));
+                return Err(Error::format(
+                    source,
+                    format!("names `{key}` itself, where the settings leave the paths to the caller"),
+                ));
             }
             table.insert(key.into(), toml::Value::String(canonical(path).to_string_lossy().into_owned()));
         }

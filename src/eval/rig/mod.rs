@@ -56,7 +56,7 @@ use crate::rig::dag::{layer_dag, DagOptions};
 use crate::rig::deform::{deform, DeformOptions};
 use crate::rig::mask::Mask;
 use crate::user_file;
-pub use edits::{apply_edit, default_edits, Edit, EditsFile, NamedEdit, EditRole};
+pub use edits::{apply_edit, default_edits, Edit, EditRole, EditsFile, NamedEdit};
 pub use motion::{evaluate_motion, motion_sheet};
 pub use report::{CharacterReport, DagScore, EditReport, Member, MotionReport, MotionScores, RigReport, Scores};
 use scene::Scene;
