@@ -164,6 +164,56 @@ fn pictures<'a>(frames: &'a [Picture], indices: &[usize]) -> Vec<&'a Picture> {
     indices.iter().map(|&i| &frames[i]).collect()
 }
 
+/// The scores of one gap: every held-out frame that lies between two keyframes that far apart.
+#[derive(Clone, Debug, PartialEq)]
+pub struct GapScores {
+    /// The gap (frames between the keyframes).
+    pub gap: usize,
+    /// One score per held-out frame scored at it (none if no held-out frame lies in a span of
+    /// this gap).
+    pub scores: Vec<InbetweenScore>,
+}
+
+impl GapScores {
+    /// The mean over this gap's frames of one method's L2 (`method` picks it); NaN for none.
+    pub fn mean(&self, method: fn(&InbetweenScore) -> f64) -> f64 {
+        self.scores.iter().map(method).sum::<f64>() / self.scores.len() as f64
+    }
+}
+
+/// The in-between protocol on a whole sequence: its even frames are the keyframes, its odd
+/// frames the in-betweens to make, at each of `gaps`; the manifold path runs through the frames
+/// of `model_dir`'s training set (the straight line, with a warning through `progress`, when
+/// they cannot be read). The scores mean something only if the model did not train on the odd
+/// frames (a sequence held out of training, e.g. a synthetic one).
+///
+/// # Errors
+/// As [`Frames::load`] for `sequence`, [`training_frames`] and [`inbetween_scores`].
+pub fn score_sequence(
+    model_dir: &Path,
+    model: &Model,
+    sequence: &Path,
+    gaps: &[usize],
+    options: &FitOptions,
+    device: &Device,
+    progress: &dyn Progress,
+) -> Result<Vec<GapScores>> {
+    let frames = Frames::load(sequence, &frame_check(model))?;
+    let trained = training_frames(model_dir, model, "the path along them is the straight line", progress)?.unwrap_or_default();
+    let waypoints = Waypoints::of_frames(model, &trained.iter().collect::<Vec<_>>(), device)?;
+    let n = frames.frames.len();
+    let even: Vec<usize> = (0..n).step_by(2).collect();
+    let odd: Vec<usize> = (1..n).step_by(2).collect();
+    let scores = inbetween_scores(model, &frames.frames, &even, &odd, gaps, &waypoints, options, device)?;
+    Ok(gaps
+        .iter()
+        .map(|&gap| GapScores {
+            gap,
+            scores: scores.iter().filter(|s| s.gap == gap).copied().collect(),
+        })
+        .collect())
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -214,54 +264,4 @@ mod tests {
         assert!(inbetween_scores(&model, &frames, &[0, 1], &[3], &[1], &waypoints, &options, &device).is_err());
         assert!(inbetween_scores(&model, &frames, &[0, 2, 4], &[1, 3], &[5], &waypoints, &options, &device).is_err());
     }
-}
-
-/// The scores of one gap: every held-out frame that lies between two keyframes that far apart.
-#[derive(Clone, Debug, PartialEq)]
-pub struct GapScores {
-    /// The gap (frames between the keyframes).
-    pub gap: usize,
-    /// One score per held-out frame scored at it (none if no held-out frame lies in a span of
-    /// this gap).
-    pub scores: Vec<InbetweenScore>,
-}
-
-impl GapScores {
-    /// The mean over this gap's frames of one method's L2 (`method` picks it); NaN for none.
-    pub fn mean(&self, method: fn(&InbetweenScore) -> f64) -> f64 {
-        self.scores.iter().map(method).sum::<f64>() / self.scores.len() as f64
-    }
-}
-
-/// The in-between protocol on a whole sequence: its even frames are the keyframes, its odd
-/// frames the in-betweens to make, at each of `gaps`; the manifold path runs through the frames
-/// of `model_dir`'s training set (the straight line, with a warning through `progress`, when
-/// they cannot be read). The scores mean something only if the model did not train on the odd
-/// frames (a sequence held out of training, e.g. a synthetic one).
-///
-/// # Errors
-/// As [`Frames::load`] for `sequence`, [`training_frames`] and [`inbetween_scores`].
-pub fn score_sequence(
-    model_dir: &Path,
-    model: &Model,
-    sequence: &Path,
-    gaps: &[usize],
-    options: &FitOptions,
-    device: &Device,
-    progress: &dyn Progress,
-) -> Result<Vec<GapScores>> {
-    let frames = Frames::load(sequence, &frame_check(model))?;
-    let trained = training_frames(model_dir, model, "the path along them is the straight line", progress)?.unwrap_or_default();
-    let waypoints = Waypoints::of_frames(model, &trained.iter().collect::<Vec<_>>(), device)?;
-    let n = frames.frames.len();
-    let even: Vec<usize> = (0..n).step_by(2).collect();
-    let odd: Vec<usize> = (1..n).step_by(2).collect();
-    let scores = inbetween_scores(model, &frames.frames, &even, &odd, gaps, &waypoints, options, device)?;
-    Ok(gaps
-        .iter()
-        .map(|&gap| GapScores {
-            gap,
-            scores: scores.iter().filter(|s| s.gap == gap).copied().collect(),
-        })
-        .collect())
 }

@@ -405,6 +405,56 @@ pub fn superpixel_majority(superpixels: &[Superpixels], truth: &[Vec<u32>], true
         .collect()
 }
 
+/// Predicted parts scored against true parts, both label maps drawn one flat colour per part
+/// (any colours: parts are matched, not named): either two sheets laid out alike (the truth's
+/// poses cut by its alpha or by `layout`, the prediction read at the same places) or two folders
+/// of per-pose label maps in the same order. The poses' names, in order, and their scores.
+///
+/// # Errors
+/// As [`load_poses`]; [`Error::Mismatch`] naming the prediction for a sheet of another size
+/// than the truth's, a folder of another count, or a label map of another size than its truth.
+pub fn score_label_maps(truth_path: &Path, predicted_path: &Path, layout: Option<Layout>) -> Result<(Vec<String>, PartScores)> {
+    let (truth, sheet) = load_poses(truth_path, layout)?;
+    let mismatch = |what: String, got: String, expected: String| Error::mismatch(what, got, expected).with_path(predicted_path);
+    let predicted = match sheet {
+        Some(size) => {
+            let picture = Picture::load(predicted_path)?;
+            if (picture.width, picture.height) != size {
+                return Err(mismatch(
+                    format!("the sheet's size (it must be laid out like the truth {})", truth_path.display()),
+                    format!("{}×{}", picture.width, picture.height),
+                    format!("{}×{}", size.0, size.1),
+                ));
+            }
+            crop_like(&picture, &truth)
+        }
+        None => {
+            let (predicted, _) = load_poses(predicted_path, None)?;
+            if predicted.len() != truth.len() {
+                return Err(mismatch(
+                    format!("the label maps (one per label map of the truth {})", truth_path.display()),
+                    predicted.len().to_string(),
+                    truth.len().to_string(),
+                ));
+            }
+            predicted
+        }
+    };
+    for (t, p) in truth.iter().zip(&predicted) {
+        if (t.image.width, t.image.height) != (p.image.width, p.image.height) {
+            return Err(mismatch(
+                format!("the size of {} (as its truth {})", p.name, t.name),
+                format!("{}×{}", p.image.width, p.image.height),
+                format!("{}×{}", t.image.width, t.image.height),
+            ));
+        }
+    }
+    let (true_labels, true_parts) = labels_by_colour(&truth.iter().map(|p| &p.image).collect::<Vec<_>>());
+    let (predicted_labels, predicted_parts) = labels_by_colour(&predicted.iter().map(|p| &p.image).collect::<Vec<_>>());
+    let scores = part_iou(&predicted_labels, &true_labels, predicted_parts, true_parts);
+    Ok((truth.into_iter().map(|p| p.name).collect(), scores))
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -530,54 +580,4 @@ mod tests {
             );
         }
     }
-}
-
-/// Predicted parts scored against true parts, both label maps drawn one flat colour per part
-/// (any colours: parts are matched, not named): either two sheets laid out alike (the truth's
-/// poses cut by its alpha or by `layout`, the prediction read at the same places) or two folders
-/// of per-pose label maps in the same order. The poses' names, in order, and their scores.
-///
-/// # Errors
-/// As [`load_poses`]; [`Error::Mismatch`] naming the prediction for a sheet of another size
-/// than the truth's, a folder of another count, or a label map of another size than its truth.
-pub fn score_label_maps(truth_path: &Path, predicted_path: &Path, layout: Option<Layout>) -> Result<(Vec<String>, PartScores)> {
-    let (truth, sheet) = load_poses(truth_path, layout)?;
-    let mismatch = |what: String, got: String, expected: String| Error::mismatch(what, got, expected).with_path(predicted_path);
-    let predicted = match sheet {
-        Some(size) => {
-            let picture = Picture::load(predicted_path)?;
-            if (picture.width, picture.height) != size {
-                return Err(mismatch(
-                    format!("the sheet's size (it must be laid out like the truth {})", truth_path.display()),
-                    format!("{}×{}", picture.width, picture.height),
-                    format!("{}×{}", size.0, size.1),
-                ));
-            }
-            crop_like(&picture, &truth)
-        }
-        None => {
-            let (predicted, _) = load_poses(predicted_path, None)?;
-            if predicted.len() != truth.len() {
-                return Err(mismatch(
-                    format!("the label maps (one per label map of the truth {})", truth_path.display()),
-                    predicted.len().to_string(),
-                    truth.len().to_string(),
-                ));
-            }
-            predicted
-        }
-    };
-    for (t, p) in truth.iter().zip(&predicted) {
-        if (t.image.width, t.image.height) != (p.image.width, p.image.height) {
-            return Err(mismatch(
-                format!("the size of {} (as its truth {})", p.name, t.name),
-                format!("{}×{}", p.image.width, p.image.height),
-                format!("{}×{}", t.image.width, t.image.height),
-            ));
-        }
-    }
-    let (true_labels, true_parts) = labels_by_colour(&truth.iter().map(|p| &p.image).collect::<Vec<_>>());
-    let (predicted_labels, predicted_parts) = labels_by_colour(&predicted.iter().map(|p| &p.image).collect::<Vec<_>>());
-    let scores = part_iou(&predicted_labels, &true_labels, predicted_parts, true_parts);
-    Ok((truth.into_iter().map(|p| p.name).collect(), scores))
 }

@@ -166,43 +166,6 @@ pub fn ordered_pairs(frames: &[usize]) -> Vec<(usize, usize)> {
         .collect()
 }
 
-#[cfg(test)]
-mod tests {
-    use super::*;
-    use crate::progress::Silent;
-    use crate::synth::{self, SynthOptions};
-
-    #[test]
-    fn true_fits_score_full_pck_and_rest_fits_score_less() {
-        let dir = tempfile::tempdir().unwrap();
-        let opts = SynthOptions {
-            seed: 5,
-            frames: 4,
-            width: 96,
-            height: 96,
-            ..SynthOptions::default()
-        };
-        let seq = synth::generate(&opts, &Silent).unwrap();
-        synth::write_sequence(&seq, dir.path(), &Silent).unwrap();
-        let art = crate::puppet::artwork::load(&dir.path().join("template"), &Default::default()).unwrap();
-        let puppet = crate::puppet::build::build(&art, &Default::default(), &Silent).unwrap().0;
-        let truth = Truth::load(&dir.path().join("truth.json")).unwrap();
-        let files: Vec<PathBuf> = truth.frames.iter().map(|f| dir.path().join(&f.file)).collect();
-        let exact: Vec<Vec<[f32; 2]>> = (0..4).map(|f| synth::true_positions(&truth, f, &puppet).unwrap()).collect();
-        let pairs = ordered_pairs(&[0, 1, 2, 3]);
-        assert_eq!(pairs.len(), 12);
-        let scored = pck_pairs(&truth, dir.path(), &files, &exact, &puppet, &pairs).unwrap();
-        assert!(scored.pairs.iter().all(|p| p.points_a.len() > 10), "few visible keypoints");
-        // With the true meshes, a visible keypoint binds to its own layer (it is in front), so
-        // it maps exactly — up to points on a layer edge that bind to a neighbour in front.
-        assert!(scored.ours[2] > 0.97, "{:?}", scored.ours);
-        let rest = vec![puppet.rest_vertices(); 4];
-        let worse = pck_pairs(&truth, dir.path(), &files, &rest, &puppet, &pairs).unwrap();
-        assert!(worse.ours[2] < scored.ours[2], "{:?} vs {:?}", worse.ours, scored.ours);
-        assert!(pck_pairs(&truth, dir.path(), &files, &exact, &puppet, &[(0, 9)]).is_err());
-    }
-}
-
 /// Which frames of a sequence a PCK score holds out.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum HeldOut {
@@ -255,4 +218,41 @@ pub fn score_sequence(
     let pairs = ordered_pairs(&test);
     let scored = pck_pairs(&truth, &frames.root, &frames.files, &fits, &model.puppet, &pairs)?;
     Ok((scored, pairs))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::progress::Silent;
+    use crate::synth::{self, SynthOptions};
+
+    #[test]
+    fn true_fits_score_full_pck_and_rest_fits_score_less() {
+        let dir = tempfile::tempdir().unwrap();
+        let opts = SynthOptions {
+            seed: 5,
+            frames: 4,
+            width: 96,
+            height: 96,
+            ..SynthOptions::default()
+        };
+        let seq = synth::generate(&opts, &Silent).unwrap();
+        synth::write_sequence(&seq, dir.path(), &Silent).unwrap();
+        let art = crate::puppet::artwork::load(&dir.path().join("template"), &Default::default()).unwrap();
+        let puppet = crate::puppet::build::build(&art, &Default::default(), &Silent).unwrap().0;
+        let truth = Truth::load(&dir.path().join("truth.json")).unwrap();
+        let files: Vec<PathBuf> = truth.frames.iter().map(|f| dir.path().join(&f.file)).collect();
+        let exact: Vec<Vec<[f32; 2]>> = (0..4).map(|f| synth::true_positions(&truth, f, &puppet).unwrap()).collect();
+        let pairs = ordered_pairs(&[0, 1, 2, 3]);
+        assert_eq!(pairs.len(), 12);
+        let scored = pck_pairs(&truth, dir.path(), &files, &exact, &puppet, &pairs).unwrap();
+        assert!(scored.pairs.iter().all(|p| p.points_a.len() > 10), "few visible keypoints");
+        // With the true meshes, a visible keypoint binds to its own layer (it is in front), so
+        // it maps exactly — up to points on a layer edge that bind to a neighbour in front.
+        assert!(scored.ours[2] > 0.97, "{:?}", scored.ours);
+        let rest = vec![puppet.rest_vertices(); 4];
+        let worse = pck_pairs(&truth, dir.path(), &files, &rest, &puppet, &pairs).unwrap();
+        assert!(worse.ours[2] < scored.ours[2], "{:?} vs {:?}", worse.ours, scored.ours);
+        assert!(pck_pairs(&truth, dir.path(), &files, &exact, &puppet, &[(0, 9)]).is_err());
+    }
 }
