@@ -10,9 +10,9 @@
 
 // Layer 0, base (DESIGN.md "Layers of the code"; src/layering.rs checks the imports).
 pub mod atomic_file;
-pub mod folder_lock;
 pub mod backend;
 pub mod error;
+pub mod folder_lock;
 pub mod picture;
 pub mod progress;
 pub mod rng;
