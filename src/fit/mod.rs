@@ -440,7 +440,7 @@ impl<'a> Analysis<'a> {
         let size = model.letterbox.size as usize;
         let rest_points = model.rest_work_points();
         let images = model.input(frames, device)?;
-        let coarse = if options.moves_vertices() && share > 0.0 && size % COARSE_FACTOR == 0 {
+        let coarse = if options.moves_vertices() && share > 0.0 && size.is_multiple_of(COARSE_FACTOR) {
             let objective = Objective::downsampled(&model.puppet, &rest_points, size, options.weights.clone(), COARSE_FACTOR)?;
             Some((objective, downsample(images.clone(), COARSE_FACTOR)))
         } else {

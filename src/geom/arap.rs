@@ -143,7 +143,7 @@ impl<T: Float + Send + Sync> ArapEnergy<T> {
     /// from it in length.
     pub fn energy_and_gradient(&self, deformed: &[T], grad_out: &mut [T]) -> Result<Vec<T>> {
         let stride = 2 * self.vertex_count;
-        if deformed.len() % stride != 0 || grad_out.len() != deformed.len() {
+        if !deformed.len().is_multiple_of(stride) || grad_out.len() != deformed.len() {
             return Err(Error::mismatch(
                 "arap: the positions and the gradient buffer",
                 format!("{} and {} values", deformed.len(), grad_out.len()),

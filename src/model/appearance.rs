@@ -100,7 +100,7 @@ impl AppearanceNetConfig {
     pub fn depth(&self) -> usize {
         let mut size = self.input_size;
         let mut depth = 0;
-        while size % 2 == 0 && size > 1 && depth < MAX_DEPTH {
+        while size.is_multiple_of(2) && size > 1 && depth < MAX_DEPTH {
             size /= 2;
             depth += 1;
         }

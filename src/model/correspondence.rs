@@ -86,7 +86,7 @@ impl CorrespondenceNetConfig {
     /// cannot halve.
     pub fn validate(&self) -> crate::error::Result<()> {
         use crate::error::Error;
-        if self.depth == 0 || self.depth > 8 || self.input_size % (1usize << self.depth) != 0 {
+        if self.depth == 0 || self.depth > 8 || !self.input_size.is_multiple_of(1usize << self.depth) {
             return Err(Error::setting(
                 "depth",
                 self.depth,

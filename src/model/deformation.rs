@@ -91,7 +91,7 @@ impl DeformationNetConfig {
     /// [`crate::error::Error::Setting`] naming the first key out of range.
     pub fn validate(&self) -> crate::error::Result<()> {
         use crate::error::Error;
-        if self.input_size == 0 || self.input_size % 8 != 0 {
+        if self.input_size == 0 || !self.input_size.is_multiple_of(8) {
             return Err(Error::setting("input_size", self.input_size, "a positive multiple of 8"));
         }
         let widths = [
@@ -124,7 +124,7 @@ impl DeformationNetConfig {
     /// If `input_size` is not a multiple of 8 (a caller bug: configs are validated first).
     pub fn init(&self, device: &Device) -> DeformationNet {
         assert!(
-            self.input_size % 8 == 0 && self.input_size > 0,
+            self.input_size.is_multiple_of(8) && self.input_size > 0,
             "input size {} is not a positive multiple of 8",
             self.input_size
         );

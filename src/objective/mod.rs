@@ -178,7 +178,7 @@ impl Objective {
     /// # Errors
     /// As [`Objective::new`]; [`crate::Error::Setting`] if `factor` does not divide `size`.
     pub fn downsampled(puppet: &Puppet, rest: &[[f32; 2]], size: usize, weights: LossWeights, factor: usize) -> Result<Self> {
-        if factor == 0 || size % factor != 0 {
+        if factor == 0 || !size.is_multiple_of(factor) {
             return Err(crate::Error::setting(
                 "objective downsampling",
                 factor,

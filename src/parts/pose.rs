@@ -107,7 +107,7 @@ pub fn split_sheet(sheet: &Picture, path: &Path, layout: Layout) -> Result<Vec<P
 }
 
 fn split_grid(sheet: &Picture, path: &Path, columns: u32, rows: u32) -> Result<Vec<Pose>> {
-    if columns == 0 || rows == 0 || sheet.width % columns != 0 || sheet.height % rows != 0 {
+    if columns == 0 || rows == 0 || !sheet.width.is_multiple_of(columns) || !sheet.height.is_multiple_of(rows) {
         return Err(Error::format(
             path,
             format!(

@@ -289,8 +289,8 @@ mod tests {
             area: 0.0,
             sigma: 1.0,
             seconds: step as f64,
-            held_out: if step % 2 == 0 { 2.0 / step as f64 } else { f64::NAN },
-            vertex: if step % 2 == 0 { 3.0 / step as f64 } else { f64::NAN },
+            held_out: if step.is_multiple_of(2) { 2.0 / step as f64 } else { f64::NAN },
+            vertex: if step.is_multiple_of(2) { 3.0 / step as f64 } else { f64::NAN },
         }
     }
 

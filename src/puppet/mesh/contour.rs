@@ -109,7 +109,7 @@ pub fn contour(grid: &AlphaGrid) -> Vec<Vec<[f64; 2]>> {
     let point = |e: usize| -> [f64; 2] {
         let cell = e / 2;
         let (i, j) = (cell % gw, cell / gw);
-        let (i1, j1) = if e % 2 == 0 { (i + 1, j) } else { (i, j + 1) };
+        let (i1, j1) = if e.is_multiple_of(2) { (i + 1, j) } else { (i, j + 1) };
         let (a0, a1) = (sample(i, j), sample(i1, j1));
         let t = ((grid.threshold - a0) / (a1 - a0)).clamp(CROSSING_CLAMP, 1.0 - CROSSING_CLAMP);
         let t = f64::from(t);
@@ -260,7 +260,7 @@ mod tests {
                     (0..11)
                         .map(|_| {
                             state = state.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
-                            if (state >> 33) % 2 == 0 {
+                            if (state >> 33).is_multiple_of(2) {
                                 '#'
                             } else {
                                 '.'

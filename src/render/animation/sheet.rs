@@ -88,7 +88,7 @@ impl SpritePages {
     /// is as large as the frames it will hold.
     pub(super) fn put(&mut self, k: usize, frame: &Picture) -> Result<()> {
         let (w, h) = self.cell;
-        if k % self.per_page == 0 {
+        if k.is_multiple_of(self.per_page) {
             if k > 0 {
                 self.write(k / self.per_page - 1)?;
             }
