@@ -241,16 +241,12 @@ mod tests {
     use crate::progress::Silent;
     use crate::train::log::{log_row, plot_rows};
 
+    // The running sum, and its held-out "score" (the sum again).
     log_row! {
-        /// A toy run's row.
         pub struct SumRow (min_columns = 4) {
-            /// Steps done.
             step,
-            /// Seconds so far.
             seconds = "seconds",
-            /// The running sum.
             sum = "sum",
-            /// The sum as scored on held-out data: the sum again.
             held_out = "held_out",
         }
     }
