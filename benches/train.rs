@@ -25,6 +25,7 @@ use puppet::model::Model;
 use puppet::picture::ImageLimits;
 use puppet::progress::Silent;
 use puppet::puppet::sequence::{FrameCheck, Frames};
+use puppet::train::harness::Run;
 use puppet::train::trainer::{load_or_build_puppet, Trainer};
 use puppet::train::TrainConfig;
 

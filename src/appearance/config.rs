@@ -33,8 +33,8 @@ use serde::{Deserialize, Serialize};
 use crate::error::{Error, Result};
 use crate::model::appearance::AppearanceNetConfig;
 use crate::objective::adversarial::AdversarialLoss;
+use crate::train::config::load_checked;
 use crate::train::optim::AdamSettings;
-use crate::user_file;
 
 /// The networks' width.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
@@ -123,20 +123,9 @@ impl AppearanceConfig {
     /// Reads and checks a config file.
     ///
     /// # Errors
-    /// [`Error::Io`]/[`Error::Limit`] naming the file; [`Error::Format`] for TOML that does not
-    /// parse or an unknown key; [`Error::Setting`] for a value out of range.
+    /// As [`load_checked`], with [`AppearanceConfig::validate`].
     pub fn load(path: &Path) -> Result<Self> {
-        Self::parse(&user_file::read_text(path, user_file::CONFIG)?, path)
-    }
-
-    /// Parses and checks config text read from `path` (named in errors).
-    ///
-    /// # Errors
-    /// As [`AppearanceConfig::load`], but reading.
-    pub fn parse(text: &str, path: &Path) -> Result<Self> {
-        let config: AppearanceConfig = toml::from_str(text).map_err(|e| Error::format(path, e.to_string()))?;
-        config.validate().map_err(|e| e.with_path(path))?;
-        Ok(config)
+        load_checked(path, Self::validate)
     }
 
     /// Checks every value.

@@ -1,12 +1,11 @@
 //! Training the appearance stage (neural-puppet.md §3.3): after, and independently of, the
 //! deformation network, as the paper does. Each training frame of the model is fitted and
 //! rendered ([`super::pairs`]); the generator learns to turn the render into the drawn frame,
-//! against a critic, with two Adam optimisers. Seeded, logged (with the held-out frames' L1),
-//! checkpointed atomically, resumable to the same weights as an uninterrupted run, stopped on NaN
-//! — as the deformation trainer is.
+//! against a critic, with two Adam optimisers. Seeded, and run by the training harness
+//! ([`crate::train::harness`]: logged with the held-out frames' L1, checkpointed atomically,
+//! resumable to the same weights as an uninterrupted run, stopped on NaN).
 
 use std::path::Path;
-use std::time::Instant;
 
 use burn::module::Module;
 use burn::optim::{GradientsParams, ModuleOptimizer};
@@ -15,7 +14,7 @@ use burn::tensor::{Device, Tensor, TensorData};
 use super::config::{AppearanceConfig, TrainingFit};
 use super::pairs::{split_pairs, Pairs};
 use super::stage::{AppearanceStage, StageFolder, StageRecord};
-use crate::atomic_file::{record, write_atomic, Outputs};
+use crate::atomic_file::write_atomic;
 use crate::backend::scalar;
 use crate::error::{Error, Result};
 use crate::fit::FitOptions;
@@ -27,8 +26,9 @@ use crate::objective::adversarial::{critic_loss, generator_loss, Batch};
 use crate::picture::{contact_sheet, Picture};
 use crate::progress::Progress;
 use crate::rng::Rng;
-use crate::train::checkpoint::{self, Checkpoint, CheckpointState};
-use crate::train::log::{plot_curves, CsvRow, Curve, TrainLog};
+use crate::train::checkpoint::Checkpoint;
+use crate::train::harness::{Plan, Run, RunFolder};
+use crate::train::log::{log_row, plot_rows};
 use crate::train::optim::{adam, optimizer_bytes, optimizer_from_bytes};
 use crate::train::trainer::BatchOrder;
 
@@ -71,67 +71,29 @@ const CRITIC: &str = "critic.bpk";
 const GENERATOR_OPTIMIZER: &str = "generator-optimizer.bpk";
 const CRITIC_OPTIMIZER: &str = "critic-optimizer.bpk";
 
-/// One step's numbers in `appearance/log.csv`.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct AppearanceRow {
-    /// Generator steps done.
-    pub step: u64,
-    /// Training seconds so far.
-    pub seconds: f64,
-    /// The generator's loss.
-    pub generator: f64,
-    /// Its adversarial part, unweighted.
-    pub adversarial: f64,
-    /// Its L1 part, unweighted (per-pixel mean).
-    pub l1: f64,
-    /// The critic's loss (its last step).
-    pub critic: f64,
-    /// The critic's mean score of drawn frames.
-    pub real: f64,
-    /// Its mean score of generated frames.
-    pub fake: f64,
-    /// The gradient penalty, unweighted.
-    pub penalty: f64,
-    /// The held-out frames' per-pixel mean L1 (NaN where not measured).
-    pub held_out: f64,
-}
-
-impl CsvRow for AppearanceRow {
-    const HEADER: &'static str = "step,seconds,generator,adversarial,l1,critic,real,fake,penalty,held_out_l1";
-    const MIN_COLUMNS: usize = 10;
-
-    fn step(&self) -> u64 {
-        self.step
-    }
-
-    fn values(&self) -> Vec<f64> {
-        vec![
-            self.step as f64,
-            self.seconds,
-            self.generator,
-            self.adversarial,
-            self.l1,
-            self.critic,
-            self.real,
-            self.fake,
-            self.penalty,
-            self.held_out,
-        ]
-    }
-
-    fn from_values(v: &[f64]) -> Self {
-        AppearanceRow {
-            step: v[0] as u64,
-            seconds: v[1],
-            generator: v[2],
-            adversarial: v[3],
-            l1: v[4],
-            critic: v[5],
-            real: v[6],
-            fake: v[7],
-            penalty: v[8],
-            held_out: v[9],
-        }
+log_row! {
+    /// One step's numbers in `appearance/log.csv`.
+    pub struct AppearanceRow (min_columns = 10) {
+        /// Generator steps done.
+        step,
+        /// Training seconds so far.
+        seconds = "seconds",
+        /// The generator's loss.
+        generator = "generator",
+        /// Its adversarial part, unweighted.
+        adversarial = "adversarial",
+        /// Its L1 part, unweighted (per-pixel mean).
+        l1 = "l1",
+        /// The critic's loss (its last step).
+        critic = "critic",
+        /// The critic's mean score of drawn frames.
+        real = "real",
+        /// Its mean score of generated frames.
+        fake = "fake",
+        /// The gradient penalty, unweighted.
+        penalty = "penalty",
+        /// The held-out frames' per-pixel mean L1 (NaN where not measured).
+        held_out = "held_out_l1",
     }
 }
 
@@ -141,7 +103,8 @@ impl CsvRow for AppearanceRow {
 /// # Errors
 /// [`Error::RunExists`] if the stage has a checkpoint and resuming was not asked for;
 /// [`Error::Resume`] for a resume without a checkpoint or with another config (only `epochs` may
-/// change) — neither writes anything; [`Error::Diverged`] for a loss that is not finite; whatever
+/// change) — neither writes anything; [`Error::InUse`] while another process trains the stage;
+/// [`Error::Diverged`] for a loss that is not finite; whatever
 /// loading the model, fitting or writing reports, naming the file.
 pub fn train_appearance(
     model_dir: &Path,
@@ -154,14 +117,9 @@ pub fn train_appearance(
     let folder = StageFolder::of_model(model_dir);
     let inference = crate::backend::device();
     let model = Model::load(model_dir, &inference)?;
-    let previous = checkpoint::latest(folder.dir())?.map(|dir| checkpoint::load(&dir)).transpose()?;
     let config_json = serde_json::to_value(config).map_err(|e| Error::format(folder.config(), e.to_string()))?;
-    checkpoint::check_run(folder.dir(), previous.as_ref(), options.resume)?;
-    match &previous {
-        Some(c) => checkpoint::check_same_config(folder.dir(), c, &config_json, &["epochs"])?,
-        // A fresh run may fill only a folder puppet made, or an empty one.
-        None => Outputs::new(false).claim_folder(folder.dir())?,
-    }
+    // A fresh run may fill only a folder puppet made, or an empty one.
+    let run = RunFolder::claim(folder.dir(), config_json, &["epochs"], options.resume, false)?;
     let fit_options = match config.fit {
         TrainingFit::Default => fit.clone(),
         TrainingFit::OnePass => FitOptions::one_pass(),
@@ -170,76 +128,54 @@ pub fn train_appearance(
     if pairs.train.frames.is_empty() {
         return Err(Error::format(folder.dir(), "the model has no training frames"));
     }
+    let inputs = planes(&model, &pairs.train.renders);
+    let batch = config.batch.min(inputs.len());
+    if batch < config.batch {
+        progress.warn(&format!(
+            "batch = {} is more than the {} training frames; each step uses all {batch} once",
+            config.batch,
+            inputs.len()
+        ));
+    }
+    let total = (config.epochs * inputs.len() as u64).div_ceil(batch as u64);
     let device = crate::backend::train_device();
     device.seed(config.seed);
     let net = config.net(model.letterbox.size as usize);
-    let mut run = Run {
+    let mut training = Training {
         generator: net.init_generator(&device),
         critic: net.init_critic(&device),
         generator_optimizer: adam(&config.adam),
         critic_optimizer: adam(&config.adam),
-        inputs: planes(&model, &pairs.train.renders),
+        order: BatchOrder::new(inputs.len(), batch, config.seed),
+        inputs,
         targets: planes(&model, &pairs.train.frames),
         held_out: (planes(&model, &pairs.held_out.renders), planes(&model, &pairs.held_out.frames)),
         size: model.letterbox.size as usize,
         config: config.clone(),
         device: device.clone(),
     };
-    let (mut step, mut elapsed) = (0u64, 0f64);
-    match &previous {
-        Some(c) => {
-            run.restore(c)?;
-            (step, elapsed) = (c.state.step, c.state.elapsed);
-        }
+    match run.previous() {
+        Some(_) => run.restore(&mut training)?,
         None => {
             let json = serde_json::to_vec_pretty(&net).map_err(|e| Error::format(folder.net(), e.to_string()))?;
             write_atomic(&folder.net(), &json)?;
             StageRecord::of(&model).save(&folder)?;
-            // Listed in the model folder's manifest, so a later fresh run may fill it again.
-            let absolute = std::path::absolute(folder.dir()).map_err(|e| Error::io(folder.dir(), e))?;
-            record(&absolute)?;
         }
     }
     let toml = toml::to_string_pretty(config).map_err(|e| Error::format(folder.config(), e.to_string()))?;
     write_atomic(&folder.config(), toml.as_bytes())?;
-
-    let batch = config.batch.min(run.inputs.len());
-    if batch < config.batch {
-        progress.warn(&format!(
-            "batch = {} is more than the {} training frames; each step uses all {batch} once",
-            config.batch,
-            run.inputs.len()
-        ));
-    }
-    let total = (config.epochs * run.inputs.len() as u64).div_ceil(batch as u64);
-    let order = BatchOrder::new(run.inputs.len(), batch, config.seed);
-    let mut log = TrainLog::<AppearanceRow>::open(&folder.log(), step)?;
-    let stop = options.pause_at.map_or(total, |p| p.min(total));
-    progress.stage("appearance", total);
-    progress.resume(step);
-    let (started, first) = (Instant::now(), step);
-    while step < stop {
-        let t0 = Instant::now();
-        let mut row = run.step(step, &order.batch(step))?;
-        step += 1;
-        elapsed += t0.elapsed().as_secs_f64();
-        row.seconds = elapsed;
-        if step % config.eval_every == 0 || step == total {
-            row.held_out = run.held_out_l1();
-        }
-        log.push(row)?;
-        progress.advance(1);
-        progress.message(&format!(
-            "G {:.3} (L1 {:.4}) D {:.3} penalty {:.3}",
-            row.generator, row.l1, row.critic, row.penalty
-        ));
-        if step % config.checkpoint_every == 0 && step < stop {
-            save(&folder, &run, step, elapsed, &config_json, &log)?;
-        }
-    }
-    let seconds = started.elapsed().as_secs_f64();
-    save(&folder, &run, step, elapsed, &config_json, &log)?;
-    let stage = AppearanceStage::new(net, run.generator.valid(), model.letterbox);
+    let plan = Plan {
+        stage: "appearance",
+        steps: total,
+        pause_at: options.pause_at,
+        checkpoint_every: config.checkpoint_every,
+        eval_every: config.eval_every,
+        per_step: batch,
+        log: folder.log(),
+        plot: folder.plot(),
+    };
+    let summary = run.train(&mut training, &plan, progress)?;
+    let stage = AppearanceStage::new(net, training.generator.valid(), model.letterbox);
     let (train_redraws, held_out_redraws) = (
         redraws(&stage, &pairs.train, &inference),
         redraws(&stage, &pairs.held_out, &inference),
@@ -248,9 +184,9 @@ pub fn train_appearance(
     let held_out = scores(&pairs.held_out, &held_out_redraws);
     sheet([(&pairs.train, &train_redraws), (&pairs.held_out, &held_out_redraws)]).save_png(&folder.sheet())?;
     Ok(AppearanceSummary {
-        steps: step,
-        finished: step >= total,
-        images_per_second: ((step - first) as usize * batch) as f64 / seconds.max(1e-9),
+        steps: summary.steps,
+        finished: summary.finished,
+        images_per_second: summary.per_second,
         train,
         held_out,
     })
@@ -287,44 +223,13 @@ fn sheet(sets: [(&Pairs, &[Picture]); 2]) -> Picture {
     contact_sheet(&cells.iter().collect::<Vec<_>>(), 6)
 }
 
-fn save(folder: &StageFolder, run: &Run, step: u64, elapsed: f64, config: &serde_json::Value, log: &TrainLog<AppearanceRow>) -> Result<()> {
-    let files = run.state_bytes(folder.dir())?;
-    let state = CheckpointState {
-        step,
-        elapsed,
-        config: config.clone(),
-    };
-    let named: Vec<(&str, &[u8])> = files.iter().map(|(n, b)| (*n, b.as_slice())).collect();
-    checkpoint::save(folder.dir(), &state, &named)?;
-    // The stage always holds the newest networks, so `--appearance` works during training.
-    write_atomic(&folder.generator(), &files[0].1)?;
-    write_atomic(&folder.critic(), &files[1].1)?;
-    let rows = log.rows();
-    let steps: Vec<u64> = rows.iter().map(|r| r.step).collect();
-    let curve = |name, colour, value: fn(&AppearanceRow) -> f64| Curve {
-        name,
-        colour,
-        values: rows.iter().map(value).collect(),
-    };
-    plot_curves(
-        &steps,
-        &[
-            curve("generator", [0.0, 0.0, 0.0], |r| r.generator),
-            curve("l1", [0.1, 0.35, 0.9], |r| r.l1),
-            curve("critic", [0.95, 0.5, 0.0], |r| r.critic.abs()),
-            curve("penalty", [0.1, 0.65, 0.2], |r| r.penalty),
-            curve("held-out l1", [0.85, 0.1, 0.1], |r| r.held_out),
-        ],
-    )
-    .save_png(&folder.plot())
-}
-
-/// The networks and optimisers under training, and the data as planes.
-struct Run {
+/// The networks and optimisers under training, the data as planes, and the batches.
+struct Training {
     generator: Generator,
     critic: Critic,
     generator_optimizer: ModuleOptimizer,
     critic_optimizer: ModuleOptimizer,
+    order: BatchOrder,
     inputs: Vec<Vec<f32>>,
     targets: Vec<Vec<f32>>,
     held_out: (Vec<Vec<f32>>, Vec<Vec<f32>>),
@@ -333,14 +238,38 @@ struct Run {
     device: Device,
 }
 
-impl Run {
+impl Training {
     fn tensor(&self, planes: &[&Vec<f32>], device: &Device) -> Tensor<4> {
         let data: Vec<f32> = planes.iter().flat_map(|p| p.iter().copied()).collect();
         Tensor::from_data(TensorData::new(data, [planes.len(), 4, self.size, self.size]), device)
     }
 
-    /// Generator step `step` on the frames `batch`, after `critic_steps` critic steps.
-    fn step(&mut self, step: u64, batch: &[usize]) -> Result<AppearanceRow> {
+    /// The generator's per-pixel mean L1 on the held-out frames (NaN if none), without dropout.
+    fn held_out_l1(&self) -> f64 {
+        let (inputs, targets) = &self.held_out;
+        if inputs.is_empty() {
+            return f64::NAN;
+        }
+        let device = crate::backend::device();
+        let generator = self.generator.valid();
+        let mut sum = 0.0;
+        for (x, y) in inputs.chunks(16).zip(targets.chunks(16)) {
+            let n = x.len() as f64;
+            let x = self.tensor(&x.iter().collect::<Vec<_>>(), &device);
+            let y = self.tensor(&y.iter().collect::<Vec<_>>(), &device);
+            sum += scalar(&(generator.forward(x) - y).abs().mean()) * n;
+        }
+        sum / inputs.len() as f64
+    }
+}
+
+impl Run for Training {
+    type Row = AppearanceRow;
+    const NEWEST: &'static [&'static str] = &[GENERATOR, CRITIC];
+
+    /// Generator step `step` on its batch of frames, after `critic_steps` critic steps.
+    fn step(&mut self, step: u64) -> Result<AppearanceRow> {
+        let batch = &self.order.batch(step);
         // Dropout and the penalty's mixing are functions of the step, so a resumed run draws
         // what an uninterrupted one would.
         self.device.seed(self.config.seed ^ step.wrapping_mul(0x9E37_79B9_7F4A_7C15));
@@ -384,37 +313,29 @@ impl Run {
             penalty,
             held_out: f64::NAN,
         };
-        if !(row.generator.is_finite() && row.critic.is_finite()) {
-            return Err(Error::Diverged {
-                step: step + 1,
-                losses: format!("generator {}, critic {}, penalty {}", row.generator, row.critic, row.penalty),
-                checkpoint: None,
-            });
-        }
         let grads = GradientsParams::from_grads(terms.total.backward(), &self.generator);
         self.generator = self.generator_optimizer.step(lr, self.generator.take(), grads);
         Ok(row)
     }
 
-    /// The generator's per-pixel mean L1 on the held-out frames (NaN if none), without dropout.
-    fn held_out_l1(&self) -> f64 {
-        let (inputs, targets) = &self.held_out;
-        if inputs.is_empty() {
-            return f64::NAN;
-        }
-        let device = crate::backend::device();
-        let generator = self.generator.valid();
-        let mut sum = 0.0;
-        for (x, y) in inputs.chunks(16).zip(targets.chunks(16)) {
-            let n = x.len() as f64;
-            let x = self.tensor(&x.iter().collect::<Vec<_>>(), &device);
-            let y = self.tensor(&y.iter().collect::<Vec<_>>(), &device);
-            sum += scalar(&(generator.forward(x) - y).abs().mean()) * n;
-        }
-        sum / inputs.len() as f64
+    fn non_finite(&self, row: &AppearanceRow) -> Option<String> {
+        let finite = row.generator.is_finite() && row.critic.is_finite();
+        (!finite).then(|| format!("generator {}, critic {}, penalty {}", row.generator, row.critic, row.penalty))
     }
 
-    fn state_bytes(&self, dir: &Path) -> Result<Vec<(&'static str, Vec<u8>)>> {
+    fn held_out(&mut self, _step: u64, row: &mut AppearanceRow) -> Result<()> {
+        row.held_out = self.held_out_l1();
+        Ok(())
+    }
+
+    fn message(&self, row: &AppearanceRow) -> String {
+        format!(
+            "G {:.3} (L1 {:.4}) D {:.3} penalty {:.3}",
+            row.generator, row.l1, row.critic, row.penalty
+        )
+    }
+
+    fn state_files(&self, dir: &Path) -> Result<Vec<(&'static str, Vec<u8>)>> {
         let optimizer = |o: &ModuleOptimizer| optimizer_bytes(o, dir);
         Ok(vec![
             (GENERATOR, weights_bytes(&self.generator, dir)?),
@@ -435,5 +356,18 @@ impl Run {
         self.generator_optimizer = optimizer(&self.generator_optimizer, GENERATOR_OPTIMIZER, 2 * g_limit)?;
         self.critic_optimizer = optimizer(&self.critic_optimizer, CRITIC_OPTIMIZER, 2 * d_limit)?;
         Ok(())
+    }
+
+    fn plot(&self, rows: &[AppearanceRow]) -> Picture {
+        plot_rows(
+            rows,
+            &[
+                ("generator", [0.0, 0.0, 0.0], &|r| r.generator),
+                ("l1", [0.1, 0.35, 0.9], &|r| r.l1),
+                ("critic", [0.95, 0.5, 0.0], &|r| r.critic.abs()),
+                ("penalty", [0.1, 0.65, 0.2], &|r| r.penalty),
+                ("held-out l1", [0.85, 0.1, 0.1], &|r| r.held_out),
+            ],
+        )
     }
 }

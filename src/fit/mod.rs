@@ -34,6 +34,7 @@ use crate::objective::{downsample, LossWeights, Objective};
 use crate::picture::Picture;
 use crate::progress::Progress;
 use crate::render::soft_raster::SoftRasterizer;
+use crate::train::optim::{AdamSettings, FlatAdam};
 use crate::user_file;
 use accessory_moves::AccessoryMoves;
 use hidden_limbs::HiddenLimbs;
@@ -563,7 +564,8 @@ impl<'a> Analysis<'a> {
     ) -> Result<Tensor<D>> {
         let shape = x0.dims();
         let mut x = to_vec(x0);
-        let mut adam = Adam::new(x.len());
+        // PyTorch's defaults (ε = 1e-8), as in training.
+        let mut adam = FlatAdam::new(AdamSettings::default(), x.len());
         let batch = shape[0] as f32;
         for k in 0..steps {
             let xt = Tensor::<D>::from_data(TensorData::new(x.clone(), shape), self.device)
@@ -587,7 +589,7 @@ impl<'a> Analysis<'a> {
             let g = xt
                 .grad(&grads)
                 .ok_or_else(|| Error::backend("fit", "no gradient reached the unknowns"))?;
-            adam.step(&mut x, &to_vec(g), learning_rate);
+            adam.step(&mut x, &to_vec(g), f64::from(learning_rate));
         }
         Ok(Tensor::<D>::from_data(TensorData::new(x, shape), self.device))
     }
@@ -605,35 +607,6 @@ struct Level<'a> {
 
 fn to_vec<const D: usize>(t: Tensor<D>) -> Vec<f32> {
     t.into_data().convert::<f32>().try_into_vec::<f32>().unwrap_or_default()
-}
-
-/// Adam (PyTorch's defaults, ε = 1e-8) over a flat vector of unknowns.
-struct Adam {
-    m: Vec<f32>,
-    v: Vec<f32>,
-    t: i32,
-}
-
-impl Adam {
-    fn new(n: usize) -> Self {
-        Adam {
-            m: vec![0.0; n],
-            v: vec![0.0; n],
-            t: 0,
-        }
-    }
-
-    fn step(&mut self, x: &mut [f32], g: &[f32], lr: f32) {
-        const B1: f32 = 0.9;
-        const B2: f32 = 0.999;
-        self.t += 1;
-        let (c1, c2) = (1.0 - B1.powi(self.t), 1.0 - B2.powi(self.t));
-        for (((x, m), v), &g) in x.iter_mut().zip(&mut self.m).zip(&mut self.v).zip(g) {
-            *m = B1 * *m + (1.0 - B1) * g;
-            *v = B2 * *v + (1.0 - B2) * g * g;
-            *x -= lr * (*m / c1) / ((*v / c2).sqrt() + 1e-8);
-        }
-    }
 }
 
 #[cfg(test)]

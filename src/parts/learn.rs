@@ -4,14 +4,14 @@
 //! by feature similarity over a temperature. Both directions of every pair count.
 //!
 //! Pairs come from a [`PairSource`] (the generator's sprite sheets, `synth`), indexed, so a
-//! resumed run sees what an uninterrupted one would. Seeded, logged (with the held-out pairs'
-//! match accuracy), checkpointed atomically, resumable, stopped on NaN — as the other trainers.
+//! resumed run sees what an uninterrupted one would. Seeded, and run by the training harness
+//! ([`crate::train::harness`]: logged with the held-out pairs' match accuracy, checkpointed
+//! atomically, resumable, stopped on NaN).
 //!
 //! A model folder: `config.toml`, `net.json` (the network's shape), `weights.bpk` (the newest
 //! weights), `log.csv`, `curves.png`, `checkpoints/`.
 
 use std::path::{Path, PathBuf};
-use std::time::Instant;
 
 use burn::module::Module;
 use burn::optim::{GradientsParams, ModuleOptimizer};
@@ -20,16 +20,19 @@ use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
 use super::matching::{features, nearest, Foreground};
-use crate::atomic_file::{record, write_atomic, Outputs};
+use crate::atomic_file::write_atomic;
 use crate::backend::scalar;
 use crate::error::{Error, Result};
 use crate::model::bundle::{load_weights, max_weights_bytes, weights_bytes};
 use crate::model::correspondence::{CorrespondenceNet, CorrespondenceNetConfig};
 use crate::objective::info_nce::{info_nce, Term};
+use crate::picture::Picture;
 use crate::progress::Progress;
 use crate::rng::Rng;
-use crate::train::checkpoint::{self, Checkpoint, CheckpointState, OPTIMIZER, WEIGHTS};
-use crate::train::log::{plot_curves, CsvRow, Curve, TrainLog};
+use crate::train::checkpoint::{Checkpoint, OPTIMIZER, WEIGHTS};
+use crate::train::config::load_checked;
+use crate::train::harness::{Plan, Run, RunFolder};
+use crate::train::log::{log_row, plot_rows};
 use crate::train::optim::{adam, learning_rate_at, optimizer_bytes, optimizer_from_bytes, AdamSettings};
 use crate::user_file;
 
@@ -155,19 +158,9 @@ impl LearnConfig {
     /// Reads and checks a config file.
     ///
     /// # Errors
-    /// [`Error::Io`]/[`Error::Format`] naming the file; [`Error::Setting`] for a bad value.
+    /// As [`load_checked`], with [`LearnConfig::validate`].
     pub fn load(path: &Path) -> Result<Self> {
-        Self::parse(&user_file::read_text(path, user_file::CONFIG)?, path)
-    }
-
-    /// Parses and checks config text read from `path` (named in errors).
-    ///
-    /// # Errors
-    /// As [`LearnConfig::load`], but reading.
-    pub fn parse(text: &str, path: &Path) -> Result<Self> {
-        let config: LearnConfig = toml::from_str(text).map_err(|e| Error::format(path, e.to_string()))?;
-        config.validate().map_err(|e| e.with_path(path))?;
-        Ok(config)
+        load_checked(path, Self::validate)
     }
 
     /// The network it trains.
@@ -250,41 +243,19 @@ pub struct LearnSummary {
     pub parameters: usize,
 }
 
-/// One step's numbers in `log.csv`.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct LearnRow {
-    /// Steps done.
-    pub step: u64,
-    /// Training seconds so far.
-    pub seconds: f64,
-    /// The InfoNCE loss.
-    pub loss: f64,
-    /// Held-out share within 2 px (NaN where not measured).
-    pub within_2px: f64,
-    /// Held-out mean error, px (NaN where not measured).
-    pub mean_error: f64,
-}
-
-impl CsvRow for LearnRow {
-    const HEADER: &'static str = "step,seconds,loss,held_out_within_2px,held_out_mean_error";
-    const MIN_COLUMNS: usize = 5;
-
-    fn step(&self) -> u64 {
-        self.step
-    }
-
-    fn values(&self) -> Vec<f64> {
-        vec![self.step as f64, self.seconds, self.loss, self.within_2px, self.mean_error]
-    }
-
-    fn from_values(v: &[f64]) -> Self {
-        LearnRow {
-            step: v[0] as u64,
-            seconds: v[1],
-            loss: v[2],
-            within_2px: v[3],
-            mean_error: v[4],
-        }
+log_row! {
+    /// One step's numbers in `log.csv`.
+    pub struct LearnRow (min_columns = 5) {
+        /// Steps done.
+        step,
+        /// Training seconds so far.
+        seconds = "seconds",
+        /// The InfoNCE loss.
+        loss = "loss",
+        /// Held-out share within 2 px (NaN where not measured).
+        within_2px = "held_out_within_2px",
+        /// Held-out mean error, px (NaN where not measured).
+        mean_error = "held_out_mean_error",
     }
 }
 
@@ -381,7 +352,8 @@ fn read_shape(bytes: &[u8], source: &Path) -> Result<CorrespondenceNetConfig> {
 /// # Errors
 /// [`Error::RunExists`] if `dir` has a checkpoint and resuming was not asked for;
 /// [`Error::Resume`] for a resume without a checkpoint or with another config (only `steps`
-/// may change) — neither writes anything; [`Error::Diverged`] for a loss that is not finite;
+/// may change) — neither writes anything; [`Error::InUse`] while another process trains into
+/// `dir`; [`Error::Diverged`] for a loss that is not finite;
 /// whatever making pairs or writing reports, naming the file.
 pub fn train_correspondence(
     dir: &Path,
@@ -400,130 +372,146 @@ pub fn train_correspondence(
         ));
     }
     let folder = NetFolder::new(dir);
-    let previous = checkpoint::latest(dir)?.map(|d| checkpoint::load(&d)).transpose()?;
     let config_json = serde_json::to_value(config).map_err(|e| Error::format(folder.config(), e.to_string()))?;
-    checkpoint::check_run(dir, previous.as_ref(), options.resume)?;
-    match &previous {
-        Some(c) => checkpoint::check_same_config(dir, c, &config_json, &["steps"])?,
-        None => Outputs::new(false).claim_folder(dir)?,
-    }
+    let run = RunFolder::claim(dir, config_json, &["steps"], options.resume, false)?;
     let held: Vec<TrainingPair> = (0..config.held_out as u64)
         .into_par_iter()
         .map(|i| held_out.pair(i))
         .collect::<Result<_>>()?;
-    let net_config = config.net();
-    let mut run = Trainer::new(config, &crate::backend::train_device());
-    let untrained = run.score(&held);
-    let (mut step, mut elapsed) = (0u64, 0f64);
-    match &previous {
-        Some(c) => {
-            run.restore(c)?;
-            (step, elapsed) = (c.state.step, c.state.elapsed);
-        }
+    let trainer = Trainer::new(config, &crate::backend::train_device());
+    let untrained = trainer.score(&held);
+    let plan = Plan {
+        stage: "correspondence network",
+        steps: config.steps,
+        pause_at: options.pause_at,
+        checkpoint_every: config.checkpoint_every,
+        eval_every: config.eval_every,
+        per_step: config.batch,
+        log: folder.log(),
+        plot: folder.plot(),
+    };
+    let mut learning = Learning {
+        trainer,
+        train,
+        held,
+        next: None,
+        stop: plan.stop(),
+        score: MatchScore {
+            within_2px: f64::NAN,
+            mean_error: f64::NAN,
+        },
+    };
+    match run.previous() {
+        Some(_) => run.restore(&mut learning)?,
         None => {
-            std::fs::create_dir_all(dir).map_err(|e| Error::io(dir, e))?;
-            let absolute = std::path::absolute(dir).map_err(|e| Error::io(dir, e))?;
-            record(&absolute)?;
-            let json = serde_json::to_vec_pretty(&net_config).map_err(|e| Error::format(folder.net(), e.to_string()))?;
+            let json = serde_json::to_vec_pretty(&config.net()).map_err(|e| Error::format(folder.net(), e.to_string()))?;
             write_atomic(&folder.net(), &json)?;
         }
     }
     let toml = toml::to_string_pretty(config).map_err(|e| Error::format(folder.config(), e.to_string()))?;
     write_atomic(&folder.config(), toml.as_bytes())?;
-    let mut log = TrainLog::<LearnRow>::open(&folder.log(), step)?;
-    let stop = options.pause_at.map_or(config.steps, |p| p.min(config.steps));
-    progress.stage("correspondence network", config.steps);
-    progress.resume(step);
-    let (started, first) = (Instant::now(), step);
-    let mut score = MatchScore {
-        within_2px: f64::NAN,
-        mean_error: f64::NAN,
-    };
-    let batch = |step: u64| -> Result<Vec<TrainingPair>> {
-        (0..config.batch as u64)
-            .into_par_iter()
-            .map(|k| train.pair(step * config.batch as u64 + k))
-            .collect()
-    };
-    let t0 = Instant::now();
-    let mut pairs = if step < stop { batch(step)? } else { Vec::new() };
-    elapsed += t0.elapsed().as_secs_f64();
-    while step < stop {
-        let t0 = Instant::now();
+    let summary = run.train(&mut learning, &plan, progress)?;
+    if learning.score.within_2px.is_nan() {
+        learning.score = learning.trainer.score(&learning.held);
+    }
+    Ok(LearnSummary {
+        steps: summary.steps,
+        finished: summary.finished,
+        seconds: summary.seconds,
+        pairs_per_second: summary.per_second,
+        held_out: learning.score,
+        untrained,
+        parameters: learning.trainer.net().num_params(),
+    })
+}
+
+/// A correspondence network's training as the harness runs it: the trainer, where its pairs
+/// come from, and the held-out pairs with their newest score.
+struct Learning<'a> {
+    trainer: Trainer,
+    train: &'a dyn PairSource,
+    held: Vec<TrainingPair>,
+    /// The next step's pairs (its number and them), made while the step before trained.
+    next: Option<(u64, Vec<TrainingPair>)>,
+    /// The step count this session stops at (no pairs are made past it).
+    stop: u64,
+    score: MatchScore,
+}
+
+/// The pairs of step `step` of batches of `batch` from `source`: a function of the step alone.
+fn batch_pairs(source: &dyn PairSource, batch: usize, step: u64) -> Result<Vec<TrainingPair>> {
+    (0..batch as u64)
+        .into_par_iter()
+        .map(|k| source.pair(step * batch as u64 + k))
+        .collect()
+}
+
+impl Run for Learning<'_> {
+    type Row = LearnRow;
+    const NEWEST: &'static [&'static str] = &[WEIGHTS];
+
+    fn step(&mut self, step: u64) -> Result<LearnRow> {
+        let (train, batch) = (self.train, self.trainer.config.batch);
+        let pairs = match self.next.take() {
+            Some((s, pairs)) if s == step => pairs,
+            _ => batch_pairs(train, batch, step)?,
+        };
         // The next step's pairs are made while this one trains: the step leaves a core idle
         // for much of its time (Burn's operations between the kernels run on one).
         let (loss, next) = std::thread::scope(|scope| {
-            let next = (step + 1 < stop).then(|| scope.spawn(|| batch(step + 1)));
-            let loss = run.step(step, &pairs);
+            let next = (step + 1 < self.stop).then(|| scope.spawn(|| batch_pairs(train, batch, step + 1)));
+            let loss = self.trainer.step(step, &pairs);
             let next = next.map(|handle| handle.join().unwrap_or_else(|panic| std::panic::resume_unwind(panic)));
             (loss, next)
         });
         let loss = loss?;
         if let Some(next) = next {
-            pairs = next?;
+            self.next = Some((step + 1, next?));
         }
-        step += 1;
-        elapsed += t0.elapsed().as_secs_f64();
-        let mut row = LearnRow {
-            step,
-            seconds: elapsed,
+        Ok(LearnRow {
+            step: step + 1,
+            seconds: 0.0,
             loss,
             within_2px: f64::NAN,
             mean_error: f64::NAN,
-        };
-        if step % config.eval_every == 0 || step == config.steps {
-            score = run.score(&held);
-            (row.within_2px, row.mean_error) = (score.within_2px, score.mean_error);
-        }
-        log.push(row)?;
-        progress.advance(1);
-        progress.message(&format!("loss {loss:.3}, held-out within 2 px {:.3}", score.within_2px));
-        if step % config.checkpoint_every == 0 && step < stop {
-            save(&folder, &run, step, elapsed, &config_json, &log)?;
-        }
+        })
     }
-    let seconds = started.elapsed().as_secs_f64();
-    if score.within_2px.is_nan() {
-        score = run.score(&held);
-    }
-    save(&folder, &run, step, elapsed, &config_json, &log)?;
-    Ok(LearnSummary {
-        steps: step,
-        finished: step >= config.steps,
-        seconds: elapsed,
-        pairs_per_second: ((step - first) as usize * config.batch) as f64 / seconds.max(1e-9),
-        held_out: score,
-        untrained,
-        parameters: run.net().num_params(),
-    })
-}
 
-fn save(folder: &NetFolder, run: &Trainer, step: u64, elapsed: f64, config: &serde_json::Value, log: &TrainLog<LearnRow>) -> Result<()> {
-    let weights = weights_bytes(run.net(), &folder.0)?;
-    let optimizer = optimizer_bytes(&run.optimizer, &folder.0)?;
-    let state = CheckpointState {
-        step,
-        elapsed,
-        config: config.clone(),
-    };
-    checkpoint::save(&folder.0, &state, &[(WEIGHTS, &weights), (OPTIMIZER, &optimizer)])?;
-    write_atomic(&folder.weights(), &weights)?;
-    let rows = log.rows();
-    let steps: Vec<u64> = rows.iter().map(|r| r.step).collect();
-    let curve = |name, colour, value: fn(&LearnRow) -> f64| Curve {
-        name,
-        colour,
-        values: rows.iter().map(value).collect(),
-    };
-    plot_curves(
-        &steps,
-        &[
-            curve("loss", [0.0, 0.0, 0.0], |r| r.loss),
-            curve("held-out within 2 px", [0.1, 0.35, 0.9], |r| r.within_2px),
-            curve("held-out mean error / 10", [0.85, 0.1, 0.1], |r| r.mean_error / 10.0),
-        ],
-    )
-    .save_png(&folder.plot())
+    fn non_finite(&self, row: &LearnRow) -> Option<String> {
+        (!row.loss.is_finite()).then(|| format!("InfoNCE {}", row.loss))
+    }
+
+    fn held_out(&mut self, _step: u64, row: &mut LearnRow) -> Result<()> {
+        self.score = self.trainer.score(&self.held);
+        (row.within_2px, row.mean_error) = (self.score.within_2px, self.score.mean_error);
+        Ok(())
+    }
+
+    fn message(&self, row: &LearnRow) -> String {
+        format!("loss {:.3}, held-out within 2 px {:.3}", row.loss, self.score.within_2px)
+    }
+
+    fn state_files(&self, dir: &Path) -> Result<Vec<(&'static str, Vec<u8>)>> {
+        Ok(vec![
+            (WEIGHTS, weights_bytes(self.trainer.net(), dir)?),
+            (OPTIMIZER, optimizer_bytes(&self.trainer.optimizer, dir)?),
+        ])
+    }
+
+    fn restore(&mut self, checkpoint: &Checkpoint) -> Result<()> {
+        self.trainer.restore(checkpoint)
+    }
+
+    fn plot(&self, rows: &[LearnRow]) -> Picture {
+        plot_rows(
+            rows,
+            &[
+                ("loss", [0.0, 0.0, 0.0], &|r| r.loss),
+                ("held-out within 2 px", [0.1, 0.35, 0.9], &|r| r.within_2px),
+                ("held-out mean error / 10", [0.85, 0.1, 0.1], &|r| r.mean_error / 10.0),
+            ],
+        )
+    }
 }
 
 /// The network and optimiser under training: one [`Trainer::step`] is one optimiser step on a
@@ -552,11 +540,11 @@ impl Trainer {
         self.net.as_ref().expect("a network between steps")
     }
 
-    /// Optimiser step number `step` (from 0; it seeds the sampling) on `pairs`; returns the loss.
+    /// Optimiser step number `step` (from 0; it seeds the sampling) on `pairs`; returns the loss
+    /// (the harness stops a run whose loss is not finite).
     ///
     /// # Errors
-    /// [`Error::Diverged`] for a loss that is not finite; [`Error::Format`] if no pair has a
-    /// matched pixel.
+    /// [`Error::Format`] if no pair has a matched pixel.
     pub fn step(&mut self, step: u64, pairs: &[TrainingPair]) -> Result<f64> {
         let mut rng = Rng::new(self.config.seed).fork(step);
         let s = self.config.input_size;
@@ -611,13 +599,6 @@ impl Trainer {
             .collect();
         let loss = info_nce(gathered, &terms, self.config.temperature as f32)?;
         let value = scalar(&loss);
-        if !value.is_finite() {
-            return Err(Error::Diverged {
-                step: step + 1,
-                losses: format!("InfoNCE {value}"),
-                checkpoint: None,
-            });
-        }
         let net = self.net.take().expect("a network between steps");
         let grads = GradientsParams::from_grads(loss.backward(), &net);
         let c = &self.config;

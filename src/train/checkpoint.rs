@@ -24,6 +24,9 @@ pub const WEIGHTS: &str = "weights.bpk";
 /// A checkpoint's optimiser state.
 pub const OPTIMIZER: &str = "optimizer.bpk";
 const STATE: &str = "state.json";
+/// A config's key naming the run folder, never compared on resume: a moved run folder is the
+/// same run.
+pub const OUTPUT: &str = "output";
 
 /// What a checkpoint records besides the tensors.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -148,12 +151,13 @@ pub fn check_run(dir: &Path, previous: Option<&Checkpoint>, resume: bool) -> Res
 }
 
 /// Checks that a resumed run's `config` (as JSON) is its checkpoint's, but for the keys in
-/// `may_change`.
+/// `may_change` and [`OUTPUT`].
 ///
 /// # Errors
 /// [`Error::Resume`] naming the keys that differ.
 pub fn check_same_config(dir: &Path, checkpoint: &Checkpoint, config: &serde_json::Value, may_change: &[&str]) -> Result<()> {
-    let changed = changed_keys(&checkpoint.state.config, config, may_change);
+    let ignored: Vec<&str> = may_change.iter().copied().chain([OUTPUT]).collect();
+    let changed = changed_keys(&checkpoint.state.config, config, &ignored);
     if changed.is_empty() {
         return Ok(());
     }

@@ -254,6 +254,20 @@ fn default_test_fraction() -> f64 {
     0.3
 }
 
+/// Reads the TOML config file `path` as a `T` and checks it with `validate` (the appearance
+/// stage's and the parts network's configs, which hold no paths to resolve).
+///
+/// # Errors
+/// [`Error::Io`]/[`Error::Limit`] naming the file; [`Error::Format`] for TOML that does not
+/// parse or an unknown key; what `validate` reports (e.g. [`Error::Setting`] for a value out of
+/// range), about `path`.
+pub fn load_checked<T: serde::de::DeserializeOwned>(path: &Path, validate: impl FnOnce(&T) -> Result<()>) -> Result<T> {
+    let text = user_file::read_text(path, user_file::CONFIG)?;
+    let config: T = toml::from_str(&text).map_err(|e| Error::format(path, e.to_string()))?;
+    validate(&config).map_err(|e| e.with_path(path))?;
+    Ok(config)
+}
+
 impl TrainConfig {
     /// Reads `path`, resolves its relative paths against the file's folder (canonically, where
     /// they exist), and validates it.

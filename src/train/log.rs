@@ -11,35 +11,82 @@ use crate::picture::draw::{line, text};
 use crate::picture::Picture;
 use crate::user_file;
 
-/// The CSV header; [`LogRow`] writes the same columns.
-pub const HEADER: &str = "step,total,rec,arap,joints,area,sigma,seconds,held_out,vertex";
+/// Declares the row type of a training log and its [`CsvRow`] impl: `step` (steps done after
+/// the row's step, the first column) and the `f64` columns, each named in the CSV header by the
+/// string beside it, `seconds` among them. A log read back may lack the columns past
+/// `min_columns` (logs written before they were added): they read as NaN.
+macro_rules! log_row {
+    (
+        $(#[$meta:meta])*
+        pub struct $name:ident (min_columns = $min:literal) {
+            $(#[$step_doc:meta])*
+            step,
+            $($(#[$doc:meta])* $field:ident = $column:literal,)*
+        }
+    ) => {
+        $(#[$meta])*
+        #[derive(Clone, Copy, Debug, PartialEq)]
+        pub struct $name {
+            $(#[$step_doc])*
+            pub step: u64,
+            $($(#[$doc])* pub $field: f64,)*
+        }
 
-/// One step's numbers (weighted terms are not stored: the config holds the weights).
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct LogRow {
-    /// Steps done after this one.
-    pub step: u64,
-    /// Eq. 4's total.
-    pub total: f64,
-    /// L_rec (or masked).
-    pub rec: f64,
-    /// L_reg, unweighted.
-    pub arap: f64,
-    /// L_joints, unweighted.
-    pub joints: f64,
-    /// L_area, unweighted.
-    pub area: f64,
-    /// σ used.
-    pub sigma: f64,
-    /// Training seconds so far.
-    pub seconds: f64,
-    /// Eq. 4's total on the held-out frames after this step (NaN where not measured).
-    pub held_out: f64,
-    /// The sampled poses' vertex loss, unweighted (NaN without sampled poses).
-    pub vertex: f64,
+        impl $crate::train::log::CsvRow for $name {
+            const HEADER: &'static str = concat!("step" $(, ",", $column)*);
+            const MIN_COLUMNS: usize = $min;
+
+            fn step(&self) -> u64 {
+                self.step
+            }
+
+            fn set_seconds(&mut self, seconds: f64) {
+                self.seconds = seconds;
+            }
+
+            fn values(&self) -> Vec<f64> {
+                vec![self.step as f64 $(, self.$field)*]
+            }
+
+            fn from_values(values: &[f64]) -> Self {
+                let mut columns = values.iter().copied().skip(1);
+                $name {
+                    step: values.first().copied().unwrap_or(0.0) as u64,
+                    $($field: columns.next().unwrap_or(f64::NAN),)*
+                }
+            }
+        }
+    };
+}
+pub(crate) use log_row;
+
+log_row! {
+    /// One step's numbers (weighted terms are not stored: the config holds the weights).
+    pub struct LogRow (min_columns = 8) {
+        /// Steps done after this one.
+        step,
+        /// Eq. 4's total.
+        total = "total",
+        /// L_rec (or masked).
+        rec = "rec",
+        /// L_reg, unweighted.
+        arap = "arap",
+        /// L_joints, unweighted.
+        joints = "joints",
+        /// L_area, unweighted.
+        area = "area",
+        /// σ used.
+        sigma = "sigma",
+        /// Training seconds so far.
+        seconds = "seconds",
+        /// Eq. 4's total on the held-out frames after this step (NaN where not measured).
+        held_out = "held_out",
+        /// The sampled poses' vertex loss, unweighted (NaN without sampled poses).
+        vertex = "vertex",
+    }
 }
 
-/// A row of a training log: numbers in the order of its header.
+/// A row of a training log: numbers in the order of its header (declared by `log_row!`).
 pub trait CsvRow: Copy {
     /// The CSV header.
     const HEADER: &'static str;
@@ -47,49 +94,12 @@ pub trait CsvRow: Copy {
     const MIN_COLUMNS: usize;
     /// Steps done after this row's step.
     fn step(&self) -> u64;
+    /// Sets the training seconds so far (every training log has the column).
+    fn set_seconds(&mut self, seconds: f64);
     /// The row's values, one per header column.
     fn values(&self) -> Vec<f64>;
     /// The row from `MIN_COLUMNS` to all of the header's values (missing ones are NaN).
     fn from_values(values: &[f64]) -> Self;
-}
-
-impl CsvRow for LogRow {
-    const HEADER: &'static str = HEADER;
-    const MIN_COLUMNS: usize = 8;
-
-    fn step(&self) -> u64 {
-        self.step
-    }
-
-    fn values(&self) -> Vec<f64> {
-        vec![
-            self.step as f64,
-            self.total,
-            self.rec,
-            self.arap,
-            self.joints,
-            self.area,
-            self.sigma,
-            self.seconds,
-            self.held_out,
-            self.vertex,
-        ]
-    }
-
-    fn from_values(v: &[f64]) -> Self {
-        LogRow {
-            step: v[0] as u64,
-            total: v[1],
-            rec: v[2],
-            arap: v[3],
-            joints: v[4],
-            area: v[5],
-            sigma: v[6],
-            seconds: v[7],
-            held_out: v.get(8).copied().unwrap_or(f64::NAN),
-            vertex: v.get(9).copied().unwrap_or(f64::NAN),
-        }
-    }
 }
 
 /// Appends rows to a log CSV (`log.csv`); on resume, rows past the checkpoint are dropped first
@@ -174,39 +184,38 @@ pub struct Curve<'a> {
     pub values: Vec<f64>,
 }
 
-/// The loss curves (total, rec, the weighted regularisers, and the held-out frames' total where
-/// measured) on a log-scale y axis.
-pub fn plot(rows: &[LogRow], weights: [f64; 3]) -> Picture {
-    // Name, colour, and the plotted value of each series (regularisers weighted, as summed).
-    let series: [(&str, [f32; 3]); 6] = [
-        ("total", [0.0, 0.0, 0.0]),
-        ("rec", [0.1, 0.35, 0.9]),
-        ("arap", [0.95, 0.5, 0.0]),
-        ("joints", [0.1, 0.65, 0.2]),
-        ("area", [0.7, 0.1, 0.6]),
-        ("held-out", [0.85, 0.1, 0.1]),
-    ];
-    let values = |r: &LogRow| {
-        [
-            r.total,
-            r.rec,
-            r.arap * weights[0],
-            r.joints * weights[1],
-            r.area * weights[2],
-            r.held_out,
-        ]
-    };
+/// One line of a log's plot: its legend's label, its colour (RGB in [0, 1]) and its value in
+/// each row (NaN where not measured).
+pub type Series<'a, R> = (&'a str, [f32; 3], &'a dyn Fn(&R) -> f64);
+
+/// The `series` of a log's `rows` over their steps, as [`plot_curves`] draws them.
+pub fn plot_rows<R: CsvRow>(rows: &[R], series: &[Series<R>]) -> Picture {
     let curves: Vec<Curve> = series
         .iter()
-        .enumerate()
-        .map(|(k, &(name, colour))| Curve {
+        .map(|&(name, colour, value)| Curve {
             name,
             colour,
-            values: rows.iter().map(|r| values(r)[k]).collect(),
+            values: rows.iter().map(value).collect(),
         })
         .collect();
-    let steps: Vec<u64> = rows.iter().map(|r| r.step).collect();
+    let steps: Vec<u64> = rows.iter().map(CsvRow::step).collect();
     plot_curves(&steps, &curves)
+}
+
+/// The loss curves (total, rec, the regularisers weighted by `weights` (arap, joints, area) as
+/// summed, and the held-out frames' total where measured) on a log-scale y axis.
+pub fn plot(rows: &[LogRow], weights: [f64; 3]) -> Picture {
+    plot_rows(
+        rows,
+        &[
+            ("total", [0.0, 0.0, 0.0], &|r| r.total),
+            ("rec", [0.1, 0.35, 0.9], &|r| r.rec),
+            ("arap", [0.95, 0.5, 0.0], &|r| r.arap * weights[0]),
+            ("joints", [0.1, 0.65, 0.2], &|r| r.joints * weights[1]),
+            ("area", [0.7, 0.1, 0.6], &|r| r.area * weights[2]),
+            ("held-out", [0.85, 0.1, 0.1], &|r| r.held_out),
+        ],
+    )
 }
 
 /// Curves over steps (`steps[i]` is the step of each curve's `values[i]`) on a log-scale y axis,

@@ -1,10 +1,11 @@
 //! Training the deformation network (neural-puppet.md §3.2): the config, the seeded split,
-//! the fused Adam, checkpoints, logs, and the loop that lowers [`crate::objective`] over the
-//! network's weights.
+//! the fused Adam, checkpoints, logs, the one harness every trainer runs in ([`harness`]), and
+//! the deformation network's steps, which lower [`crate::objective`] over its weights.
 
 pub mod augment;
 pub mod checkpoint;
 pub mod config;
+pub mod harness;
 pub mod log;
 pub mod optim;
 pub mod sampled;

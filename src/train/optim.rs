@@ -211,6 +211,42 @@ impl Optimizer for FusedAdam {
     }
 }
 
+/// Adam over a flat vector of unknowns in plain slices (fitting's latents and vertices): the
+/// update [`FusedAdam`] applies to each weight tensor, with its moments kept here.
+#[derive(Clone, Debug)]
+pub struct FlatAdam {
+    settings: AdamSettings,
+    m: Vec<f32>,
+    v: Vec<f32>,
+    time: usize,
+}
+
+impl FlatAdam {
+    /// Adam with `settings` over `n` unknowns, its moments zero.
+    pub fn new(settings: AdamSettings, n: usize) -> Self {
+        FlatAdam {
+            settings,
+            m: vec![0.0; n],
+            v: vec![0.0; n],
+            time: 0,
+        }
+    }
+
+    /// One step of size `lr` on the unknowns `x` down their gradient `g`.
+    ///
+    /// # Panics
+    /// If `x` or `g` is not as long as the `n` it was made for (a caller's bug).
+    pub fn step(&mut self, x: &mut [f32], g: &[f32], lr: f64) {
+        assert!(
+            x.len() == self.m.len() && g.len() == self.m.len(),
+            "FlatAdam: slices of another length"
+        );
+        self.time += 1;
+        let k = Coefficients::new(&self.settings, lr, self.time);
+        adam_update(x, &mut self.m, &mut self.v, g, &k);
+    }
+}
+
 /// The per-step scalars of the update, in Burn's f32 arithmetic (`AdaptiveMomentum::transform`).
 #[derive(Clone, Copy, Debug)]
 struct Coefficients {

@@ -1,7 +1,7 @@
 //! The training loop of neural-puppet.md §3.2: encode a batch of frames, decode the template's
 //! vertices, render them with the soft rasterizer, and minimise eq. 4 (or its masked variant)
-//! with Adam; seeded, logged (with the held-out frames' loss), checkpointed atomically,
-//! resumable, and stopped on NaN.
+//! with Adam; seeded, and run by the training harness ([`super::harness`]: logged with the
+//! held-out frames' loss, checkpointed atomically, resumable, stopped on NaN).
 //!
 //! Nothing is written until everything that can be checked has been: a fresh run refuses a folder
 //! holding anything puppet did not write; a resume refuses a changed config (only `train.steps`
@@ -9,20 +9,20 @@
 //! every file of the model folder as it was.
 
 use std::path::Path;
-use std::time::Instant;
 
 use burn::module::Module;
 use burn::optim::{GradientsParams, ModuleOptimizer};
 use burn::tensor::{Device, Tensor, TensorData};
 use serde::{Deserialize, Serialize};
 
-use super::checkpoint::{self, changed_keys, Checkpoint, CheckpointState};
+use super::checkpoint::{self, Checkpoint};
 use super::config::{canonical, TrainConfig};
-use super::log::{plot, LogRow, TrainLog};
+use super::harness::{Plan, Run, RunFolder};
+use super::log::{plot, LogRow};
 use super::optim::{adam, optimizer_bytes, optimizer_from_bytes};
 use super::sampled::PoseSampler;
 use super::split::{shuffled, split};
-use crate::atomic_file::{record, write_atomic, Outputs};
+use crate::atomic_file::write_atomic;
 use crate::backend::scalar;
 use crate::error::{Context, Error, Result};
 use crate::model::bundle::{load_weights, max_weights_bytes, weights_bytes};
@@ -141,16 +141,17 @@ pub fn load_or_build_puppet(path: &Path, limits: &ImageLimits, rig: bool, progre
 /// Bad inputs name their file (puppet, frames of another size, a split without test frames);
 /// [`Error::RunExists`] for a folder with a checkpoint when not resuming; [`Error::Resume`] for a
 /// resume that does not match the checkpoint; [`Error::WouldOverwrite`] for a folder holding
-/// files puppet did not write; [`Error::Diverged`] when the loss is not finite. None of these
-/// changes a file.
+/// files puppet did not write; [`Error::InUse`] while another process trains into the folder;
+/// [`Error::Diverged`] when the loss is not finite. None of these changes a file.
 pub fn train(config: &TrainConfig, options: &TrainOptions, progress: &dyn Progress) -> Result<TrainSummary> {
     let folder = ModelFolder::new(&config.output);
     let out = folder.dir();
-    let previous = checkpoint::latest(out)?.map(|dir| checkpoint::load(&dir)).transpose()?;
-    checkpoint::check_run(out, previous.as_ref(), options.resume)?;
-    if previous.is_none() {
-        Outputs::new(options.force).claim_folder(out)?;
-    }
+    // Through text, as the checkpoint stores it: an f32 (train.adam.beta_2 = 0.999) read back
+    // from text is not the f32's exact value widened to f64.
+    let config_json: serde_json::Value = serde_json::to_string(config)
+        .and_then(|text| serde_json::from_str(&text))
+        .map_err(|e| Error::format(folder.config(), e.to_string()))?;
+    let run = RunFolder::claim(out, config_json.clone(), &["train.steps"], options.resume, options.force)?;
 
     let image_limits = ImageLimits {
         max_pixels: config.limits.max_image_pixels,
@@ -190,18 +191,11 @@ pub fn train(config: &TrainConfig, options: &TrainOptions, progress: &dyn Progre
     let model = Model::new(net_config, puppet, &device)?;
     let pick = |idx: &[usize]| idx.iter().map(|&i| &frames.frames[i]).collect::<Vec<_>>();
     let mut trainer = Trainer::new(config, model, &pick(&train_idx), &pick(&test_idx), &device)?;
-    // Through text, as the checkpoint stores it: an f32 (train.adam.beta_2 = 0.999) read back
-    // from text is not the f32's exact value widened to f64.
-    let config_json: serde_json::Value = serde_json::to_string(config)
-        .and_then(|text| serde_json::from_str(&text))
-        .map_err(|e| Error::format(folder.config(), e.to_string()))?;
-    let (mut step, mut elapsed) = (0u64, 0f64);
-    match &previous {
+    match run.previous() {
         Some(c) => {
             // Everything is checked before anything is written.
-            check_resume(&folder, c, &config_json, &record, &trainer.model.puppet)?;
-            trainer.restore(c)?;
-            (step, elapsed) = (c.state.step, c.state.elapsed);
+            check_resume(&folder, &record, &trainer.model.puppet)?;
+            run.restore(&mut trainer)?;
             if c.state.config.get("train").and_then(|t| t.get("steps")) != config_json.get("train").and_then(|t| t.get("steps")) {
                 write_config(&folder, config)?;
             }
@@ -214,100 +208,36 @@ pub fn train(config: &TrainConfig, options: &TrainOptions, progress: &dyn Progre
             if let Some(sheet) = trainer.sampled_sheet()? {
                 sheet.save_png(&folder.sampled())?;
             }
-            record_folder(out)?;
         }
     }
-    let mut log = TrainLog::open(&folder.log(), step)?;
-    let weights = [
-        config.loss.arap,
-        config.loss.joints,
-        if config.loss.masked { config.loss.area } else { 0.0 },
-    ];
-
-    let stop = options.pause_at.map_or(config.train.steps, |p| p.min(config.train.steps));
-    progress.stage("training", config.train.steps);
-    progress.resume(step);
-    let started = Instant::now();
-    let first_step = step;
-    let mut last = None;
-    while step < stop {
-        let t0 = Instant::now();
-        let (losses, terms) = trainer.losses(step)?;
-        if !losses.total.is_finite() {
-            return Err(Error::Diverged {
-                step: step + 1,
-                losses: format!(
-                    "total {}, rec {}, arap {}, joints {}",
-                    losses.total, losses.rec, losses.arap, losses.joints
-                ),
-                checkpoint: checkpoint::latest(out)?,
-            });
-        }
-        // The weights that produced this finite loss are checkpointed before they change (the
-        // untrained ones too, so a run that diverges at once still has one to resume from).
-        if (step > first_step || step == 0) && step % config.train.checkpoint_every == 0 {
-            save_checkpoint(&folder, &trainer, step, elapsed, &config_json, &log, weights)?;
-        }
-        trainer.update(terms, step);
-        step += 1;
-        elapsed += t0.elapsed().as_secs_f64();
-        let held_out = if step % config.train.eval_every == 0 || step == config.train.steps {
-            trainer.held_out_loss(step - 1)?
-        } else {
-            f64::NAN
-        };
-        let row = LogRow {
-            step,
-            seconds: elapsed,
-            held_out,
-            ..losses
-        };
-        log.push(row)?;
-        last = Some(row);
-        progress.advance(1);
-        let vertex = if row.vertex.is_nan() {
-            String::new()
-        } else {
-            format!(", sampled poses' vertices {:.2e}", row.vertex)
-        };
-        progress.message(&format!(
-            "loss {:.3e} (rec {:.3e}, arap {:.2e}, joints {:.2e}{vertex}) σ {:.2}",
-            row.total, row.rec, row.arap, row.joints, row.sigma
-        ));
-    }
-    let seconds = started.elapsed().as_secs_f64();
-    let finished = step >= config.train.steps;
-    save_checkpoint(&folder, &trainer, step, elapsed, &config_json, &log, weights)?;
+    let plan = Plan {
+        stage: "training",
+        steps: config.train.steps,
+        pause_at: options.pause_at,
+        checkpoint_every: config.train.checkpoint_every,
+        eval_every: config.train.eval_every,
+        per_step: batch,
+        log: folder.log(),
+        plot: folder.plot(),
+    };
+    let summary = run.train(&mut trainer, &plan, progress)?;
     Ok(TrainSummary {
-        steps: step,
-        finished,
-        last,
-        images_per_second: ((step - first_step) as usize * batch) as f64 / seconds.max(1e-9),
+        steps: summary.steps,
+        finished: summary.finished,
+        last: summary.last,
+        images_per_second: summary.per_second,
         split: (train_idx.len(), test_idx.len()),
         batch,
     })
 }
 
-/// Refuses a resume whose config (but `output` and `train.steps`), split or puppet differs from
-/// what the folder was trained with.
-fn check_resume(
-    folder: &ModelFolder,
-    checkpoint: &Checkpoint,
-    config: &serde_json::Value,
-    split: &SplitRecord,
-    puppet: &Puppet,
-) -> Result<()> {
+/// Refuses a resume whose split or puppet differs from what the folder was trained with (the
+/// config was checked when the folder was claimed).
+fn check_resume(folder: &ModelFolder, split: &SplitRecord, puppet: &Puppet) -> Result<()> {
     let refuse = |problem: String| Error::Resume {
         path: folder.dir().to_path_buf(),
         problem,
     };
-    let changed = changed_keys(&checkpoint.state.config, config, &["output", "train.steps"]);
-    if !changed.is_empty() {
-        return Err(refuse(format!(
-            "the config differs from the checkpoint's in {} (only train.steps may change)",
-            changed.join(", ")
-        )));
-    }
     match SplitRecord::load(folder.dir())? {
         None => return Err(refuse(format!("{} is missing", ModelFolder::SPLIT))),
         Some(stored) if stored.train != split.train || stored.test != split.test => {
@@ -353,43 +283,11 @@ fn write_config(folder: &ModelFolder, config: &TrainConfig) -> Result<()> {
     write_atomic(&folder.config(), text.as_bytes())
 }
 
-/// Records the model folder as puppet's in its parent's manifest (so a later `--force`-less run
-/// may replace it).
-fn record_folder(dir: &Path) -> Result<()> {
-    let absolute = std::path::absolute(dir).map_err(|e| Error::io(dir, e))?;
-    record(&absolute)
-}
-
-fn save_checkpoint(
-    folder: &ModelFolder,
-    trainer: &Trainer,
-    step: u64,
-    elapsed: f64,
-    config: &serde_json::Value,
-    log: &TrainLog,
-    weights: [f64; 3],
-) -> Result<()> {
-    let (net, optim) = trainer.state_bytes(&folder.checkpoints())?;
-    let state = CheckpointState {
-        step,
-        elapsed,
-        config: config.clone(),
-    };
-    checkpoint::save(
-        folder.dir(),
-        &state,
-        &[(checkpoint::WEIGHTS, &net), (checkpoint::OPTIMIZER, &optim)],
-    )?;
-    // The model folder always holds the newest weights, so `fit`/`eval` work during training.
-    write_atomic(&folder.weights(), &net)?;
-    plot(log.rows(), weights).save_png(&folder.plot())
-}
-
 /// Poses on the sheet of sampled poses (two rows).
 const SHEET_POSES: usize = 12;
 
 /// One model under training: the network, its optimiser, the objective, and the training and
-/// held-out frames as network inputs. [`Trainer::step`] is one optimiser step.
+/// held-out frames as network inputs. Its [`Run::step`] is one optimiser step.
 pub struct Trainer {
     /// The model being trained.
     pub model: Model,
@@ -448,30 +346,6 @@ impl Trainer {
             .map(|_| render_crisp(puppet, &sampler.pose(&self.model, None, &mut rng), puppet.width, puppet.height))
             .collect::<Result<Vec<_>>>()?;
         Ok(Some(contact_sheet(&renders.iter().collect::<Vec<_>>(), SHEET_POSES / 2)))
-    }
-
-    /// Loads a checkpoint's weights and optimiser state.
-    ///
-    /// # Errors
-    /// [`Error::Format`] naming the file that does not fit; [`Error::Io`] or [`Error::Limit`]
-    /// naming one that cannot be read or is larger than this network's weights can be (the
-    /// optimiser state: twice that, Adam's two moments).
-    pub fn restore(&mut self, checkpoint: &Checkpoint) -> Result<()> {
-        let dir = &checkpoint.dir;
-        let limit = max_weights_bytes(&self.model.net);
-        let weights = checkpoint.file(checkpoint::WEIGHTS, limit)?;
-        let optimizer = checkpoint.file(checkpoint::OPTIMIZER, 2 * limit)?;
-        self.model.net = load_weights(self.model.net.clone(), weights, &dir.join(checkpoint::WEIGHTS))?;
-        self.optimizer = optimizer_from_bytes(&self.optimizer, optimizer, &dir.join(checkpoint::OPTIMIZER))?;
-        Ok(())
-    }
-
-    /// The network's and the optimiser's state as burnpack bytes.
-    ///
-    /// # Errors
-    /// [`Error::Format`] naming `dir` if Burn cannot encode them.
-    pub fn state_bytes(&self, dir: &Path) -> Result<(Vec<u8>, Vec<u8>)> {
-        Ok((weights_bytes(&self.model.net, dir)?, optimizer_bytes(&self.optimizer, dir)?))
     }
 
     fn images(&self, planes: &[&Vec<f32>], device: &Device) -> Tensor<4> {
@@ -598,15 +472,63 @@ impl Trainer {
         let net = self.model.net.take();
         self.model.net = self.optimizer.step(self.config.learning_rate_at(step), net, grads);
     }
+}
+
+impl Run for Trainer {
+    type Row = LogRow;
+    const NEWEST: &'static [&'static str] = &[checkpoint::WEIGHTS];
 
     /// One whole optimiser step (forward, backward, update); returns its losses.
-    ///
-    /// # Errors
-    /// As [`Trainer::losses`].
-    pub fn step(&mut self, step: u64) -> Result<LogRow> {
+    fn step(&mut self, step: u64) -> Result<LogRow> {
         let (row, terms) = self.losses(step)?;
         self.update(terms, step);
         Ok(row)
+    }
+
+    fn non_finite(&self, row: &LogRow) -> Option<String> {
+        (!row.total.is_finite()).then(|| format!("total {}, rec {}, arap {}, joints {}", row.total, row.rec, row.arap, row.joints))
+    }
+
+    fn held_out(&mut self, step: u64, row: &mut LogRow) -> Result<()> {
+        row.held_out = self.held_out_loss(step)?;
+        Ok(())
+    }
+
+    fn message(&self, row: &LogRow) -> String {
+        let vertex = if row.vertex.is_nan() {
+            String::new()
+        } else {
+            format!(", sampled poses' vertices {:.2e}", row.vertex)
+        };
+        format!(
+            "loss {:.3e} (rec {:.3e}, arap {:.2e}, joints {:.2e}{vertex}) σ {:.2}",
+            row.total, row.rec, row.arap, row.joints, row.sigma
+        )
+    }
+
+    fn state_files(&self, dir: &Path) -> Result<Vec<(&'static str, Vec<u8>)>> {
+        Ok(vec![
+            (checkpoint::WEIGHTS, weights_bytes(&self.model.net, dir)?),
+            (checkpoint::OPTIMIZER, optimizer_bytes(&self.optimizer, dir)?),
+        ])
+    }
+
+    /// Loads a checkpoint's weights and optimiser state; the optimiser's file may be twice as
+    /// large as the largest weights of this network (Adam's two moments).
+    fn restore(&mut self, checkpoint: &Checkpoint) -> Result<()> {
+        let dir = &checkpoint.dir;
+        let limit = max_weights_bytes(&self.model.net);
+        let weights = checkpoint.file(checkpoint::WEIGHTS, limit)?;
+        let optimizer = checkpoint.file(checkpoint::OPTIMIZER, 2 * limit)?;
+        self.model.net = load_weights(self.model.net.clone(), weights, &dir.join(checkpoint::WEIGHTS))?;
+        self.optimizer = optimizer_from_bytes(&self.optimizer, optimizer, &dir.join(checkpoint::OPTIMIZER))?;
+        Ok(())
+    }
+
+    /// The loss curves, the regularisers weighted as the total sums them.
+    fn plot(&self, rows: &[LogRow]) -> Picture {
+        let loss = &self.config.loss;
+        plot(rows, [loss.arap, loss.joints, if loss.masked { loss.area } else { 0.0 }])
     }
 }
 
