@@ -41,6 +41,7 @@ pub mod metrics;
 // Layer 2, data.
 pub mod puppet;
 // Layer 3, the geometry of a character.
+pub mod posing;
 pub mod render;
 pub mod rig;
 // Layer 4, learning.
@@ -77,6 +78,7 @@ pub use puppet::sequence::Frames;
 pub use puppet::Puppet;
 pub use render::{render_crisp, Background};
 pub use rig::{build_rigged, RigOptions};
+pub use posing::{EngineSettings, PoseEngine, PosedFrame};
 pub use model::{Model, ModelFolder};
 pub use train::{train, TrainConfig, TrainOptions, TrainSummary};
 pub use fit::{fit, FitOptions};
