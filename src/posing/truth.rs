@@ -104,7 +104,7 @@ pub fn label_colour(l: usize) -> [f32; 3] {
         4 => [x, 0.0, 1.0],
         _ => [1.0, 0.0, x],
     };
-    let v = if l % 2 == 0 { 1.0 } else { 0.6 };
+    let v = if l.is_multiple_of(2) { 1.0 } else { 0.6 };
     [r * v, g * v, b * v]
 }
 

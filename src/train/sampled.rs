@@ -3,7 +3,8 @@
 //! a sampled pose — every limb turned about its joint, root first, then the whole figure scaled
 //! and shifted — and ask for that pose's vertices back (a vertex loss beside eq. 4's image
 //! loss). Nine drawn frames show few poses; sampled ones fill the manifold between and around
-//! them. Not in neural-puppet.md.
+//! them. The turns and moves are the posing engine's (`posing::sample`), so these poses and the
+//! engine's agree. Not in neural-puppet.md.
 
 use serde::{Deserialize, Serialize};
 
