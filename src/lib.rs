@@ -41,6 +41,7 @@ pub mod metrics;
 // Layer 2, data.
 pub mod puppet;
 // Layer 3, the geometry of a character.
+pub mod posing;
 pub mod render;
 pub mod rig;
 // Layer 4, learning.
@@ -66,7 +67,8 @@ pub(crate) mod test_util;
 
 pub use error::{Error, Result};
 
-// The crate root: the types and calls of each stage of the pipeline, in its order.
+// The crate root: the main types and calls of each stage (docs/architecture.md lists them by
+// stage); everything else stays in its module.
 pub use appearance::{train_appearance, AppearanceConfig, AppearanceStage};
 pub use atomic_file::Outputs;
 pub use edit::manifold_path::Waypoints;
@@ -76,6 +78,7 @@ pub use fit::{fit, FitOptions};
 pub use model::{Model, ModelFolder};
 pub use parts::{find_parts, Parts, PartsOptions};
 pub use picture::Picture;
+pub use posing::{EngineSettings, PoseEngine, PosedFrame};
 pub use progress::{Progress, Silent};
 pub use puppet::artwork::load as load_artwork;
 pub use puppet::build::{build, BuildOptions};

@@ -13,6 +13,7 @@ mod cli;
 mod edit;
 mod formats;
 mod parts;
+mod prior;
 mod regression;
 mod render;
 mod synth;

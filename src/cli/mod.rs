@@ -23,6 +23,7 @@ mod inbetween;
 mod info;
 mod parts;
 mod pose;
+mod prior;
 mod render;
 mod rig;
 mod serve;
@@ -90,6 +91,7 @@ enum Command {
     Info(info::InfoArgs),
     Parts(parts::PartsArgs),
     Pose(pose::PoseArgs),
+    Prior(prior::PriorArgs),
     Render(render::RenderArgs),
     Rig(rig::RigArgs),
     Serve(serve::ServeArgs),
@@ -123,6 +125,7 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
         Command::Info(args) => info::run(args, s),
         Command::Parts(args) => parts::run(args, s),
         Command::Pose(args) => pose::run(args, s),
+        Command::Prior(args) => prior::run(args, s),
         Command::Render(args) => render::run(args, s),
         Command::Rig(args) => rig::run(args, s),
         Command::Serve(args) => serve::run(args, s),
@@ -202,6 +205,7 @@ mod tests {
             "info",
             "parts",
             "pose",
+            "prior",
             "render",
             "rig",
             "serve",

@@ -3,12 +3,14 @@
 //! a sampled pose — every limb turned about its joint, root first, then the whole figure scaled
 //! and shifted — and ask for that pose's vertices back (a vertex loss beside eq. 4's image
 //! loss). Nine drawn frames show few poses; sampled ones fill the manifold between and around
-//! them. Not in neural-puppet.md.
+//! them. The turns and moves are the posing engine's (`posing::sample`), so these poses and the
+//! engine's agree. Not in neural-puppet.md.
 
 use serde::{Deserialize, Serialize};
 
 use crate::error::{Error, Result};
 use crate::model::Model;
+use crate::posing::sample::{scale_and_shift, turn_limbs};
 use crate::puppet::limbs::{limbs, Limb};
 use crate::render::render_crisp;
 use crate::rng::Rng;
@@ -148,19 +150,8 @@ impl PoseSampler {
     pub fn pose(&self, model: &Model, base: Option<&[[f32; 2]]>, rng: &mut Rng) -> Vec<[f32; 2]> {
         let s = &self.settings;
         let mut pose = base.map_or_else(|| model.puppet.rest_vertices(), <[_]>::to_vec);
-        for limb in &self.limbs {
-            limb.turn(&mut pose, rng.range(-s.max_degrees, s.max_degrees).to_radians());
-        }
-        let (w, h) = (model.puppet.width as f32, model.puppet.height as f32);
-        let scale = 1.0 + rng.range(-s.scale, s.scale);
-        let shift = [rng.range(-s.shift, s.shift) * w, rng.range(-s.shift, s.shift) * h];
-        let centre = [w / 2.0, h / 2.0];
-        for p in &mut pose {
-            *p = [
-                centre[0] + (p[0] - centre[0]) * scale + shift[0],
-                centre[1] + (p[1] - centre[1]) * scale + shift[1],
-            ];
-        }
+        turn_limbs(&self.limbs, &mut pose, s.max_degrees, rng);
+        scale_and_shift(&mut pose, model.puppet.width, model.puppet.height, s.scale, s.shift, rng);
         if let Some(map) = model.expansion.rig_map() {
             map.apply(&mut pose);
         }
