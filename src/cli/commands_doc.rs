@@ -62,9 +62,12 @@ fn commands_md_is_the_clis_help() {
         std::fs::write(&path, &want).unwrap();
     }
     let have = std::fs::read_to_string(&path).unwrap_or_default();
+    let first_difference = have.lines().zip(want.lines()).position(|(a, b)| a != b);
     assert!(
         have == want,
-        "{PAGE} is not the CLI's help: run `PUPPET_WRITE_DOCS=1 cargo test --release commands_md` and commit it"
+        "{PAGE} is not the CLI's help (first difference at line {}): run \
+         `PUPPET_WRITE_DOCS=1 cargo test --release commands_md` and commit it",
+        first_difference.map_or_else(|| "past the shorter's end".to_string(), |k| (k + 1).to_string())
     );
 }
 
