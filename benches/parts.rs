@@ -22,7 +22,7 @@
 
 use criterion::{criterion_group, criterion_main, Criterion};
 use puppet::parts::deform::{deform_parts, BendOptions};
-use puppet::parts::learn::{LearnConfig, PairSource, TrainedNet, Trainer};
+use puppet::parts::learn::{CorrespondenceTrainer, LearnConfig, PairSource, TrainedNet};
 use puppet::parts::matching::network_correspondences;
 use puppet::parts::superpixels::slic;
 use puppet::parts::{find_parts, PartsOptions};
@@ -76,7 +76,7 @@ fn parts(c: &mut Criterion) {
         })
     });
     let pairs: Vec<_> = (0..config.batch as u64).map(|k| source.pair(k).expect("a pair")).collect();
-    let mut trainer = Trainer::new(&config, &puppet::backend::train_device());
+    let mut trainer = CorrespondenceTrainer::new(&config, &puppet::backend::train_device());
     let mut step = 0;
     group.bench_function("train_step/4x2x128", |b| {
         b.iter(|| {

@@ -378,7 +378,7 @@ pub fn train_correspondence(
         .into_par_iter()
         .map(|i| held_out.pair(i))
         .collect::<Result<_>>()?;
-    let trainer = Trainer::new(config, &crate::backend::train_device());
+    let trainer = CorrespondenceTrainer::new(config, &crate::backend::train_device());
     let untrained = trainer.score(&held);
     let plan = Plan {
         stage: "correspondence network",
@@ -428,7 +428,7 @@ pub fn train_correspondence(
 /// A correspondence network's training as the harness runs it: the trainer, where its pairs
 /// come from, and the held-out pairs with their newest score.
 struct Learning<'a> {
-    trainer: Trainer,
+    trainer: CorrespondenceTrainer,
     train: &'a dyn PairSource,
     held: Vec<TrainingPair>,
     /// The next step's pairs (its number and them), made while the step before trained.
@@ -514,9 +514,10 @@ impl Run for Learning<'_> {
     }
 }
 
-/// The network and optimiser under training: one [`Trainer::step`] is one optimiser step on a
-/// batch of pairs (what `benches/parts.rs` times).
-pub struct Trainer {
+/// The correspondence network and its optimiser under training: one
+/// [`CorrespondenceTrainer::step`] is one optimiser step on a batch of pairs (what
+/// `benches/parts.rs` times).
+pub struct CorrespondenceTrainer {
     /// Always `Some` between steps (taken so the optimiser holds the only reference).
     net: Option<CorrespondenceNet>,
     optimizer: ModuleOptimizer,
@@ -524,11 +525,11 @@ pub struct Trainer {
     device: Device,
 }
 
-impl Trainer {
+impl CorrespondenceTrainer {
     /// A fresh network of `config` (seeded) and its optimiser, on the training `device`.
     pub fn new(config: &LearnConfig, device: &Device) -> Self {
         device.seed(config.seed);
-        Trainer {
+        CorrespondenceTrainer {
             net: Some(config.net().init(device)),
             optimizer: adam(&config.adam),
             config: config.clone(),
