@@ -11,17 +11,15 @@
 //! of eq. 3 — the training losses [`arap_loss`] and [`joint_loss`], in the training's units
 //! (`crate::train::config::LossWeights`: normalised device coordinates of the letterboxed S×S
 //! working square), so the paper's α1 = 25, α2 = 50 weigh them as in training. L_user is in
-//! working pixels — the user clicks pixels. In NDC as well, a 20 px drag cost (20/64)² ≈ 0.1
-//! against α1·L_reg ≈ 0.3 of the fitted pose's own ARAP energy (measured on
-//! configs/edit-walk-23.toml's model, 2026-11-22): the regularisers pulled towards the rest
-//! pose and 5 steps left the pin 17.0 of 17.9 px away; in pixels, 5 steps bring it to 0.8 px
-//! and the body follows. Pins are given and results returned in frame pixels.
+//! working pixels — the user clicks pixels: in NDC as well, a drag costs so little beside the
+//! fitted pose's own ARAP energy that the regularisers pull the pose back towards the rest and
+//! the pin barely moves (docs/results.md "Drag units and step size"). Pins are given and results
+//! returned in frame pixels.
 //!
 //! **Step size.** The paper's fixed η = 3·10⁻⁴ depends on how strongly its decoder reacts to
-//! z; on ours a fixed η either barely moves the pin or diverges (measured on a checkpoint of
-//! configs/edit-walk-23.toml: η = 1 left L_deform unchanged to 4 digits, η = 30 blew it up to
-//! 10⁶, because ARAP's curvature in z dwarfs L_user's). So each step of eq. 9 starts from the
-//! current η and backtracks: the step is taken only if it lowers L_deform, η then doubles;
+//! z; on ours a fixed η either barely moves the pin or diverges, because ARAP's curvature in z
+//! dwarfs L_user's (docs/results.md "Drag units and step size"). So each step of eq. 9 starts
+//! from the current η and backtracks: the step is taken only if it lowers L_deform, η then doubles;
 //! otherwise η is quartered and the step retried. `PoseOptions::eta` is the first η.
 //!
 //! [`PoseEditor`] keeps the encoded frame, the fitted pose and the pins' bindings, so an
