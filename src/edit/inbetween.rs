@@ -47,7 +47,8 @@ use crate::render::render_crisp;
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub enum InbetweenPath {
     /// As-rigid-as-possible shape interpolation between consecutive corners of the path: the
-    /// default, best at every gap on the synthetic walks (docs/results.md "In-betweens along the manifold").
+    /// default, best at every gap on the synthetic walks (docs/results.md "In-betweens along the
+    /// manifold").
     #[default]
     Rigid,
     /// The latent path of §4.1 along the corners, carried onto the keyframes' fits.

@@ -65,7 +65,8 @@ impl Waypoints {
 const NEAR: f32 = 0.2;
 
 /// The mean distance between two poses' vertices (frame pixels). (The root mean square, which
-/// weighs the few vertices that move most, timed the walks' in-betweens worse: docs/results.md "In-betweens along the manifold".)
+/// weighs the few vertices that move most, timed the walks' in-betweens worse: docs/results.md
+/// "In-betweens along the manifold".)
 fn distance(a: &[[f32; 2]], b: &[[f32; 2]]) -> f32 {
     let sum: f32 = a.iter().zip(b).map(|(p, q)| (p[0] - q[0]).hypot(p[1] - q[1])).sum();
     sum / a.len().max(1) as f32

@@ -29,8 +29,8 @@ pub struct LimbSearch {
 }
 
 impl Default for LimbSearch {
-    /// ±120° in 20° steps, then 10° either side of the best: 14 turns per limb instead of the 24
-    /// of one pass at 10°, for the same fits (coarser steps or narrower and wider ranges fitted worse:
+    /// ±120° in 20° steps, then 10° either side of the best: 14 turns per limb instead of the 24 of
+    /// one pass at 10°, for the same fits (coarser steps or narrower and wider ranges fitted worse:
     /// docs/results.md "The coarse-then-fine limb search").
     fn default() -> Self {
         LimbSearch {

@@ -272,13 +272,13 @@ pub fn fit_with_latents(
     if frames.is_empty() {
         return Ok((model.encode(frames, device)?, Vec::new()));
     }
-    // One batch's many small steps keep about one core busy, so from four frames on they are
-    // split into batches fitted side by side: two, or more of at most `BATCH`. A frame's fit
-    // does not depend on the frames beside it (`Analysis::descend`) as long as it has company: a
-    // frame fitted alone lands a little elsewhere (docs/results.md "Frames in two batches side by side"; Burn's kernels for a single
-    // row sum in another order, the likely cause). So no batch holds one frame unless one is
-    // all there is, and the split depends on the frame count, not on the machine's cores: a fit
-    // is the same wherever it runs.
+    // One batch's many small steps keep about one core busy, so from four frames on they are split
+    // into batches fitted side by side: two, or more of at most `BATCH`. A frame's fit does not
+    // depend on the frames beside it (`Analysis::descend`) as long as it has company: a frame
+    // fitted alone lands a little elsewhere (docs/results.md "Frames in two batches side by side";
+    // Burn's kernels for a single row sum in another order, the likely cause). So no batch holds
+    // one frame unless one is all there is, and the split depends on the frame count, not on the
+    // machine's cores: a fit is the same wherever it runs.
     let n = frames.len();
     let count = if n < 4 { 1 } else { n.div_ceil(BATCH).max(2) };
     let batches: Vec<(Tensor<2>, Vec<Vec<[f32; 2]>>)> = (0..count)

@@ -77,9 +77,9 @@ impl Default for PartsOptions {
     }
 }
 
-/// [`PartsOptions::rigid_check`] for estimated correspondences (network or flow), pixels, chosen
-/// on the tuning seeds (docs/results.md "Joints, rebuilt poses and tuning"); exact correspondences take none,
-/// as any check only drops true ones there.
+/// [`PartsOptions::rigid_check`] for estimated correspondences (network or flow), pixels, chosen on
+/// the tuning seeds (docs/results.md "Joints, rebuilt poses and tuning"); exact correspondences
+/// take none, as any check only drops true ones there.
 pub const ESTIMATED_RIGID_CHECK: f32 = 4.0;
 
 /// The most superpixels per pose [`find_parts`] accepts (merging compares every adjacent pair

@@ -7,7 +7,8 @@
 //! characters on the fly; `puppet prior data` writes its poses to disk.
 //!
 //! A pose is a function of the puppet, the settings and a seed: [`sample`] draws the rigid part,
-//! [`drag`] the bends, [`truth`] the labels and visibility, [`write`](mod@write) the folder of a character.
+//! [`drag`] the bends, [`truth`] the labels and visibility, [`write`](mod@write) the folder of a
+//! character.
 
 pub mod drag;
 pub mod sample;

@@ -51,9 +51,10 @@ pub enum SampleAround {
 
 impl Default for SampledPoses {
     /// Off (share 0): it lowered the network's own fits of held-out frames but made latent
-    /// in-betweens worse (docs/results.md "Sampled poses and in-betweens"). The other settings are the ones that measured
-    /// best, so `share = 0.5` alone turns on the measured setting: limbs turned up to 20° from
-    /// the network's pose of a drawn frame, the figure scaled within ±5 % and shifted within ±3 %.
+    /// in-betweens worse (docs/results.md "Sampled poses and in-betweens"). The other settings are
+    /// the ones that measured best, so `share = 0.5` alone turns on the measured setting: limbs
+    /// turned up to 20° from the network's pose of a drawn frame, the figure scaled within ±5 % and
+    /// shifted within ±3 %.
     fn default() -> Self {
         SampledPoses {
             share: 0.0,
