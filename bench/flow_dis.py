@@ -21,6 +21,16 @@ Two uses, both reading what the Rust side wrote to files:
 
         python3 bench/flow_dis.py pck keypoints.json
 
+  posed (issue 56, the prior's baseline): reads the folders `puppet prior data` wrote (one per
+        character: pose_NNN.png and pose_NNN.json with every template vertex and its visibility),
+        takes the disjoint pairs of consecutive poses (0 -> 1, 2 -> 3, ...), computes DIS flow
+        a -> b, moves each vertex visible in both by the flow sampled at it, and prints
+        PCK@{0.1, 0.05, 0.025} against its true place in b (per pair, averaged over pairs), per
+        character and over all of them.
+
+        puppet prior data data/kenney/robot data/rigs/dicebear/notionists-1 -o out/prior --poses 16
+        python3 bench/flow_dis.py posed out/prior/*
+
 Flow is computed on the frames composited on white and converted to grey (DIS works on 8-bit
 grey images). Setup: pip install opencv-python-headless numpy.
 """
@@ -165,6 +175,38 @@ def cmd_pck(args):
         print(f"warning: the file's own scores {stored} differ from the recomputed ones", file=sys.stderr)
 
 
+def cmd_posed(args):
+    alphas = [0.1, 0.05, 0.025]
+    d = dis(cv2.DISOPTICAL_FLOW_PRESET_MEDIUM, True)
+    print("character                 pairs  vertices " + " ".join(f"PCK@{a:<6}" for a in alphas))
+    totals, count = np.zeros(len(alphas)), 0
+    for folder in args.folders:
+        poses = sorted(f[: -len(".json")] for f in os.listdir(folder) if f.startswith("pose_") and f.endswith(".json"))
+        sums, pairs, points = np.zeros(len(alphas)), 0, 0
+        for a, b in zip(poses[0::2], poses[1::2]):
+            with open(os.path.join(folder, a + ".json")) as fh:
+                ta = json.load(fh)
+            with open(os.path.join(folder, b + ".json")) as fh:
+                tb = json.load(fh)
+            ia, ib = load_rgba(os.path.join(folder, a + ".png")), load_rgba(os.path.join(folder, b + ".png"))
+            size = max(ia.shape[0], ia.shape[1])
+            f = flow(d, grey(ia), grey(ib))
+            both = [k for k, (va, vb) in enumerate(zip(ta["visible"], tb["visible"])) if va and vb]
+            pred = [[ta["vertices"][k][0] + v[0], ta["vertices"][k][1] + v[1]]
+                    for k, v in ((k, bilinear(f, *ta["vertices"][k])) for k in both)]
+            truth = [tb["vertices"][k] for k in both]
+            sums += [pck_of(pred, truth, al, size) for al in alphas]
+            pairs += 1
+            points += len(both)
+        if pairs:
+            print(f"{os.path.basename(folder.rstrip('/')):<25} {pairs:>5} {points:>9} "
+                  + " ".join(f"{100 * v / pairs:>9.2f}%" for v in sums))
+            totals += sums / pairs
+            count += 1
+    if count:
+        print(f"{'mean over characters':<25} {'':>5} {'':>9} " + " ".join(f"{100 * v / count:>9.2f}%" for v in totals))
+
+
 def main():
     p = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     sub = p.add_subparsers(dest="cmd", required=True)
@@ -174,9 +216,11 @@ def main():
     w.add_argument("frames", nargs="*")
     k = sub.add_parser("pck", help="PCK of DIS vs ours on `puppet correspond --sequence` keypoints (issue 6)")
     k.add_argument("keypoints")
+    q = sub.add_parser("posed", help="PCK of DIS on the pose pairs of `puppet prior data` (issue 56)")
+    q.add_argument("folders", nargs="+")
     args = p.parse_args()
     cv2.setNumThreads(2)
-    {"warp": cmd_warp, "pck": cmd_pck}[args.cmd](args)
+    {"warp": cmd_warp, "pck": cmd_pck, "posed": cmd_posed}[args.cmd](args)
 
 
 if __name__ == "__main__":
