@@ -4,7 +4,7 @@
 
 use std::path::Path;
 
-use crate::util::{puppet, shape};
+use crate::util::{puppet, repo, shape};
 
 /// A sheet of `blobs` (centre, radius, colour) on transparency, saved at `path`.
 fn blob_sheet(path: &Path, size: (u32, u32), blobs: &[([f32; 2], f32, [u8; 4])]) {
@@ -342,4 +342,16 @@ fn a_drawn_sheet_is_cut_then_read_with_flows_from_outside() {
     puppet(d, &["parts", "cut/poses", "--flows", "flows", "-o", "parts"]).assert_ok();
     // A folder of poses gets one label map per pose.
     assert!(d.join("parts/pose_labels/pose_002.png").is_file() && d.join("parts/character.toml").is_file());
+}
+
+#[test]
+fn the_back_views_of_a_real_sheet_are_set_aside_and_named() {
+    let tmp = tempfile::tempdir().unwrap();
+    let frames = repo().join("data/kenney/robot/frames");
+    let run = puppet(tmp.path(), &["parts", frames.to_str().unwrap(), "-o", "parts"]);
+    for climb in ["robot_climb0.png", "robot_climb1.png"] {
+        run.assert_ok_warning(&format!("{climb} set aside"));
+    }
+    assert_eq!(run.stderr.matches("set aside").count(), 2, "{}", run.stderr);
+    assert!(run.stdout.contains("from 11 poses"), "{}", run.stdout);
 }

@@ -12,7 +12,7 @@ use puppet::parts::flow::read_flows;
 use puppet::parts::learn::TrainedNet;
 use puppet::parts::matching::network_correspondences;
 use puppet::parts::pose::{check_one_character, load_poses, Layout};
-use puppet::parts::{find_parts, PartsOptions, Selection, ESTIMATED_RIGID_CHECK};
+use puppet::parts::{find_parts, set_aside_strangers, PartsOptions, Selection, ESTIMATED_RIGID_CHECK};
 use puppet::synth::sheet_flow::TruthSheet;
 
 use super::args::parse_size;
@@ -153,6 +153,10 @@ impl RebuildArg {
     }
 }
 
+/// The round trip within which a correspondence counts as consistent when poses are weighed
+/// for setting aside (pixels; the default `--flow-check`).
+const SET_ASIDE_CHECK: f32 = 2.0;
+
 /// Runs `puppet parts`.
 pub fn run(args: PartsArgs, s: &Session) -> anyhow::Result<()> {
     let options = args.options();
@@ -168,7 +172,7 @@ pub fn run(args: PartsArgs, s: &Session) -> anyhow::Result<()> {
         if args.cut_only {
             return cut_only(&poses, &args.output, s);
         }
-        let mut flows = match &args.flows {
+        let flows = match &args.flows {
             Some(dir) => read_flows(dir, &poses)?,
             None => {
                 let device = puppet::backend::device();
@@ -179,6 +183,7 @@ pub fn run(args: PartsArgs, s: &Session) -> anyhow::Result<()> {
                 network_correspondences(&trained.net, trained.size, &poses, &device, &s.ui)?
             }
         };
+        let (poses, mut flows, _) = set_aside_strangers(poses, flows, SET_ASIDE_CHECK, &s.ui);
         if args.flow_check > 0.0 {
             let kept = flows.keep_consistent(poses[0].width(), args.flow_check);
             s.ui.say(format!("forward–backward check: {:.1} % of the correspondences kept", 100.0 * kept))?;

@@ -15,7 +15,7 @@ use crate::parts::artwork::write_artwork;
 use crate::parts::learn::TrainedNet;
 use crate::parts::matching::network_correspondences;
 use crate::parts::pose::{check_one_character, load_poses, Layout};
-use crate::parts::{find_parts, PartsOptions};
+use crate::parts::{find_parts, set_aside_strangers, PartsOptions};
 use crate::progress::Progress;
 
 /// The forward–backward check on the network's correspondences, pixels (`puppet parts`'
@@ -84,7 +84,18 @@ pub fn run(options: &AutoOptions, progress: &dyn Progress) -> Result<AutoSummary
         Some(dir) => TrainedNet::load(dir, &device)?,
         None => TrainedNet::shipped(&device)?,
     };
-    let mut flows = network_correspondences(&trained.net, trained.size, &poses, &device, progress)?;
+    let flows = network_correspondences(&trained.net, trained.size, &poses, &device, progress)?;
+    // A back view or a turn is no articulation of the rest: its frame is neither split into
+    // parts nor trained on (an earlier run's copy of it goes as a stale frame does).
+    let (poses, mut flows, keep) = set_aside_strangers(poses, flows, CHECK, progress);
+    let mut stale = stale;
+    stale.extend(
+        (0..frame_files.len())
+            .filter(|k| !keep.contains(k))
+            .map(|k| frame_files[k].clone())
+            .filter(|path| path.is_file()),
+    );
+    let frame_files: Vec<PathBuf> = keep.iter().map(|&k| frame_files[k].clone()).collect();
     flows.keep_consistent(poses[0].width(), CHECK);
     let parts = find_parts(poses, &flows, &options.parts)?;
     let seconds = started.elapsed().as_secs_f64();

@@ -81,36 +81,77 @@ impl Correspondences {
     /// correspondence into a part hidden in the other pose, which flow cannot give anyway).
     /// Returns the share of correspondences kept.
     pub fn keep_consistent(&mut self, width: usize, tolerance: f32) -> f64 {
-        let n = self.poses;
         let mut kept = (0usize, 0usize);
         let mut checked = self.flows.clone();
+        let n = self.poses;
+        self.round_trips(width, tolerance, |s, t, i, back| {
+            kept.1 += 1;
+            if back {
+                kept.0 += 1;
+            } else if let Some(flow) = checked[s * n + t].as_mut() {
+                flow.to[i] = [f32::NAN; 2];
+            }
+        });
+        self.flows = checked;
+        if kept.1 == 0 {
+            1.0
+        } else {
+            kept.0 as f64 / kept.1 as f64
+        }
+    }
+
+    /// For each pose, the share of its correspondences into the other poses that come back
+    /// within `tolerance` pixels (the check of [`Correspondences::keep_consistent`]; 1 for a pose
+    /// with none). A pose no articulation of the others explains — a back view, a turn — has
+    /// few that do.
+    pub fn consistency(&self, width: usize, tolerance: f32) -> Vec<f64> {
+        let mut counts = vec![(0usize, 0usize); self.poses];
+        self.round_trips(width, tolerance, |s, _, _, back| {
+            counts[s].1 += 1;
+            counts[s].0 += usize::from(back);
+        });
+        counts
+            .into_iter()
+            .map(|(back, all)| if all == 0 { 1.0 } else { back as f64 / all as f64 })
+            .collect()
+    }
+
+    /// These correspondences among the poses `keep` only, renumbered in that order.
+    ///
+    /// # Panics
+    /// If a pose of `keep` is out of range (a caller bug).
+    pub fn subset(&self, keep: &[usize]) -> Correspondences {
+        let n = keep.len();
+        let mut out = Correspondences::new(n, self.pixels);
+        for (a, &s) in keep.iter().enumerate() {
+            for (b, &t) in keep.iter().enumerate() {
+                out.flows[a * n + b] = self.flows[s * self.poses + t].clone();
+            }
+        }
+        out
+    }
+
+    /// Calls `visit(s, t, i, back)` for every pixel `i` of every pose `s` with a correspondence
+    /// into another pose `t`: `back` when the flow from `t` at its target's pixel returns
+    /// within `tolerance` pixels of `i` (poses `width` wide).
+    fn round_trips(&self, width: usize, tolerance: f32, mut visit: impl FnMut(usize, usize, usize, bool)) {
+        let n = self.poses;
         for s in 0..n {
             for t in (0..n).filter(|&t| t != s) {
                 let (Some(forward), Some(backward)) = (self.get(s, t), self.get(t, s)) else {
                     continue;
                 };
                 let height = forward.to.len() / width.max(1);
-                let out = checked[s * n + t].as_mut().expect("present");
-                for (i, q) in out.to.iter_mut().enumerate() {
+                for i in 0..forward.to.len() {
                     let Some(p) = forward.at(i) else { continue };
-                    kept.1 += 1;
                     let (x, y) = (p[0].round(), p[1].round());
                     let back = (x >= 0.0 && y >= 0.0 && (x as usize) < width && (y as usize) < height)
                         .then(|| backward.at(y as usize * width + x as usize))
                         .flatten();
                     let home = [(i % width) as f32, (i / width) as f32];
-                    match back {
-                        Some(b) if (b[0] - home[0]).hypot(b[1] - home[1]) <= tolerance => kept.0 += 1,
-                        _ => *q = [f32::NAN; 2],
-                    }
+                    visit(s, t, i, back.is_some_and(|b| (b[0] - home[0]).hypot(b[1] - home[1]) <= tolerance));
                 }
             }
-        }
-        self.flows = checked;
-        if kept.1 == 0 {
-            1.0
-        } else {
-            kept.0 as f64 / kept.1 as f64
         }
     }
 
@@ -333,6 +374,36 @@ pub fn read_flows(dir: &std::path::Path, poses: &[SheetPose]) -> Result<Correspo
 mod tests {
     use super::*;
     use crate::picture::Picture;
+
+    /// Identity flows between `n` poses of 4×1 pixels, but pose `odd`'s flows into the others,
+    /// which send every pixel to pixel 0.
+    fn flows_with_one_odd(n: usize, odd: usize) -> Correspondences {
+        let mut flows = Correspondences::new(n, 4);
+        for s in 0..n {
+            for t in (0..n).filter(|&t| t != s) {
+                let to = (0..4).map(|i| if s == odd { [0.0, 0.0] } else { [i as f32, 0.0] }).collect();
+                flows.set(s, t, Flow { to }).unwrap();
+            }
+        }
+        flows
+    }
+
+    #[test]
+    fn a_pose_whose_matches_do_not_come_back_scores_low_and_a_subset_renumbers() {
+        let flows = flows_with_one_odd(4, 2);
+        let shares = flows.consistency(4, 0.5);
+        // Pose 2's pixels 1–3 land on pixel 0, whose way back is home only for pixel 0.
+        assert_eq!(shares[2], 0.25);
+        for k in [0, 1, 3] {
+            // Into pose 2, only pixel 0 comes back; into the others, all do.
+            assert!((shares[k] - (2.0 * 4.0 + 1.0) / 12.0).abs() < 1e-9, "pose {k}: {}", shares[k]);
+        }
+        let kept = flows.subset(&[3, 0]);
+        assert_eq!(kept.poses(), 2);
+        assert_eq!(kept.get(0, 1), flows.get(3, 0));
+        assert_eq!(kept.get(1, 0), flows.get(0, 3));
+        assert!(kept.get(0, 0).is_none());
+    }
 
     #[test]
     fn stray_matches_go_and_the_superpixels_motion_stays() {

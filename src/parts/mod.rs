@@ -27,6 +27,7 @@ pub mod superpixels;
 use crate::error::{Error, Result};
 use crate::metrics::l2;
 use crate::picture::Picture;
+use crate::progress::Progress;
 use cover::{CoverOptions, CoverReport};
 use deform::{BendOptions, PartMesh, Rebuild};
 use flow::Correspondences;
@@ -125,6 +126,70 @@ impl Parts {
     }
 }
 
+/// A pose whose correspondences come back less than this share as often as the median pose's
+/// does not correspond to the others (a back view, a turn) and is set aside.
+pub const SET_ASIDE_SHARE: f64 = 0.8;
+
+/// `poses` without those that do not correspond to the others ([`poses_to_set_aside`] by the
+/// forward–backward check within `tolerance` pixels), each named in a warning through
+/// `progress`, with the correspondences among the rest and the indices of the poses kept.
+pub fn set_aside_strangers(
+    poses: Vec<SheetPose>,
+    flows: Correspondences,
+    tolerance: f32,
+    progress: &dyn Progress,
+) -> (Vec<SheetPose>, Correspondences, Vec<usize>) {
+    let consistency = flows.consistency(poses.first().map_or(1, SheetPose::width), tolerance);
+    let SetAside { poses: aside, median } = poses_to_set_aside(&consistency);
+    for &k in &aside {
+        progress.warn(&format!(
+            "{} set aside: {:.0} % of its correspondences come back, against {:.0} % for the median pose \
+             (a back view or a turn no articulation explains); the parts come from the other poses",
+            poses[k].name,
+            100.0 * consistency[k],
+            100.0 * median
+        ));
+    }
+    let keep: Vec<usize> = (0..poses.len()).filter(|k| !aside.contains(k)).collect();
+    if aside.is_empty() {
+        return (poses, flows, keep);
+    }
+    let flows = flows.subset(&keep);
+    let poses = poses
+        .into_iter()
+        .enumerate()
+        .filter(|(k, _)| !aside.contains(k))
+        .map(|(_, p)| p)
+        .collect();
+    (poses, flows, keep)
+}
+
+/// The poses to set aside before finding parts, and the median pose's consistency they fell
+/// short of.
+#[derive(Clone, Debug, PartialEq)]
+pub struct SetAside {
+    /// The poses set aside, in order.
+    pub poses: Vec<usize>,
+    /// The median of the poses' consistency.
+    pub median: f64,
+}
+
+/// The poses to set aside before finding parts, by `consistency` (each pose's share of
+/// correspondences that come back, [`flow::Correspondences::consistency`]): those below
+/// [`SET_ASIDE_SHARE`] of the median, the least consistent first, as long as two poses remain.
+pub fn poses_to_set_aside(consistency: &[f64]) -> SetAside {
+    let mut sorted = consistency.to_vec();
+    sorted.sort_by(f64::total_cmp);
+    let median = sorted.get(sorted.len() / 2).copied().unwrap_or(1.0);
+    let mut aside: Vec<usize> = (0..consistency.len())
+        .filter(|&k| consistency[k] < SET_ASIDE_SHARE * median)
+        .collect();
+    aside.sort_by(|&a, &b| consistency[a].total_cmp(&consistency[b]));
+    aside.truncate(consistency.len().saturating_sub(2));
+    aside.sort_unstable();
+    SetAside { poses: aside, median }
+}
+
 /// Finds the parts of `poses` given correspondences between every pair.
 ///
 /// # Errors
@@ -176,4 +241,20 @@ pub fn find_parts(poses: Vec<SheetPose>, flows: &Correspondences, options: &Part
         cover,
         meshes,
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn poses_far_below_the_median_go_and_two_poses_always_stay() {
+        let aside = poses_to_set_aside(&[0.8, 0.5, 0.82, 0.79, 0.7, 0.45]);
+        assert_eq!(aside.poses, vec![1, 5]);
+        assert_eq!(aside.median, 0.79);
+        assert!(poses_to_set_aside(&[0.9, 0.85, 0.8]).poses.is_empty());
+        // However far below, two poses remain: the two most consistent.
+        assert_eq!(poses_to_set_aside(&[0.1, 0.9, 0.05, 0.2]).poses, vec![0, 2]);
+        assert!(poses_to_set_aside(&[]).poses.is_empty());
+    }
 }
