@@ -53,6 +53,7 @@ pub mod appearance;
 pub mod edit;
 pub mod fit;
 pub mod parts;
+pub mod prior;
 // Layer 6, products.
 pub mod demo;
 pub mod eval;

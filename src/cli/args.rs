@@ -6,11 +6,15 @@ use std::path::{Path, PathBuf};
 use anyhow::Context as _;
 use puppet::edit::pin::Pin;
 use puppet::model::Model;
+use puppet::parts::learn::TrainedNet;
+use puppet::picture::ImageLimits;
+use puppet::prior::template_model;
 use puppet::puppet::{artwork, build::BuildOptions, LayerKind};
 use puppet::render::animation::AnimationFiles;
 use puppet::render::Background;
 use puppet::rig::outfit::{dress, undress};
 use puppet::rig::RigOptions;
+use puppet::train::trainer::load_or_build_puppet;
 
 use super::ui::Ui;
 use burn::tensor::Device;
@@ -29,6 +33,65 @@ pub struct ModelArgs {
     #[arg(long, value_name = "DIR")]
     pub model: PathBuf,
 }
+
+/// What fits a command's frames: a trained model, or a puppet nobody trained, placed by the
+/// character-agnostic prior.
+#[derive(Debug, clap::Args)]
+pub struct FitSourceArgs {
+    /// The model folder written by `puppet train` (or `puppet demo`: out/demo/model).
+    #[arg(long, value_name = "DIR", required_unless_present = "puppet", conflicts_with = "puppet")]
+    pub model: Option<PathBuf>,
+    /// Fit a character nobody trained: a puppet folder, or artwork (built on the spot, with its
+    /// accessory rig). Each frame is placed by the prior puppet ships, then fitted by the stages
+    /// that need no network of the character (limb search and vertex steps).
+    #[arg(long, value_name = "DIR")]
+    pub puppet: Option<PathBuf>,
+    /// With --model: fit each frame twice, from the network's pass and latent steps and from the
+    /// prior's placement, and keep the fit that renders closer to the frame (twice the time).
+    #[arg(long, requires = "model")]
+    pub prior: bool,
+    /// Another prior than the built-in one: a `puppet prior train` run folder.
+    #[arg(long, value_name = "DIR")]
+    pub prior_net: Option<PathBuf>,
+}
+
+/// What [`FitSourceArgs`] names, loaded.
+pub struct FitSource {
+    /// The trained model, or the puppet's template model.
+    pub model: Model,
+    /// The trained model's folder (`None` for a puppet nobody trained).
+    pub dir: Option<PathBuf>,
+    /// The prior, when it is used.
+    pub prior: Option<TrainedNet>,
+}
+
+impl FitSourceArgs {
+    /// Loads the model or builds the puppet's template model, and the prior if it is used.
+    pub fn load(&self, device: &Device, ui: &Ui) -> anyhow::Result<FitSource> {
+        let (model, dir) = match (&self.model, &self.puppet) {
+            (Some(dir), _) => (Model::load(dir, device)?, Some(dir.clone())),
+            (None, Some(path)) => {
+                let puppet = load_or_build_puppet(path, &ImageLimits::default(), true, ui)
+                    .with_context(|| format!("while reading the puppet {}", path.display()))?;
+                (template_model(puppet, TEMPLATE_SIZE, device)?, None)
+            }
+            (None, None) => anyhow::bail!("give --model or --puppet"),
+        };
+        let prior = if self.prior || dir.is_none() {
+            Some(match &self.prior_net {
+                Some(run) => TrainedNet::load(run, device)?,
+                None => puppet::prior::shipped(device)?,
+            })
+        } else {
+            None
+        };
+        Ok(FitSource { model, dir, prior })
+    }
+}
+
+/// The working square of a puppet fitted with no trained model: the size every shipped config
+/// trains at.
+const TEMPLATE_SIZE: usize = 128;
 
 /// How an edit fits its frames: latent steps only, since in-betweens and drags move latents.
 #[derive(Debug, clap::Args)]
@@ -109,13 +172,23 @@ impl FitArgs {
     /// with steps to take (more than the one pass) and the plausibility term on or hidden limbs
     /// placed, the network's poses of its training frames, for the turn ranges and the twins (a
     /// warning through `ui` if those frames are gone).
-    pub fn options(&self, model_dir: &Path, model: &Model, device: &Device, ui: &Ui) -> puppet::Result<FitOptions> {
-        let (latent, vertex) = if self.one_pass {
-            (0, 0)
-        } else {
-            (self.latent.latent_steps, self.vertex_steps)
+    ///
+    /// Without a model folder (a puppet nobody trained): the default objective, no latent steps,
+    /// no training poses.
+    pub fn options(&self, model_dir: Option<&Path>, model: &Model, device: &Device, ui: &Ui) -> puppet::Result<FitOptions> {
+        let (latent, vertex) = match (self.one_pass, model_dir) {
+            (true, _) => (0, 0),
+            (false, Some(_)) => (self.latent.latent_steps, self.vertex_steps),
+            (false, None) => (0, self.vertex_steps),
         };
-        let options = FitOptions::for_model(model_dir, latent, vertex)?;
+        let options = match model_dir {
+            Some(dir) => FitOptions::for_model(dir, latent, vertex)?,
+            None => FitOptions {
+                latent_steps: 0,
+                vertex_steps: vertex,
+                ..FitOptions::default()
+            },
+        };
         for (name, v) in [
             ("--plausible-margin", self.plausible_margin),
             ("--plausibility-weight", self.plausibility_weight),
@@ -144,10 +217,9 @@ impl FitArgs {
             (true, false) => "fitting without the plausibility term",
             _ => "hidden limbs stay where the fit leaves them",
         };
-        let poses = if plausible || hidden {
-            training_poses(model_dir, model, device, purpose, ui)?
-        } else {
-            None
+        let poses = match model_dir {
+            Some(dir) if plausible || hidden => training_poses(dir, model, device, purpose, ui)?,
+            _ => None,
         };
         Ok(FitOptions {
             vertex_rounds: self.vertex_rounds,

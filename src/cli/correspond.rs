@@ -89,7 +89,13 @@ pub fn run(args: CorrespondArgs, s: &Session) -> anyhow::Result<()> {
         None => grid_points(&a, args.spacing),
     };
     s.ui.stage("fit", 2);
-    let fits = fit(&model, &[&a, &b], &args.fit.options(dir, &model, &device, &s.ui)?, &device, &s.ui)?;
+    let fits = fit(
+        &model,
+        &[&a, &b],
+        &args.fit.options(Some(dir), &model, &device, &s.ui)?,
+        &device,
+        &s.ui,
+    )?;
     let matches = correspond(&model.puppet, &fits[0], &fits[1], &points)?;
     let rows: Vec<Match> = points
         .iter()
@@ -120,7 +126,7 @@ fn run_sequence(args: &CorrespondArgs, seq: &Path, s: &Session) -> anyhow::Resul
     let dir = &args.model.model;
     let model = Model::load(dir, &device)?;
     let held_out = if args.odd { HeldOut::Odd } else { HeldOut::Split };
-    let options = args.fit.options(dir, &model, &device, &s.ui)?;
+    let options = args.fit.options(Some(dir), &model, &device, &s.ui)?;
     let (scored, pairs) = score_sequence(dir, &model, seq, held_out, &options, &device, &s.ui)?;
     s.outputs.write(&args.output, &serde_json::to_vec(&scored)?)?;
     s.ui.finish();

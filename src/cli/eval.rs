@@ -1,17 +1,17 @@
-//! `puppet eval --model M <sequence>`: the metrics of DESIGN.md on a model's held-out frames.
+//! `puppet eval --model M <sequence>`: the metrics of DESIGN.md on a model's held-out frames
+//! (`--puppet P`: on a character nobody trained, fitted from the prior).
 
 use std::path::PathBuf;
 
 use anyhow::Context;
 use puppet::appearance::AppearanceStage;
-use puppet::eval::report::{evaluate, Scoring};
+use puppet::eval::report::{evaluate, FitStart, Scoring};
 use puppet::fit::frame::frame_check;
-use puppet::model::Model;
 use puppet::puppet::sequence::Frames;
 use puppet::synth::Truth;
 use puppet::train::trainer::SplitRecord;
 
-use super::args::{FitArgs, ModelArgs};
+use super::args::{FitArgs, FitSource, FitSourceArgs};
 use super::Session;
 
 /// Score a trained model: fit each held-out frame, render it, and report L2, masked RMSE and
@@ -19,12 +19,22 @@ use super::Session;
 /// For a puppet with accessories: vertex error of body and accessories apart, and how the
 /// accessories keep hidden what they hid and stay attached on the fits, on in-betweens of
 /// consecutive frames and on seeded drags.
-/// Frames that cannot be read are named and the rest scored; the command then exits with
+/// With --puppet instead of --model, a character nobody trained is scored: each frame placed by
+/// the prior, then fitted without a network (held-out frames are then those of --split-of, or
+/// all). Frames that cannot be read are named and the rest scored; the command then exits with
 /// status 1.
 #[derive(Debug, clap::Args)]
 pub struct EvalArgs {
     #[command(flatten)]
-    pub model: ModelArgs,
+    pub source: FitSourceArgs,
+    /// With --puppet: score the frames a trained model of the same character held out (its
+    /// split.json), so the figures sit beside that model's.
+    #[arg(long, value_name = "MODEL", requires = "puppet")]
+    pub split_of: Option<PathBuf>,
+    /// With --puppet: start every fit from the rest pose instead of the prior's placement (the
+    /// control that shows what the prior adds).
+    #[arg(long, requires = "puppet")]
+    pub from_rest: bool,
     /// The sequence: a folder of frames (or one holding frames/ and truth.json).
     pub sequence: PathBuf,
     /// Score every frame, not only those the model held out.
@@ -46,14 +56,27 @@ pub fn run(args: EvalArgs, s: &Session) -> anyhow::Result<()> {
         s.outputs.claim(out)?;
     }
     let device = puppet::backend::device();
-    let dir = &args.model.model;
-    let model = Model::load(dir, &device)?;
-    let options = args.fit.options(dir, &model, &device, &s.ui)?;
-    let stage = args.appearance.then(|| AppearanceStage::load(dir, &model, &device)).transpose()?;
+    let FitSource { model, dir, prior } = args.source.load(&device, &s.ui)?;
+    let options = args.fit.options(dir.as_deref(), &model, &device, &s.ui)?;
+    let stage = match (&dir, args.appearance) {
+        (Some(dir), true) => Some(AppearanceStage::load(dir, &model, &device)?),
+        (None, true) => anyhow::bail!("--appearance needs a trained model (--model): a puppet nobody trained has no appearance stage"),
+        _ => None,
+    };
+    let start = match (&dir, &prior) {
+        (None, _) if args.from_rest => FitStart::Rest,
+        (_, None) => FitStart::Network,
+        (Some(_), Some(prior)) => FitStart::NetworkOrPrior(prior),
+        (None, Some(prior)) => FitStart::Prior(prior),
+    };
     let (frames, bad) = Frames::load_each(&args.sequence, &frame_check(&model))?;
     let truth = Truth::for_sequence(&args.sequence)?;
     let names = frames.names();
-    let held_out = match (args.all, SplitRecord::load(dir)?) {
+    let split = match dir.as_ref().or(args.split_of.as_ref()) {
+        Some(dir) => SplitRecord::load(dir)?,
+        None => None,
+    };
+    let held_out = match (args.all, split) {
         (false, Some(split)) => Some(split.test),
         _ => None,
     };
@@ -87,6 +110,7 @@ pub fn run(args: EvalArgs, s: &Session) -> anyhow::Result<()> {
             truth.as_ref(),
             &Scoring {
                 fit: &options,
+                start,
                 appearance: stage.as_ref(),
             },
             &device,
@@ -97,6 +121,9 @@ pub fn run(args: EvalArgs, s: &Session) -> anyhow::Result<()> {
     if let Some(report) = &report {
         s.ui.say(format!("{} — {which}, {} of them:", args.sequence.display(), report.frames.len()))?;
         s.ui.print(report.table().trim_end())?;
+        if let Some(count) = report.from_prior {
+            s.ui.say(format!("{count} of {} fits came from the prior's placement", report.frames.len()))?;
+        }
         if let Some(out) = &args.output {
             let json = serde_json::to_vec_pretty(report).context("while encoding the report")?;
             s.outputs.write(out, &json)?;
@@ -116,5 +143,8 @@ mod tests {
         parses(&["eval", "--model", "m", "seq", "--all", "-o", "r.json", "--one-pass"]);
         parses(&["eval", "--model", "m", "seq", "--vertex-rounds", "1"]);
         parses(&["eval", "--model", "m", "seq", "--one-pass", "--appearance"]);
+        parses(&["eval", "--model", "m", "seq", "--prior"]);
+        parses(&["eval", "--puppet", "p", "seq", "--split-of", "m", "--prior-net", "runs/prior"]);
+        parses(&["eval", "--puppet", "p", "seq", "--from-rest"]);
     }
 }

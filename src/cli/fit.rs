@@ -1,12 +1,13 @@
-//! `puppet fit --model M <frames...> -o dir`: fit the puppet to frames with a trained model.
+//! `puppet fit --model M <frames...> -o dir`: fit the puppet to frames with a trained model
+//! (`--puppet P`: a character nobody trained, placed by the prior).
 
 use std::path::PathBuf;
 
 use puppet::appearance::AppearanceStage;
 use puppet::atomic_file::unique_stems;
 use puppet::fit::{fit, frame};
-use puppet::model::Model;
 use puppet::picture::{contact_sheet, Picture};
+use puppet::prior::{fit_untrained, fit_with_prior, PriorFit, Start};
 use puppet::progress::Progress;
 use puppet::puppet::pose_file::PoseFile;
 use puppet::puppet::sequence::Frames;
@@ -14,7 +15,7 @@ use puppet::render::animation::{AnimationFiles, AnimationWriter};
 use puppet::render::preview::wireframe_preview;
 use puppet::render::render_pose;
 
-use super::args::{AnimationArgs, FitArgs as FitOptionArgs, ModelArgs, OutfitArgs};
+use super::args::{AnimationArgs, FitArgs as FitOptionArgs, FitSource, FitSourceArgs, OutfitArgs};
 use super::Session;
 
 /// The most frames sheet.png shows (evenly sampled when more are fitted).
@@ -25,12 +26,14 @@ const SHEET_ROWS: usize = 16;
 /// `puppet render --pose`), plus sheet.png with frame | render | overlay side by side and the
 /// renders in order as sprites.png + sprites.json (a sheet and atlas for engines; --gif and
 /// --apng play them). NAME is
-/// the frame's file name, prefixed by its folders where two frames share a name. Frames that
-/// cannot be read are named and skipped; the command then exits with status 1.
+/// the frame's file name, prefixed by its folders where two frames share a name. With --puppet
+/// instead of --model, a character nobody trained is fitted: each frame placed by the prior,
+/// then the stages that need no network of it. Frames that cannot be read are named and
+/// skipped; the command then exits with status 1.
 #[derive(Debug, clap::Args)]
 pub struct FitArgs {
     #[command(flatten)]
-    pub model: ModelArgs,
+    pub source: FitSourceArgs,
     /// Frames: PNG files, or folders of them (or holding frames/).
     #[arg(required = true)]
     pub frames: Vec<PathBuf>,
@@ -55,12 +58,15 @@ pub struct FitArgs {
 /// Runs `puppet fit`.
 pub fn run(args: FitArgs, s: &Session) -> anyhow::Result<()> {
     let device = puppet::backend::device();
-    let dir = &args.model.model;
-    let model = Model::load(dir, &device)?;
-    let options = args.fit.options(dir, &model, &device, &s.ui)?;
+    let FitSource { model, dir, prior } = args.source.load(&device, &s.ui)?;
+    let options = args.fit.options(dir.as_deref(), &model, &device, &s.ui)?;
     let worn = args.outfit.model(&model, &s.ui)?;
     let drawn = worn.as_ref().unwrap_or(&model);
-    let stage = args.appearance.then(|| AppearanceStage::load(dir, &model, &device)).transpose()?;
+    let stage = match (&dir, args.appearance) {
+        (Some(dir), true) => Some(AppearanceStage::load(dir, &model, &device)?),
+        (None, true) => anyhow::bail!("--appearance needs a trained model (--model): a puppet nobody trained has no appearance stage"),
+        _ => None,
+    };
     let check = frame::frame_check(&model);
     let (mut files, mut pictures, mut problems) = (Vec::new(), Vec::new(), Vec::new());
     for path in &args.frames {
@@ -107,18 +113,43 @@ pub fn run(args: FitArgs, s: &Session) -> anyhow::Result<()> {
 
     s.ui.stage("fitting", pictures.len() as u64);
     let refs: Vec<&Picture> = pictures.iter().collect();
-    let fits = fit(&model, &refs, &options, &device, &s.ui)?;
+    let fits = match (&dir, &prior) {
+        (_, None) => fit(&model, &refs, &options, &device, &s.ui)?,
+        (Some(_), Some(prior)) => {
+            let PriorFit { poses: fits, starts } = fit_with_prior(prior, &model, &refs, &options, &device, &s.ui)?;
+            let from_prior: Vec<&str> = stems
+                .iter()
+                .zip(&starts)
+                .filter(|(_, &s)| s == Start::Prior)
+                .map(|(n, _)| n.as_str())
+                .collect();
+            s.ui.finish();
+            s.ui.say(format!(
+                "{} of {} frames kept the fit from the prior's placement (it rendered closer than the fit from the network's){}",
+                from_prior.len(),
+                stems.len(),
+                if from_prior.is_empty() {
+                    String::new()
+                } else {
+                    format!(": {}", from_prior.join(", "))
+                }
+            ))?;
+            fits
+        }
+        (None, Some(prior)) => fit_untrained(prior, &model, &refs, &options, &device, &s.ui)?,
+    };
     // The ranges read with the options (for the term or the hidden limbs' twins); otherwise read
     // here only to name poses the model has not seen.
     let read;
-    let ranges = match &options.ranges {
-        Some(ranges) => Some(ranges),
-        None => {
+    let ranges = match (&options.ranges, &dir) {
+        (Some(ranges), _) => Some(ranges),
+        (None, Some(dir)) => {
             read = args
                 .fit
                 .training_ranges(dir, &model, &device, "no fit is checked against the training poses", &s.ui)?;
             read.as_ref()
         }
+        (None, None) => None,
     };
     if let Some(ranges) = ranges {
         for (stem, pose) in stems.iter().zip(&fits) {

@@ -127,7 +127,7 @@ pub fn run(args: InbetweenArgs, s: &Session) -> anyhow::Result<()> {
     let device = puppet::backend::device();
     let dir = &args.model.model;
     let model = Model::load(dir, &device)?;
-    let options = args.fit.options(dir, &model, &device, &s.ui)?;
+    let options = args.fit.options(Some(dir), &model, &device, &s.ui)?;
     if let Some(seq) = &args.score {
         let mut gaps = if args.gaps.is_empty() { vec![1] } else { args.gaps };
         gaps.sort_unstable();

@@ -1,16 +1,26 @@
 //! `puppet prior`: the character-agnostic prior. `data` writes the posing engine's poses of
-//! characters with their truth, the data the prior learns from.
+//! characters with their truth, the data the prior learns from; `train` trains it; `eval`
+//! scores it and the parts network on such poses.
 
 use std::path::PathBuf;
 
 use anyhow::Context;
 use puppet::atomic_file::{record, unique_stems};
+use puppet::eval::posed_pairs::{score_posed, ALPHAS};
+use puppet::parts::learn::{LearnOptions, TrainedNet};
 use puppet::picture::ImageLimits;
 use puppet::posing::write::{character_files, write_character};
 use puppet::posing::{EngineSettings, PoseEngine};
+use puppet::prior::{train_prior, PriorConfig};
+use puppet::synth::sheet_flow::SyntheticPairs;
 use puppet::train::trainer::load_or_build_puppet;
 
+use super::train::run_state;
 use super::Session;
+
+/// The generator's seed of the prior's first generator pair: far from every seed a test, a
+/// tuning run, an evaluation or the parts network's training uses.
+const GENERATOR_SEEDS: u64 = 3_000_000;
 
 /// The most poses one run writes per character.
 const MAX_POSES: usize = 10_000;
@@ -26,6 +36,46 @@ pub struct PriorArgs {
 #[derive(Debug, clap::Subcommand)]
 enum PriorCommand {
     Data(DataArgs),
+    Train(TrainArgs),
+    Eval(EvalArgs),
+}
+
+/// Train the prior: a correspondence network on pairs of the config's characters posed by the
+/// engine (and the generator's, at generator_share), scored on the held-out characters' pairs.
+///
+/// Writes the run folder (the config's output, or --output): config.toml, net.json,
+/// weights.bpk, log.csv, curves.png and checkpoints/. A killed run continues with --resume.
+/// The weights puppet ships (data/prior/) come from configs/prior.toml.
+#[derive(Debug, clap::Args)]
+struct TrainArgs {
+    /// The training config (TOML; keys in docs/prior.md).
+    config: PathBuf,
+    /// The run folder, instead of the config's output.
+    #[arg(short, long, value_name = "DIR")]
+    output: Option<PathBuf>,
+    /// Continue from the latest checkpoint.
+    #[arg(long)]
+    resume: bool,
+    /// Stop (checkpointed, resumable) once this many steps are done in total.
+    #[arg(long, value_name = "STEPS")]
+    pause_at: Option<u64>,
+}
+
+/// Score correspondence networks on posed characters (folders of `puppet prior data`).
+///
+/// For the disjoint pairs of consecutive poses (0 → 1, 2 → 3, …), every template vertex shown
+/// in both is carried from the first frame to the second by the network, and PCK at 0.1, 0.05
+/// and 0.025 of the frame's larger side is taken against its true place: for the prior (built
+/// in, or --net) and the parts network puppet ships. `bench/flow_dis.py posed` scores DIS flow
+/// on the same pairs.
+#[derive(Debug, clap::Args)]
+struct EvalArgs {
+    /// Character folders written by `puppet prior data`.
+    #[arg(required = true, value_name = "FOLDER")]
+    folders: Vec<PathBuf>,
+    /// A prior's run folder, instead of the built-in prior.
+    #[arg(long, value_name = "DIR")]
+    net: Option<PathBuf>,
 }
 
 /// Pose characters at random and write each pose with its truth (the prior's training data).
@@ -67,7 +117,80 @@ impl DataArgs {
 pub fn run(args: PriorArgs, s: &Session) -> anyhow::Result<()> {
     match args.command {
         PriorCommand::Data(args) => data(args, s),
+        PriorCommand::Train(args) => train(args, s),
+        PriorCommand::Eval(args) => eval(args, s),
     }
+}
+
+/// Runs `puppet prior train`.
+fn train(args: TrainArgs, s: &Session) -> anyhow::Result<()> {
+    let mut config = PriorConfig::load(&args.config)?;
+    if let Some(output) = args.output {
+        config.output = output;
+    }
+    let generator = SyntheticPairs {
+        first_seed: GENERATOR_SEEDS,
+        size: u32::try_from(config.net.input_size)?,
+        varied: true,
+    };
+    let options = LearnOptions {
+        resume: args.resume,
+        pause_at: args.pause_at,
+    };
+    let summary = train_prior(&config, &generator, &options, &s.ui)?;
+    s.ui.finish();
+    s.ui.say(format!(
+        "{}: {} steps in {:.0} s ({:.2} pairs/s), {} parameters → {}",
+        run_state(summary.finished),
+        summary.steps,
+        summary.seconds,
+        summary.pairs_per_second,
+        summary.parameters,
+        config.output.display()
+    ))?;
+    s.ui.say(format!(
+        "held-out characters' pairs: {:.1} % of matched pixels land within 2 px of the truth, mean error {:.2} px \
+         (the untrained network: {:.1} %, {:.2} px)",
+        100.0 * summary.held_out.within_2px,
+        summary.held_out.mean_error,
+        100.0 * summary.untrained.within_2px,
+        summary.untrained.mean_error
+    ))?;
+    Ok(())
+}
+
+/// Runs `puppet prior eval`.
+fn eval(args: EvalArgs, s: &Session) -> anyhow::Result<()> {
+    let device = puppet::backend::device();
+    let prior = match &args.net {
+        Some(dir) => TrainedNet::load(dir, &device)?,
+        None => puppet::prior::shipped(&device)?,
+    };
+    let parts = TrainedNet::shipped(&device)?;
+    let alphas = ALPHAS.map(|a| format!("PCK@{a:<6}")).join(" ");
+    s.ui.say(format!(
+        "{:<25} {:<7} {:>5} {:>8}  {alphas}",
+        "character", "network", "pairs", "vertices"
+    ))?;
+    let mut totals = [[0.0; 3]; 2];
+    for folder in &args.folders {
+        let name = folder
+            .file_name()
+            .map_or_else(|| folder.display().to_string(), |n| n.to_string_lossy().into_owned());
+        for ((label, net), total) in [("prior", &prior), ("parts", &parts)].into_iter().zip(&mut totals) {
+            let score = score_posed(folder, net, &device)?;
+            let pck = score.pck.map(|v| format!("{:>9.2}%", 100.0 * v)).join(" ");
+            s.ui.say(format!("{name:<25} {label:<7} {:>5} {:>8} {pck}", score.pairs, score.vertices))?;
+            for (t, v) in total.iter_mut().zip(score.pck) {
+                *t += v / args.folders.len() as f64;
+            }
+        }
+    }
+    for (label, total) in ["prior", "parts"].iter().zip(totals) {
+        let pck = total.map(|v| format!("{:>9.2}%", 100.0 * v)).join(" ");
+        s.ui.say(format!("{:<25} {label:<7} {:>5} {:>8} {pck}", "mean over characters", "", ""))?;
+    }
+    Ok(())
 }
 
 /// Runs `puppet prior data`: every character is built and every output claimed before a file

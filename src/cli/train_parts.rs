@@ -56,7 +56,7 @@ pub fn run(args: TrainPartsArgs, s: &Session) -> anyhow::Result<()> {
         size,
         varied: config.varied,
     };
-    let summary = train_correspondence(&args.output, &config, &train, &held_out, &options, &s.ui)?;
+    let summary = train_correspondence(&args.output, &config, &train, &held_out, serde_json::Map::new(), &options, &s.ui)?;
     s.ui.finish();
     s.ui.say(format!(
         "{}: {} steps in {:.0} s ({:.2} pairs/s), {} parameters → {}",

@@ -6,5 +6,6 @@ pub mod edit_poses;
 pub mod inbetween_eval;
 pub mod parts;
 pub mod pck_pairs;
+pub mod posed_pairs;
 pub mod report;
 pub mod rig;

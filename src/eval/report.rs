@@ -9,10 +9,12 @@ use super::edit_poses::{drag_poses, inbetween_poses};
 use super::rig::{pose_scores, Scores};
 use crate::appearance::AppearanceStage;
 use crate::error::{Context, Error, Result};
-use crate::fit::{fit_with_latents, FitOptions};
+use crate::fit::{fit_from, fit_with_latents, FitOptions};
 use crate::metrics::{l2, masked_rmse, pck, silhouette_iou, vertex_error, PCK_ALPHAS};
 use crate::model::Model;
+use crate::parts::learn::TrainedNet;
 use crate::picture::Picture;
+use crate::prior::{fit_untrained, fit_with_prior, PriorFit, Start};
 use crate::progress::Progress;
 use crate::puppet::sequence::Frames;
 use crate::puppet::visibility::visible_vertices;
@@ -88,6 +90,8 @@ pub struct Report {
     pub accessories: Option<AccessoryScores>,
     /// The puppet's layer names, in the order of [`FrameScores::layer_errors`].
     pub layers: Vec<String>,
+    /// How many fits came from the prior's placement (`None`: the prior was not used).
+    pub from_prior: Option<usize>,
 }
 
 /// A dressed puppet's accessories on each kind of pose.
@@ -108,8 +112,24 @@ pub struct AccessoryScores {
 pub struct Scoring<'a> {
     /// How frames are fitted.
     pub fit: &'a FitOptions,
+    /// Where each fit starts.
+    pub start: FitStart<'a>,
     /// An appearance stage whose redraws of the renders are scored too.
     pub appearance: Option<&'a AppearanceStage>,
+}
+
+/// Where the fits of [`evaluate`] start.
+#[derive(Clone, Copy, Debug)]
+pub enum FitStart<'a> {
+    /// The model's network (its pass and latent steps).
+    Network,
+    /// The better of the fits from the network and from the prior's placement
+    /// ([`fit_with_prior`]).
+    NetworkOrPrior(&'a TrainedNet),
+    /// The prior's placement alone: a model with no trained network ([`fit_untrained`]).
+    Prior(&'a TrainedNet),
+    /// The rest pose, for every frame: the control that shows what the prior adds.
+    Rest,
 }
 
 /// The seed of the drags of [`AccessoryScores::drags`].
@@ -142,7 +162,24 @@ pub fn evaluate(
         model.check_frame(picture).at_path(&frames.files[i])?;
     }
     progress.stage("fit", pictures.len() as u64);
-    let (latents, fits) = fit_with_latents(model, &pictures, options, device, progress)?;
+    let (latents, fits, from_prior) = match scoring.start {
+        FitStart::Network => {
+            let (z, fits) = fit_with_latents(model, &pictures, options, device, progress)?;
+            (Some(z), fits, None)
+        }
+        FitStart::NetworkOrPrior(prior) => {
+            let PriorFit { poses: fits, starts } = fit_with_prior(prior, model, &pictures, options, device, progress)?;
+            (None, fits, Some(starts.iter().filter(|&&s| s == Start::Prior).count()))
+        }
+        FitStart::Prior(prior) => {
+            let fits = fit_untrained(prior, model, &pictures, options, device, progress)?;
+            (None, fits, Some(pictures.len()))
+        }
+        FitStart::Rest => {
+            let rest = vec![model.puppet.rest_vertices(); pictures.len()];
+            (None, fit_from(model, &pictures, &rest, options, device, progress)?, None)
+        }
+    };
     let mut scores = Vec::with_capacity(indices.len());
     let generated: Vec<Option<Picture>> = match appearance {
         Some(stage) => stage
@@ -183,18 +220,27 @@ pub fn evaluate(
     }
     let mean = mean_scores(&scores);
     let accessories = match pose_scores(&model.puppet, &fits, progress) {
-        Some(on_fits) => {
-            progress.stage("in-betweens and drags", 1);
-            let inbetweens = inbetween_poses(model, &latents, &fits, device);
-            let drags = drag_poses(model, &pictures, options, device, DRAG_SEED)?;
-            progress.advance(1);
-            Some(AccessoryScores {
+        // In-betweens and drags move latents: only a network's fits have them.
+        Some(on_fits) => match &latents {
+            Some(latents) => {
+                progress.stage("in-betweens and drags", 1);
+                let inbetweens = inbetween_poses(model, latents, &fits, device);
+                let drags = drag_poses(model, &pictures, options, device, DRAG_SEED)?;
+                progress.advance(1);
+                Some(AccessoryScores {
+                    fits: on_fits,
+                    inbetweens: pose_scores(&model.puppet, &inbetweens, progress),
+                    drags: pose_scores(&model.puppet, &drags, progress),
+                    poses: [fits.len(), inbetweens.len(), drags.len()],
+                })
+            }
+            None => Some(AccessoryScores {
                 fits: on_fits,
-                inbetweens: pose_scores(&model.puppet, &inbetweens, progress),
-                drags: pose_scores(&model.puppet, &drags, progress),
-                poses: [fits.len(), inbetweens.len(), drags.len()],
-            })
-        }
+                inbetweens: None,
+                drags: None,
+                poses: [fits.len(), 0, 0],
+            }),
+        },
         None => None,
     };
     Ok(Report {
@@ -202,6 +248,7 @@ pub fn evaluate(
         mean,
         accessories,
         layers: model.puppet.layers.iter().map(|l| l.name.clone()).collect(),
+        from_prior,
     })
 }
 

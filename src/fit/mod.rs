@@ -41,6 +41,9 @@ use hidden_limbs::HiddenLimbs;
 use limb_search::LimbSearch;
 use plausible::JointRanges;
 
+/// Every template vertex of each of some frames, frame pixels.
+type Poses = Vec<Vec<[f32; 2]>>;
+
 /// The most frames fitted in one batch (one rasterizer, objective and network input each).
 pub const BATCH: usize = 16;
 
@@ -272,6 +275,53 @@ pub fn fit_with_latents(
     if frames.is_empty() {
         return Ok((model.encode(frames, device)?, Vec::new()));
     }
+    let (latents, poses) = fit_batches(model, frames, None, options, device, progress)?;
+    Ok((Tensor::cat(latents.into_iter().flatten().collect(), 0), poses))
+}
+
+/// The latent-free stages of [`fit`] — vertex rounds (limb search and vertex steps), hidden
+/// limbs, accessory moves — from `starts` (one pose per frame, frame pixels) instead of the
+/// network's pass: how a pose placed by other means (the character-agnostic prior) is fitted.
+/// `options.latent_steps` is ignored.
+///
+/// # Errors
+/// [`Error::Mismatch`] if `starts` is not one pose of the puppet's vertex count per frame; as
+/// [`fit_latents`].
+pub fn fit_from(
+    model: &Model,
+    frames: &[&Picture],
+    starts: &[Vec<[f32; 2]>],
+    options: &FitOptions,
+    device: &Device,
+    progress: &dyn Progress,
+) -> Result<Vec<Vec<[f32; 2]>>> {
+    if starts.len() != frames.len() {
+        return Err(Error::mismatch(
+            "the starting poses",
+            starts.len(),
+            format!("{}, one per frame", frames.len()),
+        ));
+    }
+    let count = model.puppet.vertex_count();
+    if let Some(bad) = starts.iter().find(|p| p.len() != count) {
+        return Err(Error::mismatch("a starting pose's vertices", bad.len(), count));
+    }
+    if frames.is_empty() {
+        return Ok(Vec::new());
+    }
+    Ok(fit_batches(model, frames, Some(starts), options, device, progress)?.1)
+}
+
+/// [`fit_with_latents`] or, with `starts`, [`fit_from`]: the batches' latents (none from
+/// starts) and every frame's pose.
+fn fit_batches(
+    model: &Model,
+    frames: &[&Picture],
+    starts: Option<&[Vec<[f32; 2]>]>,
+    options: &FitOptions,
+    device: &Device,
+    progress: &dyn Progress,
+) -> Result<(Vec<Option<Tensor<2>>>, Poses)> {
     // One batch's many small steps keep about one core busy, so from four frames on they are split
     // into batches fitted side by side: two, or more of at most `BATCH`. A frame's fit does not
     // depend on the frames beside it (`Analysis::descend`) as long as it has company: a frame
@@ -281,17 +331,24 @@ pub fn fit_with_latents(
     // machine's cores: a fit is the same wherever it runs.
     let n = frames.len();
     let count = if n < 4 { 1 } else { n.div_ceil(BATCH).max(2) };
-    let batches: Vec<(Tensor<2>, Vec<Vec<[f32; 2]>>)> = (0..count)
+    let batches: Vec<(Option<Tensor<2>>, Poses)> = (0..count)
         .into_par_iter()
         .map(|k| {
-            let chunk = &frames[k * n / count..(k + 1) * n / count];
-            let fitted = fit_batch(model, chunk, options, device)?;
+            let range = k * n / count..(k + 1) * n / count;
+            let chunk = &frames[range.clone()];
+            let fitted = match starts {
+                Some(starts) => (None, fit_batch_from(model, chunk, starts[range].to_vec(), options, device)?),
+                None => {
+                    let (z, poses) = fit_batch(model, chunk, options, device)?;
+                    (Some(z), poses)
+                }
+            };
             progress.advance(chunk.len() as u64);
             Ok(fitted)
         })
         .collect::<Result<_>>()?;
     let (latents, poses): (Vec<_>, Vec<_>) = batches.into_iter().unzip();
-    Ok((Tensor::cat(latents, 0), poses.into_iter().flatten().collect()))
+    Ok((latents, poses.into_iter().flatten().collect()))
 }
 
 /// One batch of [`fit`]: the latents after the latent steps and the fitted poses.
@@ -307,17 +364,35 @@ fn fit_batch(model: &Model, frames: &[&Picture], options: &FitOptions, device: &
     // One analysis (rasterizer, objective, network input) for every stage.
     let analysis = Analysis::new(model, frames, options, device)?;
     let z = analysis.latents(model.net.encode(analysis.images.clone()))?;
-    let mut poses = model.to_frame_vertices(model.decode(z.clone(), device));
+    let poses = model.to_frame_vertices(model.decode(z.clone(), device));
+    Ok((z, latent_free_stages(&analysis, frames, poses)?))
+}
+
+/// One batch of [`fit_from`].
+fn fit_batch_from(
+    model: &Model,
+    frames: &[&Picture],
+    starts: Vec<Vec<[f32; 2]>>,
+    options: &FitOptions,
+    device: &Device,
+) -> Result<Vec<Vec<[f32; 2]>>> {
+    let analysis = Analysis::new(model, frames, options, device)?;
+    latent_free_stages(&analysis, frames, starts)
+}
+
+/// The stages after the latents, from `poses`: vertex rounds, hidden limbs, accessory moves.
+fn latent_free_stages(analysis: &Analysis, frames: &[&Picture], mut poses: Vec<Vec<[f32; 2]>>) -> Result<Vec<Vec<[f32; 2]>>> {
+    let (model, options) = (analysis.model, analysis.options);
     if options.moves_vertices() {
-        vertex_rounds(&analysis, frames, &mut poses)?;
+        vertex_rounds(analysis, frames, &mut poses)?;
     }
     if let Some(hidden) = &options.hidden_limbs {
         place_hidden_limbs(hidden, analysis.objective.raster(), model, frames, &mut poses)?;
     }
     if options.moves_vertices() && options.accessory_steps > 0 {
-        move_accessories(&analysis, frames, &mut poses)?;
+        move_accessories(analysis, frames, &mut poses)?;
     }
-    Ok((z, poses))
+    Ok(poses)
 }
 
 /// With an accessory rig, each pose's accessories moved from where the rig puts them

@@ -30,7 +30,7 @@ use crate::picture::Picture;
 use crate::progress::Progress;
 use crate::rng::Rng;
 use crate::train::checkpoint::{Checkpoint, OPTIMIZER, WEIGHTS};
-use crate::train::config::load_checked;
+use crate::train::config::{canonical, load_checked};
 use crate::train::harness::{Plan, Run, RunFolder};
 use crate::train::log::{log_row, plot_rows};
 use crate::train::optim::{adam, learning_rate_at, optimizer_bytes, optimizer_from_bytes, AdamSettings};
@@ -81,6 +81,7 @@ pub trait PairSource: Sync {
 /// depth = 5
 /// input_size = 128
 /// varied = false          # train on characters of wider variety (`puppet synth --varied`)
+/// start = "../data/parts-net"  # optional: start from this trained network's weights
 ///
 /// [adam]
 /// beta_1 = 0.9
@@ -126,6 +127,9 @@ pub struct LearnConfig {
     pub varied: bool,
     /// The optimiser.
     pub adam: AdamSettings,
+    /// A trained network's folder (its `net.json` must be this config's network) whose weights
+    /// training starts from instead of seeded ones: the prior starts from the parts network.
+    pub start: Option<PathBuf>,
 }
 
 impl Default for LearnConfig {
@@ -150,6 +154,7 @@ impl Default for LearnConfig {
             input_size: net.input_size,
             varied: false,
             adam: AdamSettings::default(),
+            start: None,
         }
     }
 }
@@ -160,7 +165,16 @@ impl LearnConfig {
     /// # Errors
     /// As [`load_checked`], with [`LearnConfig::validate`].
     pub fn load(path: &Path) -> Result<Self> {
-        load_checked(path, Self::validate)
+        let mut config: LearnConfig = load_checked(path, Self::validate)?;
+        config.resolve_paths(path);
+        Ok(config)
+    }
+
+    /// Makes a relative `start` relative to the folder of the config file `path`.
+    pub fn resolve_paths(&mut self, path: &Path) {
+        if let Some(start) = self.start.as_mut().filter(|s| s.is_relative()) {
+            *start = canonical(&path.parent().unwrap_or(Path::new(".")).join(&*start));
+        }
     }
 
     /// The network it trains.
@@ -347,7 +361,8 @@ fn read_shape(bytes: &[u8], source: &Path) -> Result<CorrespondenceNetConfig> {
 }
 
 /// Trains a correspondence network in `dir` on pairs from `train`, scoring pairs from
-/// `held_out`.
+/// `held_out`. `data` describes where the pairs come from beyond `config` (the prior's
+/// characters): recorded beside it in `config.toml`, and held to on a resume.
 ///
 /// # Errors
 /// [`Error::RunExists`] if `dir` has a checkpoint and resuming was not asked for;
@@ -360,6 +375,7 @@ pub fn train_correspondence(
     config: &LearnConfig,
     train: &dyn PairSource,
     held_out: &dyn PairSource,
+    data: serde_json::Map<String, serde_json::Value>,
     options: &LearnOptions,
     progress: &dyn Progress,
 ) -> Result<LearnSummary> {
@@ -372,13 +388,20 @@ pub fn train_correspondence(
         ));
     }
     let folder = NetFolder::new(dir);
-    let config_json = serde_json::to_value(config).map_err(|e| Error::format(folder.config(), e.to_string()))?;
-    let run = RunFolder::claim(dir, config_json, &["steps"], options.resume, false)?;
+    let mut config_json = serde_json::to_value(config).map_err(|e| Error::format(folder.config(), e.to_string()))?;
+    if let Some(keys) = config_json.as_object_mut() {
+        keys.extend(data);
+    }
+    let run = RunFolder::claim(dir, config_json.clone(), &["steps"], options.resume, false)?;
     let held: Vec<TrainingPair> = (0..config.held_out as u64)
         .into_par_iter()
         .map(|i| held_out.pair(i))
         .collect::<Result<_>>()?;
-    let trainer = CorrespondenceTrainer::new(config, &crate::backend::train_device());
+    let device = crate::backend::train_device();
+    let mut trainer = CorrespondenceTrainer::new(config, &device);
+    if let Some(start) = config.start.as_ref().filter(|_| run.previous().is_none()) {
+        trainer.start_from(start)?;
+    }
     let untrained = trainer.score(&held);
     let plan = Plan {
         stage: "correspondence network",
@@ -408,7 +431,11 @@ pub fn train_correspondence(
             write_atomic(&folder.net(), &json)?;
         }
     }
-    let toml = toml::to_string_pretty(config).map_err(|e| Error::format(folder.config(), e.to_string()))?;
+    // TOML has no null: an unset optional key is left out, as a config file leaves it out.
+    if let Some(keys) = config_json.as_object_mut() {
+        keys.retain(|_, v| !v.is_null());
+    }
+    let toml = toml::to_string_pretty(&config_json).map_err(|e| Error::format(folder.config(), e.to_string()))?;
     write_atomic(&folder.config(), toml.as_bytes())?;
     let summary = run.train(&mut learning, &plan, progress)?;
     if learning.score.within_2px.is_nan() {
@@ -535,6 +562,25 @@ impl CorrespondenceTrainer {
             config: config.clone(),
             device: device.clone(),
         }
+    }
+
+    /// Continues from the weights of the network trained in `source`.
+    ///
+    /// # Errors
+    /// [`Error::Mismatch`] if its network is not this config's; as [`TrainedNet::load`].
+    pub fn start_from(&mut self, source: &Path) -> Result<()> {
+        let shape = NetFolder::new(source).net();
+        let theirs = read_shape(&user_file::read_bytes(&shape, user_file::CONFIG)?, &shape)?;
+        let ours = self.config.net();
+        if ours != theirs {
+            return Err(Error::mismatch(
+                format!("{}: the starting network's shape", shape.display()),
+                format!("{theirs:?}"),
+                format!("{ours:?}, the config's"),
+            ));
+        }
+        self.net = Some(TrainedNet::load(source, &self.device)?.net);
+        Ok(())
     }
 
     fn net(&self) -> &CorrespondenceNet {

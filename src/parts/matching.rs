@@ -90,6 +90,12 @@ impl Foreground {
 /// For each pixel of pose `a`, the pixel of pose `b` whose feature is most similar (None off
 /// `a`'s foreground, or if `b` has none).
 pub fn nearest(a: &Foreground, b: &Foreground, device: &Device) -> Vec<Option<usize>> {
+    nearest_scored(a, b, device).into_iter().map(|m| m.map(|(q, _)| q)).collect()
+}
+
+/// [`nearest`] with each match's similarity (the features' dot product: their cosine, as the
+/// network's features are unit vectors).
+pub fn nearest_scored(a: &Foreground, b: &Foreground, device: &Device) -> Vec<Option<(usize, f32)>> {
     let channels = a.channels;
     let mut out = vec![None; a.pixels];
     if a.index.is_empty() || b.index.is_empty() {
@@ -98,10 +104,13 @@ pub fn nearest(a: &Foreground, b: &Foreground, device: &Device) -> Vec<Option<us
     let targets = Tensor::<2>::from_data(TensorData::new(b.rows.clone(), [b.index.len(), channels]), device).transpose();
     for (block, pixels) in a.rows.chunks(ROWS * channels).zip(a.index.chunks(ROWS)) {
         let sources = Tensor::<2>::from_data(TensorData::new(block.to_vec(), [pixels.len(), channels]), device);
-        let best: Tensor<2, Int> = sources.matmul(targets.clone()).argmax(1);
+        let similarity = sources.matmul(targets.clone());
+        let best: Tensor<2, Int> = similarity.clone().argmax(1);
+        let score = similarity.max_dim(1);
         let best = best.into_data().convert::<i64>().try_to_vec::<i64>().unwrap_or_default();
-        for (&p, &q) in pixels.iter().zip(&best) {
-            out[p] = b.index.get(q as usize).copied();
+        let score = score.into_data().convert::<f32>().try_to_vec::<f32>().unwrap_or_default();
+        for ((&p, &q), &v) in pixels.iter().zip(&best).zip(&score) {
+            out[p] = b.index.get(q as usize).map(|&j| (j, v));
         }
     }
     out

@@ -28,7 +28,7 @@ use crate::rng::Rng;
 use drag::{drag_layers, DragLayer};
 use truth::LayerCoverage;
 
-pub use truth::NO_LAYER;
+pub use truth::{surface_points, SurfacePoint, NO_LAYER};
 
 /// How far the engine moves a character from its rest pose. Every range is drawn uniformly,
 /// either way.
@@ -190,7 +190,15 @@ impl PoseEngine {
     /// # Errors
     /// As [`SoftRasterizer::forward`]: a pose with a coordinate that is not finite.
     pub fn pose(&self, seed: u64) -> Result<PosedFrame> {
-        let vertices = self.vertices(seed);
+        self.frame(self.vertices(seed))
+    }
+
+    /// The frame and truth of the pose `vertices` (global numbering, frame pixels): the rest
+    /// pose's, or any other.
+    ///
+    /// # Errors
+    /// As [`SoftRasterizer::forward`]: a coordinate that is not finite.
+    pub fn frame(&self, vertices: Vec<[f32; 2]>) -> Result<PosedFrame> {
         let (w, h) = (self.puppet.width, self.puppet.height);
         let flat: Vec<f32> = vertices.iter().flatten().copied().collect();
         let frame = self

@@ -3,6 +3,7 @@
 //! gives its coverage — so the labels and the visibility agree with the pixels of the frame.
 
 use crate::error::Result;
+use crate::geom::triangle::barycentric;
 use crate::puppet::Puppet;
 use crate::render::{Background, Params, SoftRasterizer};
 
@@ -91,6 +92,71 @@ pub fn visible(pose: &[[f32; 2]], offsets: &[usize], labels: &[u16], width: u32,
     out
 }
 
+/// A point of a puppet's surface: barycentric weights over three vertices of one layer's
+/// triangle, so it can be found on any pose of the puppet.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct SurfacePoint {
+    /// The layer it lies on.
+    pub layer: u16,
+    /// The triangle's corners, global numbering.
+    pub corners: [u32; 3],
+    /// Their weights (sum 1).
+    pub weights: [f32; 3],
+}
+
+impl SurfacePoint {
+    /// Where the point is on `pose` (global numbering).
+    pub fn on(&self, pose: &[[f32; 2]]) -> [f32; 2] {
+        let mut p = [0.0f32; 2];
+        for (&v, &w) in self.corners.iter().zip(&self.weights) {
+            p[0] += w * pose[v as usize][0];
+            p[1] += w * pose[v as usize][1];
+        }
+        p
+    }
+}
+
+/// For each pixel of a `width × height` frame of `pose` (global numbering, pixels), row-major,
+/// the point of the surface drawn at its centre: on the front layer `labels` names there, in
+/// the triangle of that layer holding the centre. `None` off the character, and on the few
+/// outline pixels whose coverage passes one half while their centre lies outside every triangle.
+pub fn surface_points(puppet: &Puppet, pose: &[[f32; 2]], labels: &[u16], width: u32, height: u32) -> Vec<Option<SurfacePoint>> {
+    let (w, h) = (width as usize, height as usize);
+    let offsets = puppet.vertex_offsets();
+    let mut out: Vec<Option<SurfacePoint>> = vec![None; w * h];
+    for (l, layer) in puppet.layers.iter().enumerate() {
+        for t in &layer.mesh.triangles {
+            let corners = t.map(|i| (offsets[l] + i as usize) as u32);
+            let at = corners.map(|v| pose[v as usize]);
+            let span = |c: usize| {
+                let lo = at.iter().map(|p| p[c]).fold(f32::INFINITY, f32::min);
+                let hi = at.iter().map(|p| p[c]).fold(f32::NEG_INFINITY, f32::max);
+                (lo - 0.5).floor().max(0.0) as usize..((hi - 0.5).ceil().max(-1.0) + 1.0) as usize
+            };
+            let (xs, ys) = (span(0), span(1));
+            for y in ys.start..ys.end.min(h) {
+                for x in xs.start..xs.end.min(w) {
+                    let i = y * w + x;
+                    if usize::from(labels[i]) != l || out[i].is_some() {
+                        continue;
+                    }
+                    let Some(weights) = barycentric(at, [x as f32 + 0.5, y as f32 + 0.5]) else {
+                        continue;
+                    };
+                    if weights.iter().all(|&b| b >= -1e-4) {
+                        out[i] = Some(SurfacePoint {
+                            layer: l as u16,
+                            corners,
+                            weights,
+                        });
+                    }
+                }
+            }
+        }
+    }
+    out
+}
+
 /// A colour for layer `l` that tells it from its neighbours in order: hues a golden angle apart,
 /// full saturation, alternating lightness.
 pub fn label_colour(l: usize) -> [f32; 3] {
@@ -112,6 +178,56 @@ pub fn label_colour(l: usize) -> [f32; 3] {
 mod tests {
     use super::*;
     use crate::test_util::layered_puppet;
+
+    #[test]
+    fn each_pixel_is_bound_to_the_point_of_the_front_layer_drawn_at_its_centre() {
+        let puppet = layered_puppet();
+        let rest = puppet.rest_vertices();
+        let (w, h) = (puppet.width, puppet.height);
+        let labels = LayerCoverage::new(&puppet).unwrap().labels(&rest, w, h).unwrap();
+        let surface = surface_points(&puppet, &rest, &labels, w, h);
+        let mut bound = 0;
+        for (i, point) in surface.iter().enumerate() {
+            let centre = [(i % w as usize) as f32 + 0.5, (i / w as usize) as f32 + 0.5];
+            match point {
+                Some(point) => {
+                    bound += 1;
+                    assert_eq!(point.layer, labels[i], "pixel {i} is bound to a layer not in front there");
+                    let at = point.on(&rest);
+                    assert!(
+                        (at[0] - centre[0]).abs() < 1e-3 && (at[1] - centre[1]).abs() < 1e-3,
+                        "pixel {i} bound at {at:?}"
+                    );
+                    assert!((point.weights.iter().sum::<f32>() - 1.0).abs() < 1e-4);
+                }
+                None => assert!(
+                    labels[i] == NO_LAYER || is_outline(&labels, i, w as usize),
+                    "pixel {i} inside a layer is unbound"
+                ),
+            }
+        }
+        let covered = labels.iter().filter(|&&l| l != NO_LAYER).count();
+        assert!(bound as f64 > 0.95 * covered as f64, "{bound} of {covered} covered pixels bound");
+        // Moved, the point goes with the pose: a shifted pose puts every bound point shifted.
+        let shifted: Vec<[f32; 2]> = rest.iter().map(|p| [p[0] + 3.0, p[1] - 2.0]).collect();
+        for point in surface.iter().flatten().take(50) {
+            let (a, b) = (point.on(&rest), point.on(&shifted));
+            assert!((b[0] - a[0] - 3.0).abs() < 1e-4 && (b[1] - a[1] + 2.0).abs() < 1e-4);
+        }
+    }
+
+    /// Whether pixel `i` of a `w`-wide label image borders another label (an outline pixel,
+    /// whose coverage may pass one half while its centre lies outside every triangle).
+    fn is_outline(labels: &[u16], i: usize, w: usize) -> bool {
+        let (x, y) = ((i % w) as i64, (i / w) as i64);
+        let h = (labels.len() / w) as i64;
+        (-1..=1).any(|dy| {
+            (-1..=1).any(|dx| {
+                let (qx, qy) = (x + dx, y + dy);
+                !(0..w as i64).contains(&qx) || !(0..h).contains(&qy) || labels[(qy * w as i64 + qx) as usize] != labels[i]
+            })
+        })
+    }
 
     #[test]
     fn the_rest_labels_put_the_front_arm_over_the_torso_and_visibility_follows() {

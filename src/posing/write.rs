@@ -14,14 +14,15 @@
 
 use std::path::{Path, PathBuf};
 
-use serde::Serialize;
+use serde::{Deserialize, Serialize};
 
 use super::{pose_seed, truth, PoseEngine, PosedFrame, NO_LAYER};
 use crate::atomic_file::Outputs;
-use crate::error::Result;
+use crate::error::{Error, Result};
 use crate::picture::{contact_sheet, draw, Picture};
 use crate::puppet::{format, LayerKind};
 use crate::render::render_crisp;
+use crate::user_file;
 
 /// The most poses the contact sheet shows.
 const SHEET_POSES: usize = 24;
@@ -35,6 +36,59 @@ struct PoseFile<'a> {
     seed: u64,
     vertices: &'a [[f32; 2]],
     visible: &'a [bool],
+}
+
+/// A pose's truth read back: every template vertex's place and whether it shows.
+#[derive(Clone, Debug, Deserialize)]
+pub struct PoseTruth {
+    /// The pose's seed.
+    pub seed: u64,
+    /// Every template vertex, frame pixels.
+    pub vertices: Vec<[f32; 2]>,
+    /// Per vertex: whether the frame shows it.
+    pub visible: Vec<bool>,
+}
+
+impl PoseTruth {
+    /// Reads the truth file `path` of a pose of a puppet of `vertex_count` vertices.
+    ///
+    /// # Errors
+    /// [`Error::Io`] if unreadable; [`Error::Format`] naming the file for anything but a truth
+    /// file of that many vertices, all finite.
+    pub fn load(path: &Path, vertex_count: usize) -> Result<Self> {
+        Self::parse(&user_file::read_bytes(path, user_file::DATA)?, path, vertex_count)
+    }
+
+    /// Parses the bytes of a truth file; `path` only names it in errors.
+    ///
+    /// # Errors
+    /// As [`PoseTruth::load`], but for reading.
+    pub fn parse(bytes: &[u8], path: &Path, vertex_count: usize) -> Result<Self> {
+        let truth: PoseTruth = serde_json::from_slice(bytes).map_err(|e| Error::format(path, format!("not a pose's truth: {e}")))?;
+        if truth.vertices.len() != vertex_count || truth.visible.len() != vertex_count {
+            return Err(Error::format(
+                path,
+                format!(
+                    "{} vertices and {} visibility flags for a puppet of {vertex_count} vertices",
+                    truth.vertices.len(),
+                    truth.visible.len()
+                ),
+            ));
+        }
+        if truth.vertices.iter().flatten().any(|c| !c.is_finite()) {
+            return Err(Error::format(path, "a vertex is not finite"));
+        }
+        Ok(truth)
+    }
+}
+
+/// The pose files of a folder [`write_character`] wrote: `pose_000` on, as long as the next
+/// one's truth is there (stems, without `.png` or `.json`).
+pub fn pose_stems(dir: &Path) -> Vec<PathBuf> {
+    (0..)
+        .map(|k| dir.join(format!("pose_{k:03}")))
+        .take_while(|stem| stem.with_extension("json").is_file())
+        .collect()
 }
 
 /// One layer in `layers.json`.
