@@ -7,35 +7,31 @@
 use std::path::Path;
 
 use crate::edit::{s, setup};
-use crate::util::{puppet, repo};
+use crate::util::{puppet, repo, Run};
+use puppet::puppet::pose_file::PoseFile;
 
 /// The shipped walk.
 fn walk() -> String {
     repo().join("data/motion/walk.bvh").to_str().unwrap().to_string()
 }
 
+/// Runs `puppet retarget` with `model` on `motion` into `out`, then `extra`.
+fn retarget(tmp: &Path, model: &Path, motion: &str, out: &str, extra: &[&str]) -> Run {
+    puppet(tmp, &[&["retarget", "--model", s(model), motion, "-o", out][..], extra].concat())
+}
+
 #[test]
 fn the_bvh_walk_plays_on_the_character_and_exports_to_spine() {
     let tmp = tempfile::tempdir().unwrap();
-    let (model, _, _) = setup(tmp.path());
-    std::fs::write(tmp.path().join("map.toml"), "[retarget]\nLeftArm = \"arm\"\n").unwrap();
-    let out = tmp.path().join("walk");
-    let run = puppet(
-        tmp.path(),
-        &[
-            "retarget",
-            "--model",
-            s(&model),
-            &walk(),
-            "-o",
-            s(&out),
-            "--map",
-            "map.toml",
-            "--fps",
-            "15",
-            "--gif",
-            "walk/walk.gif",
-        ],
+    let t = tmp.path();
+    let (model, _, _) = setup(t);
+    std::fs::write(t.join("map.toml"), "[retarget]\nLeftArm = \"arm\"\n").unwrap();
+    let run = retarget(
+        t,
+        &model,
+        &walk(),
+        "walk",
+        &["--map", "map.toml", "--fps", "15", "--gif", "walk/walk.gif"],
     );
     run.assert_ok();
     assert!(
@@ -44,6 +40,7 @@ fn the_bvh_walk_plays_on_the_character_and_exports_to_spine() {
         run.stdout
     );
     // 36 frames at 30 frames a second, 1.17 s: 18 frames at 15.
+    let out = t.join("walk");
     for k in [0, 17] {
         assert!(out.join(format!("frame_{k:03}.png")).is_file() && out.join(format!("frame_{k:03}.json")).is_file());
         assert!(out.join(format!("rigid/frame_{k:03}.png")).is_file());
@@ -54,56 +51,41 @@ fn the_bvh_walk_plays_on_the_character_and_exports_to_spine() {
     }
     let atlas: serde_json::Value = serde_json::from_slice(&std::fs::read(out.join("sprites.json")).unwrap()).unwrap();
     assert!(atlas.to_string().contains("67"), "frames of 1000/15 ms: {atlas}");
-    let spine = puppet(tmp.path(), &["export", "spine", "--model", s(&model), s(&out), "-o", "spine"]);
+    let spine = puppet(t, &["export", "spine", "--model", s(&model), s(&out), "-o", "spine"]);
     spine.assert_ok();
     assert!(spine.stdout.contains("walk (18 keys)"), "{}", spine.stdout);
     // The plain turns alone, on the spot.
-    let rigid = puppet(
-        tmp.path(),
-        &[
-            "retarget",
-            "--model",
-            s(&model),
-            &walk(),
-            "-o",
-            "rigid",
-            "--map",
-            "map.toml",
-            "--rigid",
-            "--in-place",
-        ],
-    );
-    rigid.assert_ok();
-    assert!(tmp.path().join("rigid/frame_035.json").is_file() && !tmp.path().join("rigid/rigid").exists());
+    retarget(t, &model, &walk(), "rigid", &["--map", "map.toml", "--rigid", "--in-place"]).assert_ok();
+    assert!(t.join("rigid/frame_035.json").is_file() && !t.join("rigid/rigid").exists());
 }
 
 #[test]
 fn another_characters_poses_play_on_this_one() {
     let tmp = tempfile::tempdir().unwrap();
-    let (model, a, b) = setup(tmp.path());
-    let ib = tmp.path().join("ib");
-    puppet(
-        tmp.path(),
-        &["inbetween", "--model", s(&model), s(&a), s(&b), "--steps", "2", "-o", s(&ib)],
-    )
-    .assert_ok();
-    let poses = ib.join("inbetween");
+    let t = tmp.path();
+    let (model, _, _) = setup(t);
+    // Two poses of the model's own character: at rest, and moved 2 px to the right.
+    let p = puppet::puppet::format::load(&model.join("puppet")).unwrap();
+    std::fs::create_dir_all(t.join("poses")).unwrap();
+    for (k, dx) in [0.0, 2.0].into_iter().enumerate() {
+        let pose = PoseFile {
+            vertices: p.rest_vertices().iter().map(|v| [v[0] + dx, v[1]]).collect(),
+        };
+        std::fs::write(t.join(format!("poses/pose_{k}.json")), pose.to_json()).unwrap();
+    }
     // Without the character they pose, pose files cannot be read.
-    puppet(tmp.path(), &["retarget", "--model", s(&model), s(&poses), "-o", "none"]).assert_error(&["inbetween", "--from"]);
-    assert!(!tmp.path().join("none").exists());
-    let run = puppet(
-        tmp.path(),
-        &["retarget", "--model", s(&model), s(&poses), "--from", s(&model), "-o", "again"],
-    );
-    run.assert_ok();
-    assert!(tmp.path().join("again/frame_003.json").is_file());
+    retarget(t, &model, "poses", "none", &[]).assert_error(&["poses", "--from"]);
+    assert!(!t.join("none").exists());
+    retarget(t, &model, "poses", "again", &["--from", s(&model), "--rigid"]).assert_ok();
+    let moved: PoseFile = serde_json::from_slice(&std::fs::read(t.join("again/frame_001.json")).unwrap()).unwrap();
+    let shift = moved.vertices[0][0] - p.rest_vertices()[0][0];
+    assert!((shift - 2.0).abs() < 1e-3, "the root moved {shift} px, not 2");
 }
 
 /// Asserts `puppet retarget` of `motion` fails naming each of `needles`, and writes nothing.
 fn refused(tmp: &Path, model: &Path, motion: &str, extra: &[&str], needles: &[&str]) {
     let out = tmp.join("refused");
-    let args = [&["retarget", "--model", s(model), motion, "-o", s(&out)][..], extra].concat();
-    puppet(tmp, &args).assert_error(needles);
+    retarget(tmp, model, motion, s(&out), extra).assert_error(needles);
     assert!(!out.exists(), "{motion}: a refused retarget writes nothing");
 }
 
@@ -142,7 +124,7 @@ fn bad_motions_are_refused_naming_the_file_and_nothing_is_written() {
     std::fs::write(art.join("character.toml"), renamed).unwrap();
     puppet(t, &["build", s(&art), "-o", "other"]).assert_ok();
     let other = puppet::puppet::format::load(&t.join("other")).unwrap();
-    let pose = puppet::puppet::pose_file::PoseFile {
+    let pose = PoseFile {
         vertices: other.rest_vertices(),
     };
     std::fs::write(t.join("other_pose.json"), pose.to_json()).unwrap();

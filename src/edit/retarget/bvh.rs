@@ -398,7 +398,8 @@ fn multiply(a: &[[f64; 3]; 3], b: &[[f64; 3]; 3]) -> [[f64; 3]; 3] {
     std::array::from_fn(|i| std::array::from_fn(|j| (0..3).map(|k| a[i][k] * b[k][j]).sum()))
 }
 
-fn apply(r: &[[f64; 3]; 3], v: [f64; 3]) -> [f64; 3] {
+/// `r · v`.
+pub(super) fn apply(r: &[[f64; 3]; 3], v: [f64; 3]) -> [f64; 3] {
     std::array::from_fn(|i| (0..3).map(|k| r[i][k] * v[k]).sum())
 }
 

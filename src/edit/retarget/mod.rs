@@ -233,12 +233,11 @@ impl Motion {
         for (j, joint) in bvh.joints.iter().enumerate() {
             for end in &joint.ends {
                 // End sites at rest, for the size (their direction is the joint's own).
-                let r = rest_places[j].rotation;
-                let moved: [f64; 3] = std::array::from_fn(|i| (0..3).map(|k| r[i][k] * end[k]).sum());
+                let moved = bvh::apply(&rest_places[j].rotation, *end);
                 points.push(project([0, 1, 2].map(|k| rest_places[j].position[k] + moved[k])));
             }
         }
-        let size = extent(&points).max(f64::MIN_POSITIVE);
+        let size = f64::from(figure_size(&points.iter().map(|p| p.map(|c| c as f32)).collect::<Vec<_>>())).max(f64::MIN_POSITIVE);
         let root_rest = points[0];
         let parts = bvh
             .joints
@@ -664,18 +663,6 @@ fn centroid(points: &[[f32; 2]]) -> [f32; 2] {
     points.iter().fold([0.0, 0.0], |c, p| [c[0] + p[0] / n, c[1] + p[1] / n])
 }
 
-/// The larger side of the bounding box of `points`.
-fn extent(points: &[[f64; 2]]) -> f64 {
-    let (mut lo, mut hi) = ([f64::INFINITY; 2], [f64::NEG_INFINITY; 2]);
-    for p in points {
-        for k in 0..2 {
-            lo[k] = lo[k].min(p[k]);
-            hi[k] = hi[k].max(p[k]);
-        }
-    }
-    (hi[0] - lo[0]).max(hi[1] - lo[1]).max(0.0)
-}
-
 /// How a motion is played.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct RetargetOptions {
@@ -982,26 +969,16 @@ mod tests {
         let rigid = Retargeter::new(&target, None).rigid(&motion, &mapping, false);
         assert!(crate::test_util::largest_distance(&rigid[1], &pose) < 1e-3);
         // Two unmatched children on each side: another tree, and the error names them.
-        let mut three = source.clone();
-        three.layers.push(rect_layer(
-            "tail",
-            (64, 40),
-            [8.0, 30.0, 16.0, 34.0],
-            (2, 1),
-            stripes([0.1, 0.9, 0.1], 9.0),
-        ));
-        weld(&mut three, 0, 3, [16.0, 32.0]);
+        let with_tail = |mut p: Puppet, name: &str| {
+            let tail = rect_layer(name, (64, 40), [8.0, 30.0, 16.0, 34.0], (2, 1), stripes([0.1, 0.9, 0.1], 9.0));
+            p.layers.push(tail);
+            weld(&mut p, 0, 3, [16.0, 32.0]);
+            p
+        };
+        let three = with_tail(source.clone(), "tail");
         let motion = Motion::from_poses(&three, &[three.rest_vertices()], Path::new("poses"), POSE_FRAME_TIME);
-        let mut two = armed_puppet();
+        let mut two = with_tail(armed_puppet(), "fin");
         two.layers[1].name = "upper".into();
-        two.layers.push(rect_layer(
-            "fin",
-            (64, 40),
-            [8.0, 30.0, 16.0, 34.0],
-            (2, 1),
-            stripes([0.1, 0.9, 0.1], 9.0),
-        ));
-        weld(&mut two, 0, 3, [16.0, 32.0]);
         let err = Mapping::new(&motion, &two, None, &Recorder::default()).unwrap_err().to_string();
         assert!(err.starts_with("poses: another layer tree"), "{err}");
         assert!(
