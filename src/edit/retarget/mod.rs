@@ -334,6 +334,12 @@ impl Motion {
         if !(frame_time.is_finite() && frame_time > 0.0) {
             return Err(Error::setting("the frame time", frame_time, "a positive number of seconds"));
         }
+        if self.is_empty() {
+            return Ok(Motion {
+                frame_time,
+                ..self.clone()
+            });
+        }
         let duration = self.frame_time as f64 * self.len().saturating_sub(1) as f64;
         let count = (duration / frame_time as f64 + 1e-6).floor() + 1.0;
         if count > MAX_FRAMES as f64 {
