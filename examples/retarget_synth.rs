@@ -77,7 +77,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         }
     }
     let n = split.test.len().max(1) as f64;
-    println!("{} held-out frames of {} (A: {})", split.test.len(), b.display(), a.display());
+    println!("{}'s motion on {}: {} held-out frames", a.display(), b.display(), split.test.len());
     for (name, sum) in ["default (manifold)", "rigid (--rigid)", "nearest training frame"].iter().zip(sums) {
         println!("{name:24} vertex error {:6.2} px   L2 {:8.1}", sum[0] / n, sum[1] / n);
     }

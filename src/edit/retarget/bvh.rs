@@ -19,14 +19,15 @@ pub const MAX_JOINTS: usize = 1024;
 /// The most frames a motion may have (an hour at 30 frames a second).
 pub const MAX_FRAMES: usize = 108_000;
 
-/// The most channel values a motion may hold (frames × channels: 400 MB as `f32`).
-pub const MAX_VALUES: usize = 100_000_000;
+/// The most channel values a motion may hold (frames × channels: 128 MB as `f64`; ten minutes
+/// of a 100-channel capture at 120 frames a second is 7.2 million).
+pub const MAX_VALUES: usize = 16_000_000;
 
 /// The deepest a joint may be nested (a spine with a tail is a few dozen).
 const MAX_DEPTH: usize = 256;
 
-/// The largest BVH file read: a motion's text, at most [`MAX_VALUES`] short numbers.
-const MAX_BYTES: u64 = user_file::DATA;
+/// The largest BVH file read: [`MAX_VALUES`] numbers of up to eight characters.
+const MAX_BYTES: u64 = 144 << 20;
 
 /// One animated degree of freedom of a joint.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -74,40 +75,48 @@ pub struct Placed {
     pub rotation: [[f64; 3]; 3],
 }
 
-/// The words of a BVH file with the line each is on.
+/// The words of a BVH file, read a line at a time (a motion's text is never held as a list of
+/// words), with the line of the last word read.
 struct Words<'a> {
-    words: Vec<(usize, &'a str)>,
-    at: usize,
+    lines: std::iter::Enumerate<std::str::Lines<'a>>,
+    /// The words of the current line not yet read, last first.
+    pending: Vec<&'a str>,
+    /// The line of the current words (from 1).
+    line: usize,
     path: &'a Path,
 }
 
 impl<'a> Words<'a> {
     fn new(text: &'a str, path: &'a Path) -> Self {
-        let words = text
-            .lines()
-            .enumerate()
-            .flat_map(|(n, line)| line.split_whitespace().map(move |w| (n + 1, w)))
-            .collect();
-        Words { words, at: 0, path }
-    }
-
-    /// The line of the next word (the last line at the end).
-    fn line(&self) -> usize {
-        self.words.get(self.at).or(self.words.last()).map_or(1, |w| w.0)
+        Words {
+            lines: text.lines().enumerate(),
+            pending: Vec::new(),
+            line: 1,
+            path,
+        }
     }
 
     fn error(&self, problem: impl Into<String>) -> Error {
-        Error::format(self.path, format!("line {}: {}", self.line(), problem.into()))
+        Error::format(self.path, format!("line {}: {}", self.line, problem.into()))
+    }
+
+    /// Moves to the next line holding a word; false at the end of the text.
+    fn fill(&mut self) -> bool {
+        while self.pending.is_empty() {
+            let Some((n, line)) = self.lines.next() else {
+                return false;
+            };
+            self.line = n + 1;
+            self.pending = line.split_whitespace().rev().collect();
+        }
+        true
     }
 
     fn next(&mut self, expected: &str) -> Result<&'a str> {
-        match self.words.get(self.at) {
-            Some(&(_, w)) => {
-                self.at += 1;
-                Ok(w)
-            }
-            None => Err(self.error(format!("the file ends where {expected} was expected"))),
+        if !self.fill() {
+            return Err(self.error(format!("the file ends where {expected} was expected")));
         }
+        Ok(self.pending.pop().expect("filled"))
     }
 
     /// The next word, which must be `keyword` (case-insensitive).
@@ -116,30 +125,39 @@ impl<'a> Words<'a> {
         if w.eq_ignore_ascii_case(keyword) {
             Ok(())
         } else {
-            self.at -= 1;
             Err(self.error(format!("{w:?} where {keyword:?} was expected")))
         }
     }
 
-    fn peek(&self) -> Option<&'a str> {
-        self.words.get(self.at).map(|w| w.1)
+    fn peek(&mut self) -> Option<&'a str> {
+        self.fill().then(|| self.pending.last().copied()).flatten()
     }
 
     fn number(&mut self, what: &str) -> Result<f64> {
         let w = self.next(what)?;
-        match w.parse::<f64>() {
-            Ok(v) if v.is_finite() => Ok(v),
-            _ => {
-                self.at -= 1;
-                Err(self.error(format!("{what}: {w:?} is not a finite number")))
-            }
-        }
+        number(w).ok_or_else(|| self.error(format!("{what}: {w:?} is not a finite number")))
     }
 
     fn offset(&mut self) -> Result<[f64; 3]> {
         self.expect("OFFSET")?;
         Ok([self.number("OFFSET x")?, self.number("OFFSET y")?, self.number("OFFSET z")?])
     }
+
+    /// The rest of the current line and every line after it that holds a word, each with its
+    /// number.
+    fn rest_lines(mut self) -> impl Iterator<Item = (usize, Vec<&'a str>)> {
+        let first = (!self.pending.is_empty()).then(|| (self.line, self.pending.drain(..).rev().collect()));
+        first.into_iter().chain(
+            self.lines
+                .map(|(n, line)| (n + 1, line.split_whitespace().collect::<Vec<_>>()))
+                .filter(|(_, words)| !words.is_empty()),
+        )
+    }
+}
+
+/// `w` as a finite number.
+fn number(w: &str) -> Option<f64> {
+    w.parse::<f64>().ok().filter(|v| v.is_finite())
 }
 
 impl Bvh {
@@ -194,39 +212,37 @@ impl Bvh {
         // Frame lines are counted by line, so a frame short of values is named, not merged
         // with the next.
         let mut frames = Vec::new();
-        let first_line = words.line();
-        while let Some(&(line, _)) = words.words.get(words.at) {
-            let start = words.at;
-            while words.words.get(words.at).is_some_and(|w| w.0 == line) {
-                words.at += 1;
-            }
-            let found = words.at - start;
+        for (line, values) in words.rest_lines() {
             if frames.len() == count {
                 return Err(Error::format(path, format!("line {line}: more frames than the {count} announced")));
             }
-            if found != channels {
+            if values.len() != channels {
                 return Err(Error::format(
                     path,
                     format!(
-                        "line {line}: frame {} has {found} values, expected {channels} (one per channel of the skeleton)",
-                        frames.len() + 1
+                        "line {line}: frame {} has {} values, expected {channels} (one per channel of the skeleton)",
+                        frames.len() + 1,
+                        values.len()
                     ),
                 ));
             }
-            let mut frame = Vec::with_capacity(channels);
-            words.at = start;
-            for _ in 0..channels {
-                frame.push(words.number(&format!("frame {}", frames.len() + 1))?);
-            }
+            let frame = values
+                .iter()
+                .map(|w| {
+                    number(w).ok_or_else(|| {
+                        Error::format(
+                            path,
+                            format!("line {line}: frame {}: {w:?} is not a finite number", frames.len() + 1),
+                        )
+                    })
+                })
+                .collect::<Result<Vec<f64>>>()?;
             frames.push(frame);
         }
         if frames.len() < count {
             return Err(Error::format(
                 path,
-                format!(
-                    "{count} frames announced, {} found from line {first_line} (the file is cut short?)",
-                    frames.len()
-                ),
+                format!("{count} frames announced, {} found (the file is cut short?)", frames.len()),
             ));
         }
         Ok(Bvh {
@@ -312,7 +328,6 @@ fn parse_joint(words: &mut Words, joints: &mut Vec<Joint>, parent: Option<usize>
     }
     let name = words.next("a joint's name")?;
     if name == "{" {
-        words.at -= 1;
         return Err(words.error("a joint without a name"));
     }
     words.expect("{")?;
@@ -326,7 +341,6 @@ fn parse_joint(words: &mut Words, joints: &mut Vec<Joint>, parent: Option<usize>
     for _ in 0..n as usize {
         let w = words.next("a channel name")?;
         let Some(channel) = channel(w) else {
-            words.at -= 1;
             return Err(words.error(format!(
                 "joint {name:?}: {w:?} is not a channel (Xposition … Zrotation; is the channel count right?)"
             )));
@@ -356,7 +370,6 @@ fn parse_joint(words: &mut Words, joints: &mut Vec<Joint>, parent: Option<usize>
             words.expect("}")?;
             joints[index].ends.push(end);
         } else {
-            words.at -= 1;
             let hint = if channel(w).is_some() {
                 format!(", a channel past the {} of CHANNELS", joints[index].channels.len())
             } else {

@@ -370,7 +370,7 @@ impl Motion {
 pub struct RetargetMap {
     /// The file it was read from (named in errors).
     pub path: PathBuf,
-    /// (source part, layer), in the file's order.
+    /// The pairs (source part, layer).
     pub pairs: Vec<(String, String)>,
 }
 
