@@ -499,6 +499,23 @@ Frame Time: 0.04
             let err = parse(&text).unwrap_err().to_string();
             assert!(err.starts_with("walk.bvh") && err.contains(want), "{want}: {err}");
         }
+        // Fuzz-style: every cut of the file, and every byte replaced by a digit, a brace, a
+        // space or a letter, is parsed or refused, never a panic; whatever parses is whole.
+        let bytes = ARM.as_bytes();
+        for cut in 0..bytes.len() {
+            let _ = Bvh::parse(&bytes[..cut], Path::new("cut.bvh"));
+        }
+        for at in 0..bytes.len() {
+            for b in [b'9', b'{', b' ', b'x'] {
+                let mut changed = bytes.to_vec();
+                changed[at] = b;
+                if let Ok(bvh) = Bvh::parse(&changed, Path::new("flip.bvh")) {
+                    let channels: usize = bvh.joints.iter().map(|j| j.channels.len()).sum();
+                    assert!(bvh.frames.iter().all(|f| f.len() == channels), "byte {at} = {b}");
+                    let _ = bvh.bone_directions(Some(bvh.frames.len() - 1));
+                }
+            }
+        }
         let deep = format!(
             "HIERARCHY\nROOT a {{ OFFSET 0 0 0 CHANNELS 0 {}",
             "JOINT b { OFFSET 0 0 0 CHANNELS 0 ".repeat(300)
