@@ -12,7 +12,7 @@ use puppet::puppet::format;
 
 /// Builds the tiny character, saves a small untrained model for it, and writes two frames (the
 /// rest render and a copy shifted 2 px right). Returns (model dir, frame a, frame b).
-fn setup(tmp: &Path) -> (PathBuf, PathBuf, PathBuf) {
+pub fn setup(tmp: &Path) -> (PathBuf, PathBuf, PathBuf) {
     setup_with(tmp, write_layer_character(&tmp.join("art"), ""))
 }
 
@@ -42,7 +42,7 @@ fn setup_with(tmp: &Path, art: PathBuf) -> (PathBuf, PathBuf, PathBuf) {
     (dir, a, b)
 }
 
-fn s(p: &Path) -> &str {
+pub fn s(p: &Path) -> &str {
     p.to_str().unwrap()
 }
 

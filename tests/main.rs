@@ -16,6 +16,7 @@ mod parts;
 mod prior;
 mod regression;
 mod render;
+mod retarget;
 mod synth;
 mod train;
 mod util;

@@ -603,3 +603,36 @@ fn docs_contact_sheet() {
         .save_png(&docs.join("synth_varied_sheet.png"))
         .unwrap();
 }
+
+/// Two characters of different seeds with one motion seed turn each part they share by the same
+/// angles from their first frame (what `puppet retarget` is scored on); another motion seed turns
+/// them otherwise.
+#[test]
+fn a_motion_seed_moves_two_characters_alike() {
+    let walk = |seed, motion_seed| {
+        let seq = generate(
+            &SynthOptions {
+                motion_seed: Some(motion_seed),
+                ..opts(seed, 6, 96, Motion::Walk)
+            },
+            &Silent,
+        )
+        .unwrap();
+        let turns: std::collections::BTreeMap<String, Vec<f32>> = (0..seq.truth.parts.len())
+            .map(|p| {
+                let angle = |f: usize| seq.truth.frames[f].parts[p].world.angle();
+                (seq.truth.parts[p].name.clone(), (0..6).map(|f| angle(f) - angle(0)).collect())
+            })
+            .collect();
+        (seq.template, turns)
+    };
+    let (a, b, c) = (walk(3, 7), walk(5, 7), walk(3, 8));
+    assert_ne!(a.0, b.0, "two characters");
+    let shared: Vec<&String> = a.1.keys().filter(|k| b.1.contains_key(*k)).collect();
+    assert!(shared.len() >= 8, "{shared:?}");
+    for part in shared {
+        let close = a.1[part].iter().zip(&b.1[part]).all(|(x, y)| (x - y).abs() < 1e-3);
+        assert!(close, "{part}: {:?} vs {:?}", a.1[part], b.1[part]);
+    }
+    assert_ne!(a.1, c.1, "another motion seed, another motion");
+}

@@ -340,9 +340,10 @@ pub struct AnimationArgs {
     /// Also write an animated PNG (APNG: full alpha, played by browsers and engines).
     #[arg(long, value_name = "FILE")]
     pub apng: Option<PathBuf>,
-    /// Frame time of the animations and sprite-sheet atlases, in milliseconds.
-    #[arg(long, default_value_t = 80, value_name = "MS", value_parser = clap::value_parser!(u32).range(1..=65535))]
-    pub delay: u32,
+    /// Frame time of the animations and sprite-sheet atlases, in milliseconds (80 if not given;
+    /// `retarget` plays at the motion's frame rate).
+    #[arg(long, value_name = "MS", value_parser = clap::value_parser!(u32).range(1..=65535))]
+    pub delay: Option<u32>,
     /// What every frame written is drawn on: `transparent`, or an opaque colour #RRGGBB.
     #[arg(long, default_value = "transparent", value_parser = parse_background, value_name = "transparent|#RRGGBB")]
     pub background: Background,
@@ -352,10 +353,15 @@ impl AnimationArgs {
     /// The animation files these arguments ask for, playing there and back if `there_and_back`
     /// (frames and sprites are left to the command).
     pub fn files(&self, there_and_back: bool) -> AnimationFiles {
+        self.files_timed(there_and_back, AnimationFiles::default().delay_ms)
+    }
+
+    /// [`Self::files`] with `delay_ms` as the frame time unless one is given.
+    pub fn files_timed(&self, there_and_back: bool, delay_ms: u32) -> AnimationFiles {
         AnimationFiles {
             gif: self.gif.clone(),
             apng: self.apng.clone(),
-            delay_ms: self.delay,
+            delay_ms: self.delay.unwrap_or(delay_ms),
             background: self.background,
             there_and_back,
             ..AnimationFiles::default()

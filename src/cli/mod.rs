@@ -25,6 +25,7 @@ mod parts;
 mod pose;
 mod prior;
 mod render;
+mod retarget;
 mod rig;
 mod serve;
 mod synth;
@@ -93,6 +94,7 @@ enum Command {
     Pose(pose::PoseArgs),
     Prior(prior::PriorArgs),
     Render(render::RenderArgs),
+    Retarget(retarget::RetargetArgs),
     Rig(rig::RigArgs),
     Serve(serve::ServeArgs),
     Synth(synth::SynthArgs),
@@ -127,6 +129,7 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
         Command::Pose(args) => pose::run(args, s),
         Command::Prior(args) => prior::run(args, s),
         Command::Render(args) => render::run(args, s),
+        Command::Retarget(args) => retarget::run(args, s),
         Command::Rig(args) => rig::run(args, s),
         Command::Serve(args) => serve::run(args, s),
         Command::Synth(args) => synth::run(args, s),
@@ -207,6 +210,7 @@ mod tests {
             "pose",
             "prior",
             "render",
+            "retarget",
             "rig",
             "serve",
             "synth",

@@ -25,6 +25,10 @@ pub struct SynthArgs {
     /// Random seed: picks the character, its colours and its motion amplitudes.
     #[arg(long, default_value_t = 42)]
     pub seed: u64,
+    /// Seed of the motion alone (its amplitudes and random poses; default: --seed's): two
+    /// characters of different seeds with one motion seed move alike.
+    #[arg(long, value_name = "SEED")]
+    pub motion_seed: Option<u64>,
     /// Number of frames (sprite-sheet mode: number of poses).
     #[arg(long, default_value_t = 24)]
     pub frames: usize,
@@ -97,6 +101,7 @@ impl SynthArgs {
         let motion = if self.sprite_sheet { Motion::Random } else { self.motion.into() };
         let opts = SynthOptions {
             seed: self.seed,
+            motion_seed: self.motion_seed,
             frames: self.frames,
             width,
             height,

@@ -27,6 +27,15 @@ pub struct Binding {
 }
 
 impl Binding {
+    /// The vertex `vertex` (global numbering) of layer `layer` itself.
+    pub fn at_vertex(layer: usize, vertex: u32) -> Self {
+        Binding {
+            layer,
+            vertices: [vertex; 3],
+            weights: [1.0, 0.0, 0.0],
+        }
+    }
+
     /// The bound point's position on a pose `vertices` (global numbering, any pixel space that
     /// is an affine image of the one it was bound in).
     ///

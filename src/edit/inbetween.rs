@@ -367,7 +367,8 @@ pub struct InbetweenFiles {
     pub rigid: AnimationFiles,
     /// The training frame nearest each latent step (written only if there are training frames).
     pub nearest: AnimationFiles,
-    /// Each latent step's pose as `step_NNN.json` in this folder.
+    /// Each step's pose as `<prefix>_NNN.json` in this folder, the prefix of the path's frames
+    /// (`step` if it writes none).
     pub poses: Option<PathBuf>,
 }
 
@@ -389,8 +390,9 @@ pub fn write_inbetweens(
     let n = inbetweens.t.len();
     let (w, h) = (model.puppet.width, model.puppet.height);
     let digits = n.saturating_sub(1).to_string().len().max(3);
+    let prefix = files.path.frames.as_ref().map_or("step", |(_, prefix)| prefix.as_str());
     let pose_paths: Vec<PathBuf> = match &files.poses {
-        Some(dir) => (0..n).map(|k| dir.join(format!("step_{k:0digits$}.json"))).collect(),
+        Some(dir) => (0..n).map(|k| dir.join(format!("{prefix}_{k:0digits$}.json"))).collect(),
         None => Vec::new(),
     };
     for path in &pose_paths {

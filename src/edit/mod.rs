@@ -4,8 +4,9 @@
 //! ([`pose`], eq. 7–9, with the direct vertex-space ARAP drag of Figure 6 right beside it in
 //! [`mod@arap_drag`]; the training frames' principal latent directions as sliders in
 //! [`directions`]), in-betweens timed as animators time them ([`timing`]), and frame-to-frame correspondences through the fitted template
-//! ([`mod@correspond`], scored by [`crate::eval::pck_pairs`] on synthetic ground truth). Points are
-//! tied to the mesh by barycentric coordinates ([`mod@bind`]).
+//! ([`mod@correspond`], scored by [`crate::eval::pck_pairs`] on synthetic ground truth), and
+//! another figure's motion played by the puppet ([`mod@retarget`]: a BVH skeleton's or another
+//! puppet's poses). Points are tied to the mesh by barycentric coordinates ([`mod@bind`]).
 
 pub mod arap_drag;
 pub mod bind;
@@ -16,6 +17,7 @@ pub mod manifold_path;
 pub mod pin;
 pub mod pin_overlay;
 pub mod pose;
+pub mod retarget;
 pub mod timing;
 
 pub use arap_drag::arap_drag;
@@ -25,6 +27,7 @@ pub use directions::LatentDirections;
 pub use inbetween::{inbetween, nearest_frame, InbetweenPath, Inbetweens, Interpolator};
 pub use pin::Pin;
 pub use pose::{PoseEditor, PoseOptions};
+pub use retarget::{retarget, Motion, Retargeted};
 pub use timing::{eased_t, spacing_t, Easing};
 
 /// Helpers shared by this module's unit tests (and the web editor's).

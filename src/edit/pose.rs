@@ -184,15 +184,18 @@ impl<'m> PoseEditor<'m> {
     /// # Errors
     /// [`Error::Mismatch`] if `z0` is not one latent of the model's size; as [`PoseEditor::new`].
     pub fn shared_at(model: Arc<Model>, z0: Tensor<2>, device: &Device) -> Result<PoseEditor<'static>> {
-        let expected = [1, model.config.latent];
-        if z0.dims() != expected {
-            return Err(Error::mismatch(
-                "the editor's latent",
-                format!("{:?}", z0.dims()),
-                format!("{expected:?}"),
-            ));
-        }
+        check_latent(&model, &z0)?;
         PoseEditor::at_latent(HeldModel::Shared(model), z0, device)
+    }
+
+    /// An editor borrowing `model` whose fit is the latent `z0` `[1, Z]` (a pose found
+    /// another way than by fitting a frame: a retargeted pose's encoding, say).
+    ///
+    /// # Errors
+    /// As [`PoseEditor::shared_at`].
+    pub fn at(model: &'m Model, z0: Tensor<2>, device: &Device) -> Result<Self> {
+        check_latent(model, &z0)?;
+        Self::at_latent(HeldModel::Borrowed(model), z0, device)
     }
 
     /// [`PoseEditor::new`] for either way of holding the model.
@@ -300,6 +303,34 @@ impl<'m> PoseEditor<'m> {
             }
         }
         Error::collect(problems)?;
+        self.set_bindings(bindings);
+        Ok(())
+    }
+
+    /// Pins the vertices `vertices` themselves (global numbering), replacing earlier pins, and
+    /// returns to the fit: a drag then pulls each towards its target, as a whole pose is pulled
+    /// onto the manifold.
+    ///
+    /// # Errors
+    /// [`Error::Mismatch`] naming a vertex the puppet does not have.
+    pub fn pin_vertices(&mut self, vertices: &[usize]) -> Result<()> {
+        let puppet = &self.model.puppet;
+        let offsets = puppet.vertex_offsets();
+        let bindings = vertices
+            .iter()
+            .map(|&v| {
+                if v >= puppet.vertex_count() {
+                    return Err(Error::mismatch("a pinned vertex", v, format!("below {}", puppet.vertex_count())));
+                }
+                Ok(Binding::at_vertex(offsets.partition_point(|&o| o <= v) - 1, v as u32))
+            })
+            .collect::<Result<Vec<_>>>()?;
+        self.set_bindings(bindings);
+        Ok(())
+    }
+
+    /// Takes `bindings` as the pins (eq. 7's `p_i(v)` as a `[P, V]` matrix) and returns to the fit.
+    fn set_bindings(&mut self, bindings: Vec<Binding>) {
         let v = self.model.puppet.vertex_count();
         let mut w = vec![0.0f32; bindings.len() * v];
         for (i, b) in bindings.iter().enumerate() {
@@ -310,7 +341,6 @@ impl<'m> PoseEditor<'m> {
         self.weights = (!bindings.is_empty()).then(|| Tensor::from_data(TensorData::new(w, [bindings.len(), v]), &self.device));
         self.bindings = bindings;
         self.reset();
-        Ok(())
     }
 
     /// The drag as an editor runs it: from the fit, `frames` updates along straight lines from
@@ -463,6 +493,19 @@ impl<'m> PoseEditor<'m> {
         }
         Ok(loss)
     }
+}
+
+/// Checks `z0` is one latent of `model`'s size.
+fn check_latent(model: &Model, z0: &Tensor<2>) -> Result<()> {
+    let expected = [1, model.config.latent];
+    if z0.dims() != expected {
+        return Err(Error::mismatch(
+            "the editor's latent",
+            format!("{:?}", z0.dims()),
+            format!("{expected:?}"),
+        ));
+    }
+    Ok(())
 }
 
 #[cfg(test)]

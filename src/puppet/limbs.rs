@@ -138,8 +138,8 @@ impl LimbTurns {
         &self.offsets
     }
 
-    /// Each layer's turn from its rest pose in `pose` (radians).
-    fn layer_turns(&self, pose: &[[f32; 2]]) -> Vec<f32> {
+    /// Each layer's turn from its rest pose in `pose` (global numbering; radians, in (−π, π]).
+    pub fn layer_turns(&self, pose: &[[f32; 2]]) -> Vec<f32> {
         self.offsets
             .windows(2)
             .map(|w| {

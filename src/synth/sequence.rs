@@ -31,6 +31,9 @@ pub const MAX_TOTAL_PIXELS: u64 = crate::puppet::sequence::DEFAULT_MAX_TOTAL_PIX
 pub struct SynthOptions {
     /// Seed: the same options give byte-identical output.
     pub seed: u64,
+    /// The motion's own seed (its amplitudes and random poses), so that characters of different
+    /// seeds can move alike; `None`: `seed`'s.
+    pub motion_seed: Option<u64>,
     /// Number of frames (or sprite-sheet cells).
     pub frames: usize,
     /// Frame width, pixels.
@@ -58,6 +61,7 @@ impl Default for SynthOptions {
     fn default() -> Self {
         SynthOptions {
             seed: 42,
+            motion_seed: None,
             frames: 24,
             width: 256,
             height: 256,
@@ -200,7 +204,7 @@ pub fn generate(opts: &SynthOptions, progress: &dyn Progress) -> Result<Sequence
             layer
         })
         .collect();
-    let animator = Animator::new(opts.motion, opts.frames, opts.seed, w, h);
+    let animator = Animator::new(opts.motion, opts.frames, opts.motion_seed.unwrap_or(opts.seed), w, h);
     let sigma = opts.deform_sigma * w.max(h) as f32 / k;
     progress.stage("drawing", opts.frames as u64);
     let mut frames = Vec::with_capacity(opts.frames);
