@@ -11,7 +11,9 @@
 //! (`parts/train_step/4x2x128`: 4 pairs of 128² poses, InfoNCE both ways, Adam), the step
 //! `bench/parts_net_torch.py` times in PyTorch, and making one step's pairs
 //! (`parts/training_pairs/4x128`: the generator's characters in two poses each, with their exact
-//! correspondences). Results: benches/README.md "parts".
+//! correspondences). And the prior placing the Kenney robot's template on one of its frames
+//! (`parts/prior_place/96x128`, the pass `puppet fit --puppet` starts each frame with).
+//! Results: benches/README.md "parts".
 //!
 //! ```sh
 //! cargo bench --bench parts
@@ -19,6 +21,8 @@
 
 // Criterion's macros write undocumented functions.
 #![allow(missing_docs)]
+
+use std::path::Path;
 
 use criterion::{criterion_group, criterion_main, Criterion};
 use puppet::parts::deform::{deform_parts, BendOptions};
@@ -83,6 +87,15 @@ fn parts(c: &mut Criterion) {
             trainer.step(step, &pairs).expect("a step");
             step += 1;
         })
+    });
+    // The prior (the same network, shipped weights) placing the Kenney robot's template on one
+    // of its drawn frames: the rest render, both images' features, the matches and the turns.
+    let artwork = puppet::load_artwork(Path::new("data/kenney/robot"), &puppet::ImportOptions::default()).expect("the robot's artwork");
+    let (robot, _) = puppet::build(&artwork, &puppet::BuildOptions::default(), &Silent).expect("the robot builds");
+    let frame = puppet::Picture::load(Path::new("data/kenney/robot/frames/robot_walk0.png")).expect("a frame");
+    let prior = puppet::prior::shipped(&device).expect("the built-in prior");
+    group.bench_function("prior_place/96x128", |b| {
+        b.iter(|| puppet::prior::place::place(&prior, &robot, &frame, &device).expect("a placement"))
     });
     group.finish();
 }

@@ -65,6 +65,12 @@ echo "== parts found from a generated sprite sheet"
 "$PUPPET" -q parts "$tmp/sheet/sheet.png" -o "$tmp/parts"
 cp "$tmp/parts/parts.png" "$img/parts.png"
 
+echo "== a character nobody trained, fitted from the prior"
+mkdir -p "$tmp/unseen"
+for f in walk0 walk4 fall; do cp "data/kenney/male_adventurer/frames/maleAdventurer_$f.png" "$tmp/unseen/"; done
+"$PUPPET" -q fit --puppet data/kenney/male_adventurer "$tmp/unseen" -o "$tmp/zero-shot"
+cp "$tmp/zero-shot/sheet.png" "$img/zero_shot.png"
+
 echo "== the web editor on the demo's model"
 tour=bench/browser/editor_tour.mjs
 if command -v node >/dev/null && command -v chromium >/dev/null && [ -d bench/browser/node_modules/playwright-core ]; then

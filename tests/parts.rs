@@ -210,7 +210,7 @@ fn the_correspondence_network_trains_resumes_to_the_same_weights_and_finds_parts
     let whole = puppet(d, &["train-parts", "net.toml", "-o", "whole"]);
     whole.assert_ok();
     assert!(
-        whole.stdout.contains("held-out pairs") && whole.stdout.contains("untrained"),
+        whole.stdout.contains("held-out pairs") && whole.stdout.contains("the network it started as"),
         "{}",
         whole.stdout
     );

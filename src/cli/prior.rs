@@ -15,7 +15,7 @@ use puppet::prior::{train_prior, PriorConfig};
 use puppet::synth::sheet_flow::SyntheticPairs;
 use puppet::train::trainer::load_or_build_puppet;
 
-use super::train::run_state;
+use super::train_parts::say_summary;
 use super::Session;
 
 /// The generator's seed of the prior's first generator pair: far from every seed a test, a
@@ -138,25 +138,7 @@ fn train(args: TrainArgs, s: &Session) -> anyhow::Result<()> {
         pause_at: args.pause_at,
     };
     let summary = train_prior(&config, &generator, &options, &s.ui)?;
-    s.ui.finish();
-    s.ui.say(format!(
-        "{}: {} steps in {:.0} s ({:.2} pairs/s), {} parameters → {}",
-        run_state(summary.finished),
-        summary.steps,
-        summary.seconds,
-        summary.pairs_per_second,
-        summary.parameters,
-        config.output.display()
-    ))?;
-    s.ui.say(format!(
-        "held-out characters' pairs: {:.1} % of matched pixels land within 2 px of the truth, mean error {:.2} px \
-         (the untrained network: {:.1} %, {:.2} px)",
-        100.0 * summary.held_out.within_2px,
-        summary.held_out.mean_error,
-        100.0 * summary.untrained.within_2px,
-        summary.untrained.mean_error
-    ))?;
-    Ok(())
+    say_summary(&summary, &config.output, "held-out characters' pairs", s)
 }
 
 /// Runs `puppet prior eval`.

@@ -1,9 +1,9 @@
 //! `puppet train-parts -o DIR [config.toml]`: train the correspondence network of `puppet parts`
 //! (APES §3.1) on the generator's sprite sheets.
 
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 
-use puppet::parts::learn::{train_correspondence, LearnConfig, LearnOptions};
+use puppet::parts::learn::{train_correspondence, LearnConfig, LearnOptions, LearnSummary};
 use puppet::synth::sheet_flow::SyntheticPairs;
 
 use super::train::run_state;
@@ -57,6 +57,12 @@ pub fn run(args: TrainPartsArgs, s: &Session) -> anyhow::Result<()> {
         varied: config.varied,
     };
     let summary = train_correspondence(&args.output, &config, &train, &held_out, serde_json::Map::new(), &options, &s.ui)?;
+    say_summary(&summary, &args.output, "held-out pairs", s)
+}
+
+/// Prints what a correspondence network's training did: its steps, speed and size, and the
+/// held-out score of `pairs` beside that of the network it started as.
+pub(super) fn say_summary(summary: &LearnSummary, output: &Path, pairs: &str, s: &Session) -> anyhow::Result<()> {
     s.ui.finish();
     s.ui.say(format!(
         "{}: {} steps in {:.0} s ({:.2} pairs/s), {} parameters → {}",
@@ -65,11 +71,11 @@ pub fn run(args: TrainPartsArgs, s: &Session) -> anyhow::Result<()> {
         summary.seconds,
         summary.pairs_per_second,
         summary.parameters,
-        args.output.display()
+        output.display()
     ))?;
     s.ui.say(format!(
-        "held-out pairs: {:.1} % of matched pixels land within 2 px of the truth, mean error {:.2} px \
-         (the untrained network: {:.1} %, {:.2} px)",
+        "{pairs}: {:.1} % of matched pixels land within 2 px of the truth, mean error {:.2} px \
+         (the network it started as: {:.1} %, {:.2} px)",
         100.0 * summary.held_out.within_2px,
         summary.held_out.mean_error,
         100.0 * summary.untrained.within_2px,

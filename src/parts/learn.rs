@@ -251,7 +251,8 @@ pub struct LearnSummary {
     pub pairs_per_second: f64,
     /// The held-out score at the end.
     pub held_out: MatchScore,
-    /// The held-out score of the same network before training (its seeded initial weights).
+    /// The held-out score of the network before training: its seeded weights, or those of the
+    /// network `start` names.
     pub untrained: MatchScore,
     /// The network's parameters.
     pub parameters: usize,
