@@ -354,8 +354,6 @@ pub fn fit_with_prior(
 /// The prior's placement of each frame, the body's free vertices as the model's stages take
 /// them (the rig places the accessories).
 fn placements(prior: &TrainedNet, model: &Model, frames: &[&Picture], device: &Device) -> Result<Vec<Vec<[f32; 2]>>> {
-    frames
-        .iter()
-        .map(|frame| Ok(place::place(prior, &model.puppet, frame, device)?.vertices))
-        .collect()
+    let rest = place::RestPose::new(&model.puppet)?;
+    frames.iter().map(|frame| Ok(rest.place(prior, frame, device)?.vertices)).collect()
 }

@@ -51,30 +51,64 @@ pub struct Placement {
 /// [`Error::Mismatch`] for a frame of another size than the puppet's; [`Error::Geometry`] for a
 /// puppet whose rest pose draws nothing; as [`render_crisp`] for a puppet that cannot be drawn.
 pub fn place(net: &TrainedNet, puppet: &Puppet, frame: &Picture, device: &Device) -> Result<Placement> {
-    let (w, h) = (puppet.width, puppet.height);
-    if (frame.width, frame.height) != (w, h) {
-        return Err(Error::mismatch(
-            "the frame's size",
-            format!("{}×{}", frame.width, frame.height),
-            format!("{w}×{h}, the puppet's"),
-        ));
+    RestPose::new(puppet)?.place(net, frame, device)
+}
+
+/// What [`place`] needs of a puppet's rest pose, prepared once for all the frames of a fit:
+/// its render, and the sampled points of its surface.
+pub struct RestPose<'a> {
+    puppet: &'a Puppet,
+    picture: Picture,
+    bound: Vec<SurfacePoint>,
+    points: Vec<[f32; 2]>,
+}
+
+impl<'a> RestPose<'a> {
+    /// The rest pose of `puppet`.
+    ///
+    /// # Errors
+    /// [`Error::Geometry`] for a puppet whose rest pose draws nothing; as [`render_crisp`] for
+    /// a puppet that cannot be drawn.
+    pub fn new(puppet: &'a Puppet) -> Result<Self> {
+        let rest = puppet.rest_vertices();
+        let picture = render_crisp(puppet, &rest, puppet.width, puppet.height)?;
+        let bound = rest_samples(puppet)?;
+        if bound.is_empty() {
+            return Err(Error::geometry(
+                "the puppet",
+                "draws nothing in its rest pose (every layer transparent) for the prior to match",
+            ));
+        }
+        let points = bound.iter().map(|b| b.on(&rest)).collect();
+        Ok(RestPose {
+            puppet,
+            picture,
+            bound,
+            points,
+        })
     }
-    let rest = puppet.rest_vertices();
-    let picture = render_crisp(puppet, &rest, w, h)?;
-    let bound = rest_samples(puppet)?;
-    if bound.is_empty() {
-        return Err(Error::geometry(
-            "the puppet",
-            "draws nothing in its rest pose (every layer transparent) for the prior to match",
-        ));
+
+    /// [`place`] on `frame`.
+    ///
+    /// # Errors
+    /// [`Error::Mismatch`] for a frame of another size than the puppet's.
+    pub fn place(&self, net: &TrainedNet, frame: &Picture, device: &Device) -> Result<Placement> {
+        let (w, h) = (self.puppet.width, self.puppet.height);
+        if (frame.width, frame.height) != (w, h) {
+            return Err(Error::mismatch(
+                "the frame's size",
+                format!("{}×{}", frame.width, frame.height),
+                format!("{w}×{h}, the puppet's"),
+            ));
+        }
+        let landed: Vec<(SurfacePoint, Landing)> = self
+            .bound
+            .iter()
+            .zip(landings(net, &self.picture, frame, &self.points, device))
+            .filter_map(|(&b, l)| Some((b, l?)))
+            .collect();
+        Ok(place_by(self.puppet, &landed))
     }
-    let points: Vec<[f32; 2]> = bound.iter().map(|b| b.on(&rest)).collect();
-    let landed: Vec<(SurfacePoint, Landing)> = bound
-        .into_iter()
-        .zip(landings(net, &picture, frame, &points, device))
-        .filter_map(|(b, l)| Some((b, l?)))
-        .collect();
-    Ok(place_by(puppet, &landed))
 }
 
 /// Points of the rest pose's surface every `side / SAMPLES` pixels: where the front layer is
