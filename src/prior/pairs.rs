@@ -3,7 +3,7 @@
 //! pixel of the first whose point shows in the second; and pairs mixed from two sources (the
 //! drawn characters and the generator's).
 
-use crate::error::Result;
+use crate::error::{Error, Result};
 use crate::parts::learn::{PairSource, TrainingPair};
 use crate::parts::matching::WorkingPose;
 use crate::parts::pose::SheetPose;
@@ -28,6 +28,9 @@ impl PairSource for PosedPairs {
     }
 
     fn pair(&self, index: u64) -> Result<TrainingPair> {
+        if self.engines.is_empty() {
+            return Err(Error::setting("characters", 0, "at least one character to pose"));
+        }
         let mut rng = Rng::new(self.seed).fork(index);
         let engine = &self.engines[rng.below(self.engines.len())];
         let first = if rng.unit() < self.rest_share {
@@ -115,6 +118,17 @@ mod tests {
     /// Premultiplied RGB of working pixel `i` of `planes` (`[4, S, S]`).
     fn colour(planes: &[f32], i: usize, pixels: usize) -> [f32; 3] {
         std::array::from_fn(|c| planes[c * pixels + i])
+    }
+
+    #[test]
+    fn no_character_to_pose_is_an_error_not_a_panic() {
+        let none = PosedPairs {
+            engines: Vec::new(),
+            size: 48,
+            seed: 1,
+            rest_share: 0.5,
+        };
+        assert!(none.pair(0).unwrap_err().to_string().contains("characters"));
     }
 
     #[test]
