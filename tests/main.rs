@@ -17,6 +17,7 @@ mod prior;
 mod regression;
 mod render;
 mod retarget;
+mod suggest;
 mod synth;
 mod train;
 mod util;

@@ -28,6 +28,7 @@ mod render;
 mod retarget;
 mod rig;
 mod serve;
+mod suggest;
 mod synth;
 mod train;
 mod train_parts;
@@ -97,6 +98,7 @@ enum Command {
     Retarget(retarget::RetargetArgs),
     Rig(rig::RigArgs),
     Serve(serve::ServeArgs),
+    Suggest(suggest::SuggestArgs),
     Synth(synth::SynthArgs),
     Train(train::TrainArgs),
     TrainParts(train_parts::TrainPartsArgs),
@@ -132,6 +134,7 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
         Command::Retarget(args) => retarget::run(args, s),
         Command::Rig(args) => rig::run(args, s),
         Command::Serve(args) => serve::run(args, s),
+        Command::Suggest(args) => suggest::run(args, s),
         Command::Synth(args) => synth::run(args, s),
         Command::Train(args) => train::run(args, s),
         Command::TrainParts(args) => train_parts::run(args, s),

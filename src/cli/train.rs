@@ -2,6 +2,8 @@
 
 use std::path::{Path, PathBuf};
 
+use puppet::model::ModelFolder;
+use puppet::train::config::canonical;
 use puppet::train::{self, TrainConfig, TrainOptions};
 
 use super::Session;
@@ -16,11 +18,23 @@ use super::Session;
 /// continues with --resume, losing at most `checkpoint_every` steps; a resume that does not match
 /// the checkpoint (another config — only train.steps may change —, split or puppet) is refused
 /// without touching a file.
+///
+/// `puppet train --from MODEL --frames DIR -o NEW --steps N` continues a trained model with
+/// frames added (a drawing `puppet suggest` asked for): its config and weights, the frames in
+/// DIR; the frames MODEL held out stay held out, all others train. MODEL is only read.
 #[derive(Debug, clap::Args)]
 pub struct TrainArgs {
-    /// The training config (TOML); without one, --artwork, --frames and -o are needed.
-    #[arg(required_unless_present_all = ["artwork", "frames", "output"])]
+    /// The training config (TOML); without one, --artwork (or --from), --frames and -o are
+    /// needed.
+    #[arg(required_unless_present_any = ["artwork", "from"])]
     pub config: Option<PathBuf>,
+    /// A trained model folder to continue: the run starts from its weights and, without a
+    /// config, its settings and puppet.
+    #[arg(long, value_name = "MODEL")]
+    pub from: Option<PathBuf>,
+    /// Optimiser steps (replaces the config's train.steps).
+    #[arg(long, value_name = "N", value_parser = clap::value_parser!(u64).range(1..))]
+    pub steps: Option<u64>,
     /// The character: artwork (a folder with character.toml, .ora or .psd) or a built puppet
     /// folder.
     #[arg(long, value_name = "PATH")]
@@ -43,18 +57,27 @@ impl TrainArgs {
     /// The config these arguments ask for.
     fn config(&self) -> anyhow::Result<TrainConfig> {
         let (artwork, frames, output) = (self.artwork.as_deref(), self.frames.as_deref(), self.output.as_deref());
-        Ok(match (&self.config, artwork, frames, output) {
+        let mut config = match (&self.config, &self.from, artwork, frames, output) {
             (Some(path), ..) => TrainConfig::load(path)?.replacing_paths(artwork, frames, output),
-            (None, Some(artwork), Some(frames), Some(output)) => TrainConfig::with_paths(
+            (None, Some(model), _, Some(frames), Some(output)) => {
+                TrainConfig::load(&ModelFolder::open(model)?.config())?.replacing_paths(artwork, Some(frames), Some(output))
+            }
+            (None, None, Some(artwork), Some(frames), Some(output)) => TrainConfig::with_paths(
                 TrainConfig::DEFAULT_SETTINGS,
                 Path::new("configs/train.toml"),
                 artwork,
                 frames,
                 output,
             )?,
-            // clap's `required_unless_present_all` leaves no other case.
-            (None, ..) => anyhow::bail!("give a training config, or --artwork, --frames and -o"),
-        })
+            (None, ..) => anyhow::bail!("give a training config, or --artwork (or --from), --frames and -o"),
+        };
+        if let Some(model) = &self.from {
+            config.start = Some(canonical(model));
+        }
+        if let Some(steps) = self.steps {
+            config.train.steps = steps;
+        }
+        Ok(config)
     }
 }
 
@@ -105,11 +128,15 @@ mod tests {
         parses(&["train", "configs/kenney-robot.toml", "--resume", "--pause-at", "100"]);
         parses(&["train", "--artwork", "a.psd", "--frames", "f", "-o", "runs/a"]);
         parses(&["train", "c.toml", "-o", "runs/b"]);
-        let missing = clap::Parser::try_parse_from(["puppet", "train", "--artwork", "a.psd", "-o", "x"]);
-        assert!(
-            missing.map(|_: crate::cli::Cli| ()).is_err(),
-            "without a config, --frames is needed too"
-        );
+        parses(&["train", "--from", "runs/a", "--frames", "f", "-o", "runs/b", "--steps", "300"]);
+        let missing: crate::cli::Cli = clap::Parser::try_parse_from(["puppet", "train", "--artwork", "a.psd", "-o", "x"]).unwrap();
+        let crate::cli::Command::Train(args) = missing.command else {
+            panic!("parsed as another command")
+        };
+        assert!(args.config().is_err(), "without a config, --frames is needed too");
+        assert!(clap::Parser::try_parse_from(["puppet", "train", "--frames", "f", "-o", "x"])
+            .map(|_: crate::cli::Cli| ())
+            .is_err());
         assert!(clap::Parser::try_parse_from(["puppet", "train", "c.toml", "--pause-at", "x"])
             .map(|_: crate::cli::Cli| ())
             .is_err());

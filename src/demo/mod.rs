@@ -485,6 +485,7 @@ fn short_run(options: &DemoOptions, model_dir: &Path) -> TrainConfig {
         puppet: canonical(&options.character),
         frames: canonical(&options.character.join("frames")),
         output: canonical(model_dir),
+        start: None,
         seed: 1,
         split_seed: None,
         test_fraction: 0.3,

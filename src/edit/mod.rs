@@ -6,7 +6,7 @@
 //! [`directions`]), in-betweens timed as animators time them ([`timing`]), and frame-to-frame correspondences through the fitted template
 //! ([`mod@correspond`], scored by [`crate::eval::pck_pairs`] on synthetic ground truth), and
 //! another figure's motion played by the puppet ([`mod@retarget`]: a BVH skeleton's or another
-//! puppet's poses). Points are tied to the mesh by barycentric coordinates ([`mod@bind`]).
+//! puppet's poses), and the poses worth drawing next ([`mod@suggest`]). Points are tied to the mesh by barycentric coordinates ([`mod@bind`]).
 
 pub mod arap_drag;
 pub mod bind;
@@ -18,6 +18,7 @@ pub mod pin;
 pub mod pin_overlay;
 pub mod pose;
 pub mod retarget;
+pub mod suggest;
 pub mod timing;
 
 pub use arap_drag::arap_drag;

@@ -56,6 +56,12 @@ impl JointRanges {
         self.turns.of(pose)
     }
 
+    /// Limb `k`'s allowed turn relative to its parent layer: the middle and half the width
+    /// (radians).
+    pub fn range(&self, k: usize) -> (f32, f32) {
+        (self.centre[k], self.half[k])
+    }
+
     /// How far limb `k`'s relative turn `turn` lies outside its range (radians; 0 inside).
     pub fn excess(&self, k: usize, turn: f32) -> f32 {
         (wrap(turn - self.centre[k]).abs() - self.half[k]).max(0.0)

@@ -1,5 +1,6 @@
 //! The build preview: every layer's wireframe in its own colour over the (faded) artwork, joints
-//! marked as rings — what a person checks after `puppet build`.
+//! marked as rings — what a person checks after `puppet build`; and the same meshes as faint
+//! hairlines over a pose's render, for an artist to trace over (`puppet suggest`).
 
 use crate::picture::Picture;
 use crate::puppet::Puppet;
@@ -28,22 +29,51 @@ pub fn layer_colour(i: usize) -> [f32; 3] {
 /// Draws `puppet`'s rest meshes over `artwork` (same size as the puppet's frame), upscaled by
 /// `scale` so that edges of small sprites stay visible. Returns an opaque picture.
 pub fn wireframe_preview(puppet: &Puppet, vertices: &[[f32; 2]], artwork: &Picture, scale: u32) -> Picture {
+    let mut out = faded(artwork, scale, 0.55);
+    draw_meshes(&mut out, puppet, vertices, scale, 1.0);
+    let sf = scale.max(1) as f32;
+    for joint in &puppet.joints {
+        let p = vertices[puppet.global_index(joint.a)];
+        let c = [p[0] * sf, p[1] * sf];
+        draw_ring(&mut out, c, 2.2 * sf.min(4.0), 1.4, [0.0, 0.0, 0.0]);
+        draw_ring(&mut out, c, 1.0 * sf.min(4.0), 1.2, [1.0, 1.0, 0.0]);
+    }
+    out
+}
+
+/// A picture to trace over: `artwork` (a render of the pose `vertices`) nearly at full
+/// strength, upscaled by `scale`, under faint hairlines of the pose's meshes that show how
+/// each layer is bent, without hiding the art.
+pub fn trace_over(puppet: &Puppet, vertices: &[[f32; 2]], artwork: &Picture, scale: u32) -> Picture {
+    let mut out = faded(artwork, scale, 0.9);
+    draw_meshes(&mut out, puppet, vertices, scale, 0.3);
+    out
+}
+
+/// `artwork` at `opacity` over white, nearest-neighbour upscaled by `scale`: lines drawn on it
+/// stay readable on any colour.
+fn faded(artwork: &Picture, scale: u32, opacity: f32) -> Picture {
     let s = scale.max(1);
     let (w, h) = (artwork.width * s, artwork.height * s);
-    // Faded artwork over white, nearest-neighbour upscaled: lines stay readable on any colour.
     let mut out = Picture::filled(w, h, [1.0; 4]);
     for y in 0..h {
         for x in 0..w {
             let p = artwork.get(x / s, y / s);
-            let a = p[3] * 0.55;
+            let a = p[3] * opacity;
             let px = &mut out.pixels[(y * w + x) as usize];
             for k in 0..3 {
                 px[k] = p[k] * a + (1.0 - a);
             }
         }
     }
+    out
+}
+
+/// Every layer's mesh edges in its own colour, at `coverage` (1: solid lines), on `out`
+/// (the puppet's frame upscaled by `scale`).
+fn draw_meshes(out: &mut Picture, puppet: &Puppet, vertices: &[[f32; 2]], scale: u32, coverage: f32) {
     let offsets = puppet.vertex_offsets();
-    let sf = s as f32;
+    let sf = scale.max(1) as f32;
     for (li, layer) in puppet.layers.iter().enumerate() {
         let colour = layer_colour(li);
         let v = |i: u32| {
@@ -60,16 +90,9 @@ pub fn wireframe_preview(puppet: &Puppet, vertices: &[[f32; 2]], artwork: &Pictu
         edges.sort_unstable();
         edges.dedup();
         for (a, b) in edges {
-            draw_segment(&mut out, v(a), v(b), 0.6, colour);
+            draw_segment(out, v(a), v(b), 0.6, colour, coverage);
         }
     }
-    for joint in &puppet.joints {
-        let p = vertices[puppet.global_index(joint.a)];
-        let c = [p[0] * sf, p[1] * sf];
-        draw_ring(&mut out, c, 2.2 * sf.min(4.0), 1.4, [0.0, 0.0, 0.0]);
-        draw_ring(&mut out, c, 1.0 * sf.min(4.0), 1.2, [1.0, 1.0, 0.0]);
-    }
-    out
 }
 
 /// Blends `colour` into `pic` at pixel (x, y) with coverage `a`.
@@ -84,8 +107,9 @@ fn blend(pic: &mut Picture, x: i64, y: i64, a: f32, colour: [f32; 3]) {
     }
 }
 
-/// An anti-aliased segment of half-width `half`: coverage falls off linearly over one pixel.
-fn draw_segment(pic: &mut Picture, a: [f32; 2], b: [f32; 2], half: f32, colour: [f32; 3]) {
+/// An anti-aliased segment of half-width `half` at `coverage`: it falls off linearly over one
+/// pixel at the edges.
+fn draw_segment(pic: &mut Picture, a: [f32; 2], b: [f32; 2], half: f32, colour: [f32; 3], coverage: f32) {
     let (x0, x1) = (
         (a[0].min(b[0]) - half - 1.0).floor() as i64,
         (a[0].max(b[0]) + half + 1.0).ceil() as i64,
@@ -101,7 +125,7 @@ fn draw_segment(pic: &mut Picture, a: [f32; 2], b: [f32; 2], half: f32, colour: 
             let p = [x as f32 + 0.5 - a[0], y as f32 + 0.5 - a[1]];
             let t = ((p[0] * d[0] + p[1] * d[1]) / len2).clamp(0.0, 1.0);
             let dist = ((p[0] - t * d[0]).powi(2) + (p[1] - t * d[1]).powi(2)).sqrt();
-            blend(pic, x, y, half + 0.5 - dist, colour);
+            blend(pic, x, y, coverage * (half + 0.5 - dist).min(1.0), colour);
         }
     }
 }

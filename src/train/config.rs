@@ -85,6 +85,11 @@ pub struct TrainConfig {
     pub frames: PathBuf,
     /// The model folder to write (checkpoints, logs, the final model).
     pub output: PathBuf,
+    /// A trained model folder the run starts from: its weights instead of fresh ones, its split
+    /// kept (the frames it held out stay held out; every other frame of `frames`, new ones
+    /// included, trains). Same puppet and `[model]` settings. `puppet train --from`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub start: Option<PathBuf>,
     /// Seeds the weights, the batch order and, without `split_seed`, the split.
     #[serde(default = "default_seed")]
     pub seed: u64,
@@ -289,7 +294,10 @@ impl TrainConfig {
     pub fn parse(text: &str, path: &Path) -> Result<Self> {
         let mut config: TrainConfig = toml::from_str(text).map_err(|e| Error::format(path, format!("invalid training config: {e}")))?;
         let base = path.parent().unwrap_or(Path::new("."));
-        for p in [&mut config.puppet, &mut config.frames, &mut config.output] {
+        for p in [&mut config.puppet, &mut config.frames, &mut config.output]
+            .into_iter()
+            .chain(config.start.as_mut())
+        {
             if p.is_relative() {
                 *p = base.join(&*p);
             }

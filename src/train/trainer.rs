@@ -27,7 +27,7 @@ use crate::backend::scalar;
 use crate::error::{Context, Error, Result};
 use crate::model::bundle::{load_weights, max_weights_bytes, weights_bytes};
 use crate::model::decoder::Decoder;
-use crate::model::deformation::DeformationNetConfig;
+use crate::model::deformation::{DeformationNet, DeformationNetConfig};
 use crate::model::{Model, ModelFolder};
 use crate::objective::{LossTerms, Objective};
 use crate::picture::{contact_sheet, ImageLimits, Picture};
@@ -162,8 +162,16 @@ pub fn train(config: &TrainConfig, options: &TrainOptions, progress: &dyn Progre
         progress.warn("the rig skins accessories by affine maps ([rig] skinning = \"affine\"): networks trained through it learn far worse than through the default translations");
     }
     let frames = Frames::load(&config.frames, &config.frame_check(puppet.width, puppet.height))?;
-    let (train_idx, test_idx) =
-        split(frames.frames.len(), config.test_fraction, config.split_seed.unwrap_or(config.seed)).at_path(&config.frames)?;
+    let device = crate::backend::train_device();
+    let start = config
+        .start
+        .as_deref()
+        .map(|dir| StartModel::load(dir, &puppet, &device))
+        .transpose()?;
+    let (train_idx, test_idx) = match &start {
+        Some(start) => start.split_of(&frames.names()).at_path(&config.frames)?,
+        None => split(frames.frames.len(), config.test_fraction, config.split_seed.unwrap_or(config.seed)).at_path(&config.frames)?,
+    };
     if config.test_fraction > 0.0 && test_idx.is_empty() {
         return Err(Error::setting("test_fraction", config.test_fraction, "one that leaves a test frame").with_path(&config.frames));
     }
@@ -182,13 +190,15 @@ pub fn train(config: &TrainConfig, options: &TrainOptions, progress: &dyn Progre
         test: test_idx.iter().map(|&i| names[i].clone()).collect(),
     };
 
-    let device = crate::backend::train_device();
     device.seed(config.seed);
     let net_config = DeformationNetConfig::new(puppet.free_vertices().len())
         .with_input_size(config.model.input_size)
         .with_latent(config.model.latent)
         .with_offset_scale(config.model.offset_scale);
-    let model = Model::new(net_config, puppet, &device)?;
+    let mut model = Model::new(net_config, puppet, &device)?;
+    if let Some(start) = start {
+        model.net = start.net_for(&model)?;
+    }
     let pick = |idx: &[usize]| idx.iter().map(|&i| &frames.frames[i]).collect::<Vec<_>>();
     let mut trainer = Trainer::new(config, model, &pick(&train_idx), &pick(&test_idx), &device)?;
     match run.previous() {
@@ -229,6 +239,61 @@ pub fn train(config: &TrainConfig, options: &TrainOptions, progress: &dyn Progre
         split: (train_idx.len(), test_idx.len()),
         batch,
     })
+}
+
+/// The trained model a run starts from ([`TrainConfig::start`]).
+struct StartModel {
+    model: Model,
+    split: SplitRecord,
+}
+
+impl StartModel {
+    /// Loads the model folder `dir`, which must be a trained model of `puppet`.
+    fn load(dir: &Path, puppet: &Puppet, device: &Device) -> Result<Self> {
+        let model = Model::load(dir, device)?;
+        if let Some(difference) = template_difference(&model.puppet, puppet) {
+            return Err(Error::mismatch(
+                format!("the puppet of the model to start from ({})", dir.display()),
+                difference,
+                "the run's puppet",
+            ));
+        }
+        let split = SplitRecord::load(dir)?.ok_or_else(|| {
+            Error::format(
+                ModelFolder::new(dir).split(),
+                "missing: the model to start from was not trained by puppet train, so its held-out frames are unknown",
+            )
+        })?;
+        Ok(StartModel { model, split })
+    }
+
+    /// The run's split of frames named `names`: those the model held out stay held out, the rest
+    /// train.
+    fn split_of(&self, names: &[String]) -> Result<(Vec<usize>, Vec<usize>)> {
+        let (test, train): (Vec<usize>, Vec<usize>) = (0..names.len()).partition(|&i| self.split.test.contains(&names[i]));
+        if train.is_empty() {
+            return Err(Error::setting(
+                "start",
+                "a model",
+                "one whose held-out frames leave a frame to train on",
+            ));
+        }
+        Ok((train, test))
+    }
+
+    /// The model's network, if it has `model`'s settings.
+    fn net_for(self, model: &Model) -> Result<DeformationNet> {
+        // The config has no PartialEq; its Debug text lists every field.
+        let (theirs, ours) = (format!("{:?}", self.model.config), format!("{:?}", model.config));
+        if theirs != ours {
+            return Err(Error::mismatch(
+                "the network of the model to start from",
+                theirs,
+                format!("the run's [model] settings ({ours})"),
+            ));
+        }
+        Ok(self.model.net)
+    }
 }
 
 /// Refuses a resume whose split or puppet differs from what the folder was trained with (the

@@ -1,0 +1,57 @@
+#!/usr/bin/env python3
+"""The table of bench/suggest_gain.sh: per selector, the held-out error after the tenth frame and
+its gain over the control (the same continuation on the nine frames alone), mean over every
+character and seed; then suggest's gain as a multiple of random's and farthest-first's.
+
+    python3 bench/suggest_gain.py runs/suggest-gain
+"""
+import json
+import pathlib
+import sys
+
+VARIANTS = ["none", "misread", "distance", "random"]
+NAMES = {"none": "control (9 frames)", "misread": "suggest", "distance": "farthest first", "random": "random"}
+
+
+def mean(xs):
+    return sum(xs) / len(xs) if xs else float("nan")
+
+
+def main(root):
+    runs = sorted(p for p in pathlib.Path(root).glob("char-*/seed-*") if (p / "none" / "eval.json").is_file())
+    if not runs:
+        sys.exit(f"{root}: no finished runs")
+    rows = {}  # (fit, metric) -> variant -> [value per run]
+    same = 0
+    for run in runs:
+        reports = {}
+        for v in VARIANTS:
+            reports[v] = {
+                fit: json.load(open(run / v / f"eval{suffix}.json"))["mean"]
+                for fit, suffix in [("default", ""), ("one-pass", "-one-pass")]
+                if (run / v / f"eval{suffix}.json").is_file()
+            }
+        if any(len(r) < 2 for r in reports.values()):
+            continue
+        picks = {v: (run / f"{v}-frames.index").read_text().strip() for v in VARIANTS[1:]}
+        same += picks["misread"] == picks["distance"]
+        print(f"{run.parent.name}/{run.name}: picks {picks}")
+        for fit in ["default", "one-pass"]:
+            for metric in ["vertex_error", "l2"]:
+                for v in VARIANTS:
+                    rows.setdefault((fit, metric), {}).setdefault(v, []).append(reports[v][fit][metric])
+    n = len(rows[("default", "l2")]["none"])
+    print(f"\n{n} runs; suggest and farthest-first picked the same frame in {same}\n")
+    for (fit, metric), by in rows.items():
+        unit = "px" if metric == "vertex_error" else "L2"
+        print(f"{fit} fit, {metric} ({unit}):")
+        gains = {v: [c - x for c, x in zip(by["none"], by[v])] for v in VARIANTS[1:]}
+        for v in VARIANTS:
+            g = f"  gain {mean(gains[v]):+.3f}  (better than control in {sum(x > 0 for x in gains[v])}/{n})" if v in gains else ""
+            print(f"  {NAMES[v]:<20} {mean(by[v]):10.3f}{g}")
+        ratio = lambda a, b: mean(gains[a]) / mean(gains[b]) if mean(gains[b]) > 0 else float("nan")
+        print(f"  suggest's gain / random's: {ratio('misread', 'random'):.2f}   / farthest-first's: {ratio('misread', 'distance'):.2f}\n")
+
+
+if __name__ == "__main__":
+    main(sys.argv[1] if len(sys.argv) > 1 else "runs/suggest-gain")

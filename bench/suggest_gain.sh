@@ -1,0 +1,87 @@
+#!/usr/bin/env bash
+# Issue 57's suggest figure (docs/results.md "Suggest"): which tenth drawing teaches a model most?
+#
+# For each generator character (seeds CHARS) and training seed (SEEDS):
+#   train/  9 drawn frames, independent random poses (APES §5.1 ranges);
+#   pool/   32 more such frames: the drawings the artist could add, with their true poses;
+#   test/   16 more: the fixed held-out motion.
+# A base model trains on the 9 frames (BASE_STEPS). One pool frame is added, chosen by
+# `puppet suggest` (misread), by `puppet suggest --by distance` (farthest pose first) and at
+# random; `puppet train --from base` continues on the 10 frames for MORE_STEPS, and a control
+# continues on the 9 alone for the same steps. Each model's test fit (default and one-pass) is
+# scored by `puppet eval`; a selector's gain is the control's error less its own.
+# bench/suggest_gain.py turns the reports into the table.
+#
+#   bash bench/suggest_gain.sh            # about 45 min on the 2-core machine, idle
+#   python3 bench/suggest_gain.py runs/suggest-gain
+set -euo pipefail
+cd "$(dirname "$0")/.."
+P=${PUPPET:-target/release/puppet}
+OUT=${OUT:-runs/suggest-gain}
+BASE_STEPS=${BASE_STEPS:-1200}
+MORE_STEPS=${MORE_STEPS:-400}
+CHARS=${CHARS:-"31 32 33 34 35"}
+SEEDS=${SEEDS:-"1 2"}
+POOL=32
+
+synth() { # OUT SEED MOTION_SEED FRAMES
+    [ -f "$1/truth.json" ] || "$P" -q synth -o "$1" --seed "$2" --motion-seed "$3" --motion random --frames "$4" --size 128x128
+}
+
+for c in $CHARS; do
+    d=$OUT/char-$c
+    synth "$d/train" "$c" $((c * 10 + 1)) 9
+    synth "$d/pool" "$c" $((c * 10 + 2)) $POOL
+    synth "$d/test" "$c" $((c * 10 + 3)) 16
+    for s in $SEEDS; do
+        r=$d/seed-$s
+        mkdir -p "$r"
+        cat >"$r/base.toml" <<EOF
+puppet = "../train/template"
+frames = "../train/frames"
+output = "base"
+seed = $s
+test_fraction = 0.0
+
+[model]
+input_size = 64
+
+[train]
+steps = $BASE_STEPS
+batch = 9
+learning_rate = 1e-4
+learning_rate_end = 1e-5
+sigma = [4.0, 0.5]
+checkpoint_every = 100
+
+[loss]
+arap = 2500.0
+joints = 1e4
+EOF
+        [ -f "$r/base/weights.bpk" ] && [ -f "$r/base/done" ] || { "$P" -q train "$r/base.toml" --resume 2>/dev/null || "$P" -q train "$r/base.toml"; touch "$r/base/done"; }
+        "$P" -q suggest --model "$r/base" -n 1 --pool "$d/pool" -o "$r/pick-misread"
+        "$P" -q suggest --model "$r/base" -n 1 --pool "$d/pool" --by distance -o "$r/pick-distance"
+        pick() { python3 -c "import json,sys; print(json.load(open(sys.argv[1]))['suggestions'][0]['origin']['index'])" "$1/suggestions.json"; }
+        declare -A chosen=(
+            [misread]=$(pick "$r/pick-misread")
+            [distance]=$(pick "$r/pick-distance")
+            [random]=$(python3 -c "import random; print(random.Random($c * 100 + $s).randrange($POOL))")
+        )
+        for variant in none misread distance random; do
+            v=$r/$variant
+            mkdir -p "$v-frames"
+            cp "$d"/train/frames/*.png "$v-frames/"
+            if [ "$variant" != none ]; then
+                k=${chosen[$variant]}
+                src=$(ls "$d"/pool/frames/*.png | sort -V | sed -n "$((k + 1))p")
+                cp "$src" "$v-frames/added.png"
+                echo "$k" >"$v-frames.index"
+            fi
+            [ -f "$v/done" ] || { "$P" -q train --from "$r/base" --frames "$v-frames" -o "$v" --steps "$MORE_STEPS" --resume 2>/dev/null ||
+                "$P" -q train --from "$r/base" --frames "$v-frames" -o "$v" --steps "$MORE_STEPS"; touch "$v/done"; }
+            [ -f "$v/eval.json" ] || "$P" -q eval --model "$v" "$d/test" --all -o "$v/eval.json" >/dev/null
+            [ -f "$v/eval-one-pass.json" ] || "$P" -q eval --model "$v" "$d/test" --all --one-pass -o "$v/eval-one-pass.json" >/dev/null
+        done
+    done
+done
+echo "reports in $OUT; python3 bench/suggest_gain.py $OUT"
