@@ -9,8 +9,14 @@ import json
 import pathlib
 import sys
 
-VARIANTS = ["none", "misread", "distance", "random"]
-NAMES = {"none": "control (9 frames)", "misread": "suggest", "distance": "farthest first", "random": "random"}
+VARIANTS = ["none", "misread", "coverage", "distance", "random"]
+NAMES = {
+    "none": "control (9 frames)",
+    "misread": "suggest (misread)",
+    "coverage": "suggest (coverage)",
+    "distance": "farthest first",
+    "random": "random",
+}
 
 
 def mean(xs):
@@ -31,26 +37,30 @@ def main(root):
                 for fit, suffix in [("default", ""), ("one-pass", "-one-pass")]
                 if (run / v / f"eval{suffix}.json").is_file()
             }
-        if any(len(r) < 2 for r in reports.values()):
+        if any(len(reports[v]) < 2 for v in VARIANTS if v != "coverage"):
             continue
-        picks = {v: (run / f"{v}-frames.index").read_text().strip() for v in VARIANTS[1:]}
+        if len(reports["coverage"]) < 2:
+            del reports["coverage"]
+        picks = {v: (run / f"{v}-frames.index").read_text().strip() for v in reports if v != "none"}
         same += picks["misread"] == picks["distance"]
         print(f"{run.parent.name}/{run.name}: picks {picks}")
         for fit in ["default", "one-pass"]:
             for metric in ["vertex_error", "l2"]:
-                for v in VARIANTS:
+                for v in reports:
                     rows.setdefault((fit, metric), {}).setdefault(v, []).append(reports[v][fit][metric])
     n = len(rows[("default", "l2")]["none"])
     print(f"\n{n} runs; suggest and farthest-first picked the same frame in {same}\n")
     for (fit, metric), by in rows.items():
         unit = "px" if metric == "vertex_error" else "L2"
         print(f"{fit} fit, {metric} ({unit}):")
-        gains = {v: [c - x for c, x in zip(by["none"], by[v])] for v in VARIANTS[1:]}
-        for v in VARIANTS:
+        gains = {v: [c - x for c, x in zip(by["none"], by[v])] for v in by if v != "none"}
+        for v in (v for v in VARIANTS if v in by):
             g = f"  gain {mean(gains[v]):+.3f}  (better than control in {sum(x > 0 for x in gains[v])}/{n})" if v in gains else ""
             print(f"  {NAMES[v]:<20} {mean(by[v]):10.3f}{g}")
         ratio = lambda a, b: mean(gains[a]) / mean(gains[b]) if mean(gains[b]) > 0 else float("nan")
-        print(f"  suggest's gain / random's: {ratio('misread', 'random'):.2f}   / farthest-first's: {ratio('misread', 'distance'):.2f}\n")
+        for v in (v for v in ["misread", "coverage"] if v in gains):
+            print(f"  {NAMES[v]}'s gain / random's: {ratio(v, 'random'):.2f}   / farthest-first's: {ratio(v, 'distance'):.2f}")
+        print()
 
 
 if __name__ == "__main__":

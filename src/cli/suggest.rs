@@ -68,6 +68,8 @@ pub enum ByArg {
     Misread,
     /// How far the pose's limb turns are from the nearest drawn pose's (farthest first).
     Distance,
+    /// How badly the network reads the candidates around the pose, nearer ones counting more.
+    Coverage,
 }
 
 /// The longest side of a trace-over picture, at least (small sprites are scaled up).
@@ -87,6 +89,7 @@ pub fn run(args: SuggestArgs, s: &Session) -> anyhow::Result<()> {
         criterion: match args.by {
             ByArg::Misread => Criterion::Misread,
             ByArg::Distance => Criterion::Distance,
+            ByArg::Coverage => Criterion::Coverage,
         },
         seed: args.seed,
     };
@@ -178,6 +181,7 @@ fn listing(stem: &str, c: &Candidate) -> serde_json::Value {
         "pose": format!("{stem}.json"),
         "picture": format!("{stem}.png"),
         "misread_px": c.misread,
+        "coverage_px": c.coverage,
         "distance_degrees": c.distance,
         "origin": c.origin,
     })

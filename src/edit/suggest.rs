@@ -11,8 +11,10 @@
 //! bends and squashes it) is read back by the network in one pass, and the score is the mean
 //! distance of the body's vertices from where the network puts them. A pose the network reads
 //! back well is one it has in effect learned; one it misreads is where a drawing teaches most.
-//! [`Criterion::Distance`], the turn-space distance from the nearest drawn pose (farthest
-//! first), is the baseline it is measured against (docs/results.md "Suggest").
+//! [`Criterion::Coverage`] sums the misread of the candidates around a pose, nearer ones
+//! counting more: a drawing teaches its neighbourhood. [`Criterion::Distance`], the turn-space
+//! distance from the nearest drawn pose (farthest first), is the baseline both are measured
+//! against (docs/results.md "Suggest").
 //!
 //! [`pick`] takes the best-scored candidates greedily, each at least a set turn-space distance
 //! from those already taken, so n suggestions are n different poses.
@@ -37,7 +39,15 @@ pub enum Criterion {
     Misread,
     /// The pose is far, in limb turns, from every drawn pose (farthest first).
     Distance,
+    /// The candidates near the pose in turn space are misread, weighted by nearness
+    /// ([`COVERAGE_DEGREES`]): a drawing teaches its neighbourhood, so a pose among many
+    /// misread ones is worth more than a misread outlier.
+    Coverage,
 }
+
+/// The width of [`Criterion::Coverage`]'s neighbourhood: a candidate `d` degrees away (turn
+/// distance) counts `exp(−d² / 2w²)` of its misread.
+pub const COVERAGE_DEGREES: f32 = 20.0;
 
 /// How [`suggest`] searches.
 #[derive(Clone, Debug, PartialEq)]
@@ -131,6 +141,8 @@ pub struct Candidate {
     pub misread: f32,
     /// Turn-space distance from the nearest drawn pose (degrees, [`turn_distance`]).
     pub distance: f32,
+    /// The misread of the candidates around it, weighted by nearness ([`Criterion::Coverage`]).
+    pub coverage: f32,
 }
 
 impl Candidate {
@@ -139,6 +151,7 @@ impl Candidate {
         match criterion {
             Criterion::Misread => self.misread,
             Criterion::Distance => self.distance,
+            Criterion::Coverage => self.coverage,
         }
     }
 }
@@ -280,21 +293,45 @@ pub fn score(model: &Model, drawn_poses: &[Vec<[f32; 2]>], poses: Vec<(Vec<[f32;
     let body = puppet.free_vertices();
     let measure = LimbTurns::new(puppet);
     let drawn_turns: Vec<Vec<f32>> = drawn_poses.iter().map(|p| measure.of(p)).collect();
-    Ok(poses
+    let turns: Vec<Vec<f32>> = poses.iter().map(|(p, _)| measure.of(p)).collect();
+    let mut candidates: Vec<Candidate> = poses
         .into_iter()
         .zip(read)
-        .map(|((pose, origin), read)| {
+        .zip(&turns)
+        .map(|(((pose, origin), read), turns)| {
             let misread = body.iter().map(|&v| distance(pose[v], read[v])).sum::<f32>() / body.len().max(1) as f32;
-            let turns = measure.of(&pose);
-            let distance = drawn_turns.iter().map(|d| turn_distance(&turns, d)).fold(f32::INFINITY, f32::min);
+            let distance = drawn_turns.iter().map(|d| turn_distance(turns, d)).fold(f32::INFINITY, f32::min);
             Candidate {
                 pose,
                 origin,
                 misread,
                 distance: if distance.is_finite() { distance } else { 0.0 },
+                coverage: 0.0,
             }
         })
-        .collect())
+        .collect();
+    let misread: Vec<f32> = candidates.iter().map(|c| c.misread).collect();
+    for (c, v) in candidates.iter_mut().zip(coverage(&turns, &misread)) {
+        c.coverage = v;
+    }
+    Ok(candidates)
+}
+
+/// Per pose (limb turns `turns[i]`), the `misread` of every pose weighted by its nearness,
+/// `exp(−d² / 2w²)` with `d` the [`turn_distance`] and `w` [`COVERAGE_DEGREES`]
+/// ([`Criterion::Coverage`]).
+pub fn coverage(turns: &[Vec<f32>], misread: &[f32]) -> Vec<f32> {
+    let width = 2.0 * COVERAGE_DEGREES * COVERAGE_DEGREES;
+    turns
+        .par_iter()
+        .map(|t| {
+            turns
+                .iter()
+                .zip(misread)
+                .map(|(u, m)| m * (-turn_distance(t, u).powi(2) / width).exp())
+                .sum()
+        })
+        .collect()
 }
 
 fn distance(a: [f32; 2], b: [f32; 2]) -> f32 {
@@ -367,6 +404,7 @@ mod tests {
             origin: Origin::Given { index: 0 },
             misread,
             distance,
+            coverage: misread,
         }
     }
 
@@ -380,6 +418,17 @@ mod tests {
         let d = [(-179f32).to_radians(), 0.0];
         assert!((turn_distance(&c, &d) - 2.0 / 2f32.sqrt()).abs() < 1e-3);
         assert_eq!(turn_distance(&[], &[]), 0.0);
+    }
+
+    #[test]
+    fn coverage_prefers_a_misread_crowd_to_a_misread_outlier() {
+        let deg = |a: f32| vec![a.to_radians()];
+        // Three poses close together, each misread by 2 px; one far off, misread by 4 px.
+        let turns = [deg(0.0), deg(5.0), deg(-5.0), deg(90.0)];
+        let scores = coverage(&turns, &[2.0, 2.0, 2.0, 4.0]);
+        assert!(scores[0] > scores[3] && scores[0] > scores[1], "{scores:?}");
+        // Alone, a pose's coverage is its misread.
+        assert!((scores[3] - 4.0).abs() < 1e-3, "{scores:?}");
     }
 
     #[test]
