@@ -28,10 +28,12 @@ def main(root):
         gains = {a: l2["none"] - l2[a] for a in POOL}
         by_gain = sorted(POOL, key=lambda a: -gains[a])
         misread, distance = order(d / "pick-misread"), order(d / "pick-distance")
+        coverage = order(d / "pick-coverage")
         print(f"{d.name}: control L2 {l2['none']:.1f}")
         for a in by_gain:
             print(f"  + {a:<7} L2 {l2[a]:8.1f}  gain {gains[a]:+8.1f}")
         print(f"  suggest ranks {misread}: its pick {misread[0]} ranks {by_gain.index(misread[0]) + 1} of {len(POOL)} by gain")
+        print(f"  suggest --by coverage ranks {coverage}: its pick {coverage[0]} ranks {by_gain.index(coverage[0]) + 1} of {len(POOL)}")
         print(f"  farthest first ranks {distance}: its pick {distance[0]} ranks {by_gain.index(distance[0]) + 1} of {len(POOL)}")
 
 

@@ -7,7 +7,7 @@
 # training frames of configs/kenney-*.toml, four form the pool (climb1, jump, walk2, walk6: a
 # back view, the one airborne pose, two more walk phases); a base model trains on the other five
 # (idle, walk1, walk3, walk5, walk7) with the Kenney settings. `puppet fit` gives each pool
-# frame's pose, `puppet suggest --pool` ranks them (and `--by distance`). Then each pool frame in
+# frame's pose, `puppet suggest --pool` ranks them (and `--by coverage`, `--by distance`). Then each pool frame in
 # turn, and none (the control), is added and `puppet train --from base` continues for
 # MORE_STEPS; `puppet eval` scores the held-out frames (default fit). A frame's gain is the
 # control's L2 less its own.
@@ -42,6 +42,7 @@ for c in $CHARACTERS; do
     for f in $POOL; do cp "$d/pool-fits/${prefix}_${f}_vertices.json" "$d/pool-poses/"; done
     "$P" -q suggest --model "$d/base" --pool "$d/pool-poses" -n 4 -o "$d/pick-misread" --separation 0
     "$P" -q suggest --model "$d/base" --pool "$d/pool-poses" -n 4 -o "$d/pick-distance" --separation 0 --by distance
+    "$P" -q suggest --model "$d/base" --pool "$d/pool-poses" -n 4 -o "$d/pick-coverage" --separation 0 --by coverage
     for added in none $POOL; do
         v=$d/add-$added
         mkdir -p "$v-frames"

@@ -41,6 +41,10 @@ echo "== the demo on the male adventurer (in-between GIF, re-dressed walk)"
 cp "$tmp/demo/inbetween_walk.gif" "$img/inbetween.gif"
 cp "$tmp/demo/inbetween_walk_dressed.gif" "$img/dressed.gif"
 
+echo "== what to draw next, for the demo's model"
+"$PUPPET" -q suggest --model "$tmp/demo/model" -o "$tmp/next"
+cp "$tmp/next/sheet.png" "$img/suggest.png"
+
 echo "== step 2: the robot's puppet built from its PSD, and the adventurer's rig"
 "$PUPPET" -q build data/psd/robot_krita.psd -o "$tmp/robot-puppet"
 cp "$tmp/robot-puppet/preview.png" "$img/build_preview.png"

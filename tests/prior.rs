@@ -127,6 +127,28 @@ fn a_character_nobody_trained_is_fitted_from_the_prior() {
     ] {
         assert!(tmp.path().join("fits").join(name).is_file(), "{name} is missing");
     }
+    // `correspond` maps points between two frames of the character through its prior fits.
+    let (a, b) = (frames.join("robot_walk0.png"), frames.join("robot_fall.png"));
+    let run = puppet(
+        tmp.path(),
+        &[
+            "correspond",
+            "--puppet",
+            r,
+            a.to_str().unwrap(),
+            b.to_str().unwrap(),
+            "-o",
+            "pairs.json",
+            "--vertex-steps",
+            "4",
+            "--vertex-rounds",
+            "1",
+        ],
+    );
+    run.assert_ok();
+    let pairs: serde_json::Value = serde_json::from_slice(&std::fs::read(tmp.path().join("pairs.json")).unwrap()).unwrap();
+    let mapped = pairs.as_array().unwrap().iter().filter(|m| !m["to"].is_null()).count();
+    assert!(mapped > 10, "{} points mapped: {}", mapped, run.stdout);
 }
 
 #[test]

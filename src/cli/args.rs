@@ -8,7 +8,8 @@ use puppet::edit::pin::Pin;
 use puppet::model::Model;
 use puppet::parts::learn::TrainedNet;
 use puppet::picture::ImageLimits;
-use puppet::prior::template_model;
+use puppet::picture::Picture;
+use puppet::prior::{fit_untrained, fit_with_prior, template_model, PriorFit, Start};
 use puppet::puppet::{artwork, build::BuildOptions, LayerKind};
 use puppet::render::animation::AnimationFiles;
 use puppet::render::Background;
@@ -22,7 +23,7 @@ use puppet::fit::frame::training_poses;
 use puppet::fit::hidden_limbs::{HiddenLimbs, DEFAULT_SLACK};
 use puppet::fit::plausible::JointRanges;
 use puppet::fit::{
-    limb_search::LimbSearch, FitOptions, DEFAULT_ACCESSORY_STEPS, DEFAULT_LATENT_STEPS, DEFAULT_MIN_ROUND_GAIN,
+    fit, limb_search::LimbSearch, FitOptions, DEFAULT_ACCESSORY_STEPS, DEFAULT_LATENT_STEPS, DEFAULT_MIN_ROUND_GAIN,
     DEFAULT_PLAUSIBILITY_WEIGHT, DEFAULT_PLAUSIBLE_MARGIN, DEFAULT_VERTEX_STEPS,
 };
 
@@ -86,6 +87,29 @@ impl FitSourceArgs {
             None
         };
         Ok(FitSource { model, dir, prior })
+    }
+}
+
+impl FitSource {
+    /// Fits `frames` as the source says: by the trained model, by it and from the prior's
+    /// placement (keeping the closer fit), or, for a puppet nobody trained, from the prior's
+    /// placement alone. Returns the poses and, where both starts were tried, which one each
+    /// kept fit came from.
+    pub fn fit(
+        &self,
+        frames: &[&Picture],
+        options: &FitOptions,
+        device: &Device,
+        ui: &Ui,
+    ) -> puppet::Result<(Vec<Vec<[f32; 2]>>, Option<Vec<Start>>)> {
+        Ok(match (&self.dir, &self.prior) {
+            (_, None) => (fit(&self.model, frames, options, device, ui)?, None),
+            (Some(_), Some(prior)) => {
+                let PriorFit { poses, starts } = fit_with_prior(prior, &self.model, frames, options, device, ui)?;
+                (poses, Some(starts))
+            }
+            (None, Some(prior)) => (fit_untrained(prior, &self.model, frames, options, device, ui)?, None),
+        })
     }
 }
 

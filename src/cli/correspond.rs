@@ -9,13 +9,12 @@ use puppet::edit::correspond::{correspond, grid_points, load_points};
 use puppet::edit::pin::Pin;
 use puppet::edit::pin_overlay::pin_overlay;
 use puppet::eval::pck_pairs::{score_sequence, HeldOut};
-use puppet::fit::fit;
 use puppet::fit::frame::load_frame;
 use puppet::model::Model;
 use puppet::picture::contact_sheet;
 use puppet::progress::Progress;
 
-use super::args::{positive_f32, FitArgs, ModelArgs};
+use super::args::{positive_f32, FitArgs, FitSourceArgs};
 use super::Session;
 
 /// Map points of frame A to frame B through the fitted puppet (or score correspondences).
@@ -23,7 +22,8 @@ use super::Session;
 /// Two-frame mode writes OUTPUT (JSON: each point, its match or null when it is not on the
 /// character, and the layer it lies on) and OUTPUT's stem + "_pairs.png" (A and B side by side
 /// with each match drawn as a line in B from where the point was in A). Default points: a grid
-/// over A's opaque pixels every --spacing pixels.
+/// over A's opaque pixels every --spacing pixels. With --puppet instead of --model, the frames
+/// are of a character nobody trained, fitted from the prior's placement.
 ///
 /// With --sequence DIR (a `puppet synth` folder): every ordered pair of the model's held-out
 /// frames (split.json) is scored with PCK@{0.1, 0.05, 0.025}; OUTPUT gets the keypoints, truths
@@ -31,7 +31,7 @@ use super::Session;
 #[derive(Debug, clap::Args)]
 pub struct CorrespondArgs {
     #[command(flatten)]
-    pub model: ModelArgs,
+    pub source: FitSourceArgs,
     /// Frames A and B (two-frame mode).
     #[arg(num_args = 0..=2)]
     pub frames: Vec<PathBuf>,
@@ -80,22 +80,17 @@ pub fn run(args: CorrespondArgs, s: &Session) -> anyhow::Result<()> {
     let png = picture_path(&args.output);
     s.outputs.claim(&png)?;
     let device = puppet::backend::device();
-    let dir = &args.model.model;
-    let model = Model::load(dir, &device)?;
-    let a = load_frame(&args.frames[0], &model)?;
-    let b = load_frame(&args.frames[1], &model)?;
+    let source = args.source.load(&device, &s.ui)?;
+    let model = &source.model;
+    let a = load_frame(&args.frames[0], model)?;
+    let b = load_frame(&args.frames[1], model)?;
     let points = match &args.points {
         Some(path) => load_points(path)?,
         None => grid_points(&a, args.spacing),
     };
     s.ui.stage("fit", 2);
-    let fits = fit(
-        &model,
-        &[&a, &b],
-        &args.fit.options(Some(dir), &model, &device, &s.ui)?,
-        &device,
-        &s.ui,
-    )?;
+    let options = args.fit.options(source.dir.as_deref(), model, &device, &s.ui)?;
+    let (fits, _) = source.fit(&[&a, &b], &options, &device, &s.ui)?;
     let matches = correspond(&model.puppet, &fits[0], &fits[1], &points)?;
     let rows: Vec<Match> = points
         .iter()
@@ -123,7 +118,11 @@ pub fn run(args: CorrespondArgs, s: &Session) -> anyhow::Result<()> {
 
 fn run_sequence(args: &CorrespondArgs, seq: &Path, s: &Session) -> anyhow::Result<()> {
     let device = puppet::backend::device();
-    let dir = &args.model.model;
+    let dir = args
+        .source
+        .model
+        .as_ref()
+        .ok_or_else(|| anyhow::anyhow!("--sequence scores a trained model's held-out pairs: give --model"))?;
     let model = Model::load(dir, &device)?;
     let held_out = if args.odd { HeldOut::Odd } else { HeldOut::Split };
     let options = args.fit.options(Some(dir), &model, &device, &s.ui)?;
@@ -154,6 +153,7 @@ mod tests {
     fn parses_both_modes_and_never_names_the_picture_as_the_json() {
         parses(&["correspond", "--model", "m", "a.png", "b.png", "-o", "c.json", "--spacing", "4"]);
         parses(&["correspond", "--model", "m", "--sequence", "seq", "--odd", "-o", "c.json"]);
+        parses(&["correspond", "--puppet", "p", "a.png", "b.png", "-o", "c.json"]);
         assert!(
             clap::Parser::try_parse_from(["puppet", "correspond", "--model", "m", "a.png", "b.png"])
                 .map(|_: crate::cli::Cli| ())

@@ -5,9 +5,9 @@ use std::path::PathBuf;
 
 use puppet::appearance::AppearanceStage;
 use puppet::atomic_file::unique_stems;
-use puppet::fit::{fit, frame};
+use puppet::fit::frame;
 use puppet::picture::{contact_sheet, Picture};
-use puppet::prior::{fit_untrained, fit_with_prior, PriorFit, Start};
+use puppet::prior::Start;
 use puppet::progress::Progress;
 use puppet::puppet::pose_file::PoseFile;
 use puppet::puppet::sequence::Frames;
@@ -58,7 +58,8 @@ pub struct FitArgs {
 /// Runs `puppet fit`.
 pub fn run(args: FitArgs, s: &Session) -> anyhow::Result<()> {
     let device = puppet::backend::device();
-    let FitSource { model, dir, prior } = args.source.load(&device, &s.ui)?;
+    let source = args.source.load(&device, &s.ui)?;
+    let FitSource { model, dir, .. } = &source;
     let options = args.fit.options(dir.as_deref(), &model, &device, &s.ui)?;
     let worn = args.outfit.model(&model, &s.ui)?;
     let drawn = worn.as_ref().unwrap_or(&model);
@@ -113,31 +114,26 @@ pub fn run(args: FitArgs, s: &Session) -> anyhow::Result<()> {
 
     s.ui.stage("fitting", pictures.len() as u64);
     let refs: Vec<&Picture> = pictures.iter().collect();
-    let fits = match (&dir, &prior) {
-        (_, None) => fit(&model, &refs, &options, &device, &s.ui)?,
-        (Some(_), Some(prior)) => {
-            let PriorFit { poses: fits, starts } = fit_with_prior(prior, &model, &refs, &options, &device, &s.ui)?;
-            let from_prior: Vec<&str> = stems
-                .iter()
-                .zip(&starts)
-                .filter(|(_, &s)| s == Start::Prior)
-                .map(|(n, _)| n.as_str())
-                .collect();
-            s.ui.finish();
-            s.ui.say(format!(
-                "{} of {} frames kept the fit from the prior's placement (it rendered closer than the fit from the network's){}",
-                from_prior.len(),
-                stems.len(),
-                if from_prior.is_empty() {
-                    String::new()
-                } else {
-                    format!(": {}", from_prior.join(", "))
-                }
-            ))?;
-            fits
-        }
-        (None, Some(prior)) => fit_untrained(prior, &model, &refs, &options, &device, &s.ui)?,
-    };
+    let (fits, starts) = source.fit(&refs, &options, &device, &s.ui)?;
+    if let Some(starts) = starts {
+        let from_prior: Vec<&str> = stems
+            .iter()
+            .zip(&starts)
+            .filter(|(_, &s)| s == Start::Prior)
+            .map(|(n, _)| n.as_str())
+            .collect();
+        s.ui.finish();
+        s.ui.say(format!(
+            "{} of {} frames kept the fit from the prior's placement (it rendered closer than the fit from the network's){}",
+            from_prior.len(),
+            stems.len(),
+            if from_prior.is_empty() {
+                String::new()
+            } else {
+                format!(": {}", from_prior.join(", "))
+            }
+        ))?;
+    }
     // The ranges read with the options (for the term or the hidden limbs' twins); otherwise read
     // here only to name poses the model has not seen.
     let read;
