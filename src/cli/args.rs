@@ -90,25 +90,35 @@ impl FitSourceArgs {
     }
 }
 
+/// The fits of [`FitSource::fit`].
+pub struct Fits {
+    /// Each frame's pose (frame pixels, global numbering).
+    pub poses: Vec<Vec<[f32; 2]>>,
+    /// Where both starts were tried (`--model` with `--prior`), the one each kept fit came from.
+    pub starts: Option<Vec<Start>>,
+}
+
 impl FitSource {
     /// Fits `frames` as the source says: by the trained model, by it and from the prior's
     /// placement (keeping the closer fit), or, for a puppet nobody trained, from the prior's
-    /// placement alone. Returns the poses and, where both starts were tried, which one each
-    /// kept fit came from.
-    pub fn fit(
-        &self,
-        frames: &[&Picture],
-        options: &FitOptions,
-        device: &Device,
-        ui: &Ui,
-    ) -> puppet::Result<(Vec<Vec<[f32; 2]>>, Option<Vec<Start>>)> {
+    /// placement alone.
+    pub fn fit(&self, frames: &[&Picture], options: &FitOptions, device: &Device, ui: &Ui) -> puppet::Result<Fits> {
         Ok(match (&self.dir, &self.prior) {
-            (_, None) => (fit(&self.model, frames, options, device, ui)?, None),
+            (_, None) => Fits {
+                poses: fit(&self.model, frames, options, device, ui)?,
+                starts: None,
+            },
             (Some(_), Some(prior)) => {
                 let PriorFit { poses, starts } = fit_with_prior(prior, &self.model, frames, options, device, ui)?;
-                (poses, Some(starts))
+                Fits {
+                    poses,
+                    starts: Some(starts),
+                }
             }
-            (None, Some(prior)) => (fit_untrained(prior, &self.model, frames, options, device, ui)?, None),
+            (None, Some(prior)) => Fits {
+                poses: fit_untrained(prior, &self.model, frames, options, device, ui)?,
+                starts: None,
+            },
         })
     }
 }

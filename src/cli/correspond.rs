@@ -90,7 +90,7 @@ pub fn run(args: CorrespondArgs, s: &Session) -> anyhow::Result<()> {
     };
     s.ui.stage("fit", 2);
     let options = args.fit.options(source.dir.as_deref(), model, &device, &s.ui)?;
-    let (fits, _) = source.fit(&[&a, &b], &options, &device, &s.ui)?;
+    let fits = source.fit(&[&a, &b], &options, &device, &s.ui)?.poses;
     let matches = correspond(&model.puppet, &fits[0], &fits[1], &points)?;
     let rows: Vec<Match> = points
         .iter()

@@ -15,7 +15,7 @@ use puppet::render::animation::{AnimationFiles, AnimationWriter};
 use puppet::render::preview::wireframe_preview;
 use puppet::render::render_pose;
 
-use super::args::{AnimationArgs, FitArgs as FitOptionArgs, FitSource, FitSourceArgs, OutfitArgs};
+use super::args::{AnimationArgs, FitArgs as FitOptionArgs, FitSource, FitSourceArgs, Fits, OutfitArgs};
 use super::Session;
 
 /// The most frames sheet.png shows (evenly sampled when more are fitted).
@@ -60,15 +60,15 @@ pub fn run(args: FitArgs, s: &Session) -> anyhow::Result<()> {
     let device = puppet::backend::device();
     let source = args.source.load(&device, &s.ui)?;
     let FitSource { model, dir, .. } = &source;
-    let options = args.fit.options(dir.as_deref(), &model, &device, &s.ui)?;
-    let worn = args.outfit.model(&model, &s.ui)?;
-    let drawn = worn.as_ref().unwrap_or(&model);
+    let options = args.fit.options(dir.as_deref(), model, &device, &s.ui)?;
+    let worn = args.outfit.model(model, &s.ui)?;
+    let drawn = worn.as_ref().unwrap_or(model);
     let stage = match (&dir, args.appearance) {
-        (Some(dir), true) => Some(AppearanceStage::load(dir, &model, &device)?),
+        (Some(dir), true) => Some(AppearanceStage::load(dir, model, &device)?),
         (None, true) => anyhow::bail!("--appearance needs a trained model (--model): a puppet nobody trained has no appearance stage"),
         _ => None,
     };
-    let check = frame::frame_check(&model);
+    let check = frame::frame_check(model);
     let (mut files, mut pictures, mut problems) = (Vec::new(), Vec::new(), Vec::new());
     for path in &args.frames {
         if path.is_dir() {
@@ -77,7 +77,7 @@ pub fn run(args: FitArgs, s: &Session) -> anyhow::Result<()> {
             pictures.extend(seq.frames);
             problems.extend(bad.into_iter().map(|(_, e)| e));
         } else {
-            match frame::load_frame(path, &model) {
+            match frame::load_frame(path, model) {
                 Ok(p) => {
                     files.push(path.clone());
                     pictures.push(p);
@@ -114,7 +114,7 @@ pub fn run(args: FitArgs, s: &Session) -> anyhow::Result<()> {
 
     s.ui.stage("fitting", pictures.len() as u64);
     let refs: Vec<&Picture> = pictures.iter().collect();
-    let (fits, starts) = source.fit(&refs, &options, &device, &s.ui)?;
+    let Fits { poses: fits, starts } = source.fit(&refs, &options, &device, &s.ui)?;
     if let Some(starts) = starts {
         let from_prior: Vec<&str> = stems
             .iter()
@@ -142,7 +142,7 @@ pub fn run(args: FitArgs, s: &Session) -> anyhow::Result<()> {
         (None, Some(dir)) => {
             read = args
                 .fit
-                .training_ranges(dir, &model, &device, "no fit is checked against the training poses", &s.ui)?;
+                .training_ranges(dir, model, &device, "no fit is checked against the training poses", &s.ui)?;
             read.as_ref()
         }
         (None, None) => None,
@@ -165,7 +165,7 @@ pub fn run(args: FitArgs, s: &Session) -> anyhow::Result<()> {
     let mut rows: Vec<Picture> = Vec::new();
     for (k, ((stem, picture), pose)) in stems.iter().zip(&pictures).zip(fits).enumerate() {
         let [render_path, overlay_path, vertices_path] = paths(stem);
-        let pose = drawn.pose_from(&model, &pose);
+        let pose = drawn.pose_from(model, &pose);
         let render = render_pose(&drawn.puppet, &pose, w, h, 0.0, args.animation.background)?;
         animation.push(&render)?;
         let overlay = wireframe_preview(&drawn.puppet, &pose, picture, scale);
