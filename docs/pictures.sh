@@ -8,9 +8,9 @@
 # docs/img/. It runs the demo twice (the male adventurer and the robot, short runs of 300 steps),
 # so it takes several minutes on two cores.
 #
-# The editor's screenshot (docs/img/editor.png) also needs node, Debian's chromium and the npm
-# packages of bench/browser/ (`cd bench/browser && npm ci`). Without them the script says so and
-# leaves the existing docs/img/editor.png as it is.
+# The editor's screenshots (docs/img/editor.png, editor_suggest.png) also need node, Debian's
+# chromium and the npm packages of bench/browser/ (`cd bench/browser && npm ci`). Without them
+# the script says so and leaves the existing screenshots as they are.
 set -euo pipefail
 
 PUPPET=${PUPPET:-target/release/puppet}
@@ -91,11 +91,12 @@ if command -v node >/dev/null && command -v chromium >/dev/null && [ -d bench/br
   done
   node "$tour" "http://127.0.0.1:$PORT/" "$tmp/screens"
   cp "$tmp/screens/editor_dragged.png" "$img/editor.png"
+  cp "$tmp/screens/editor_suggest.png" "$img/editor_suggest.png"
   kill "$server" 2>/dev/null || true
   wait "$server" 2>/dev/null || true
   server=""
 else
-  echo "pictures.sh: node, chromium or bench/browser/node_modules missing: $img/editor.png left as it is" >&2
+  echo "pictures.sh: node, chromium or bench/browser/node_modules missing: $img/editor*.png left as they are" >&2
 fi
 
 echo "== written:"

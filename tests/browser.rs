@@ -3,7 +3,9 @@
 //! hand, drag it, check the pin reached its target from the vertices the page shows, remove the
 //! pin, undo, redo, reset, click off the character, make and play an eased in-between to a frame uploaded from the page, show the
 //! appearance stage's redraws of the pose and the in-between and download them as GIF, hide and
-//! show the hat, download the pose as PNG. Screenshots go to `target/browser-editor/`.
+//! show the hat, download the pose as PNG, ask what to draw next and send a drawing back (one of
+//! the wrong size first, refused), continue the model on it, play the shipped BVH walk.
+//! Screenshots go to `target/browser-editor/`.
 //!
 //! The model is trained here for a few seconds on three frames of the arm (rest, raised,
 //! lowered): an untrained model's decoder ends in a zero layer, so every latent gives the rest
@@ -159,6 +161,11 @@ fn browser_editor_poses_plays_inbetweens_toggles_an_accessory_and_downloads() {
     train(tmp.path(), &built, &frames, &model);
     train_appearance(tmp.path(), &model);
     let trained = started.elapsed();
+    let small = tmp.path().join("small.png");
+    puppet::picture::Picture::filled(16, 16, [0.2, 0.4, 0.8, 1.0])
+        .save_png(&small)
+        .unwrap();
+    let served = files(&model);
     let (server, url) = serve(tmp.path(), &model, &frames);
     let out: PathBuf = repo().join("target/browser-editor");
     std::fs::create_dir_all(&out).unwrap();
@@ -168,6 +175,12 @@ fn browser_editor_poses_plays_inbetweens_toggles_an_accessory_and_downloads() {
         .arg(&out)
         .env("HAND_LAYER", "arm")
         .env("UPLOAD_FRAME", frames.join("c_lowered.png"))
+        // The artist's drawing of the first suggestion: any frame of the character will do.
+        .env("DRAWING", frames.join("b_raised.png"))
+        .env("BAD_DRAWING", &small)
+        .env("CONTINUE_STEPS", "3")
+        .env("MOTION", repo().join("data/motion/walk.bvh"))
+        .env("MOTION_FRAMES", "36")
         // Set on the page's α sliders: with the paper's 25 and 50 the ARAP and joint terms
         // hold this briefly trained arm back, and even after the page's settling request on
         // release the pin ends 2.6 px from the target of a 5 px drag; with 2 and 4, 0.4 px
@@ -191,4 +204,32 @@ fn browser_editor_poses_plays_inbetweens_toggles_an_accessory_and_downloads() {
         "tests/browser/editor.mjs failed ({}):\n{stdout}\n{stderr}",
         run.status
     );
+    // What the page's drawing and continuation left on disk: a copy of the frames with the
+    // drawing beside the model, the continued model there, the model itself as it was.
+    let next = tmp.path().join("model-next");
+    let mut copied: Vec<String> = std::fs::read_dir(next.join("frames"))
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .filter(|n| n.ends_with(".png"))
+        .collect();
+    copied.sort();
+    assert_eq!(copied, ["a_rest.png", "b_raised.png", "c_lowered.png", "drawn_next_1.png"]);
+    let split: serde_json::Value = serde_json::from_slice(&std::fs::read(next.join("model/split.json")).unwrap()).unwrap();
+    assert!(
+        split["train"].as_array().unwrap().contains(&serde_json::json!("drawn_next_1.png")),
+        "{split}"
+    );
+    assert_eq!(files(&model), served, "the model being served is only read");
+}
+
+/// The files of `dir` (not its folders) with their bytes, by name.
+fn files(dir: &Path) -> Vec<(String, Vec<u8>)> {
+    let mut files: Vec<_> = std::fs::read_dir(dir)
+        .unwrap()
+        .map(|e| e.unwrap().path())
+        .filter(|p| p.is_file())
+        .map(|p| (p.file_name().unwrap().to_string_lossy().into_owned(), std::fs::read(&p).unwrap()))
+        .collect();
+    files.sort();
+    files
 }

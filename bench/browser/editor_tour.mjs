@@ -1,13 +1,15 @@
 // Screenshots of the web editor on a running `puppet serve` (the demo's model, with its
-// outfits): the loaded page, a dragged arm, another outfit with the rig's pins shown, and an
-// in-between with onion skin. For eyes, not checks: tests/browser/editor.mjs holds the checks.
+// outfits): the loaded page, a dragged arm, another outfit with the rig's pins shown, an
+// in-between with onion skin, "what to draw next" with the first suggestion posed, and a BVH walk
+// played on the character (the motion's panel alone beside the canvas, in these two). For eyes,
+// not checks: tests/browser/editor.mjs holds the checks.
 //
-//   node editor_tour.mjs URL OUT_DIR
+//   node editor_tour.mjs URL OUT_DIR [MOTION]   (MOTION: default data/motion/walk.bvh)
 import path from 'node:path';
 import fs from 'node:fs';
 import { chromium } from 'playwright-core';
 
-const [url, out] = process.argv.slice(2);
+const [url, out, motion = 'data/motion/walk.bvh'] = process.argv.slice(2);
 if (!url || !out) { console.error('usage: node editor_tour.mjs URL OUT_DIR'); process.exit(2); }
 fs.mkdirSync(out, { recursive: true });
 const browser = await chromium.launch({ executablePath: process.env.CHROMIUM || '/usr/bin/chromium',
@@ -48,4 +50,36 @@ await page.click('#ib-make');
 await page.waitForFunction(() => window.puppetEditor.state().inbetween, null, { timeout: 60000 });
 await page.evaluate(() => { const e = document.getElementById('ib-scrub'); e.value = 3; e.dispatchEvent(new Event('input')); });
 await shot('editor_inbetween.png');
+await page.click('#ib-close');
+
+// The canvas and the side panels `keep` (ids), the others hidden for the shot.
+const panelShot = async (name, keep) => {
+  await page.evaluate((keep) => { for (const f of document.querySelectorAll('#side fieldset')) f.style.display = keep.includes(f.id) ? '' : 'none'; }, keep);
+  const clip = await page.evaluate(() => {
+    const rects = ['view', 'side'].map((id) => document.getElementById(id).getBoundingClientRect());
+    const [x, y] = [Math.min(...rects.map((r) => r.left)), Math.min(...rects.map((r) => r.top))];
+    const [right, bottom] = [Math.max(...rects.map((r) => r.right)), Math.max(...rects.map((r) => r.bottom))];
+    return { x: x + window.scrollX - 6, y: y + window.scrollY - 6, width: right - x + 12, height: bottom - y + 12 };
+  });
+  await page.screenshot({ path: path.join(out, name), clip, fullPage: true });
+  await page.evaluate(() => { for (const f of document.querySelectorAll('#side fieldset')) f.style.display = ''; });
+  console.log(path.join(out, name));
+};
+if (outfits > 1) { await page.selectOption('#outfit', '0'); await idle(); }
+await page.uncheck('#showpins');
+await page.click('#next-suggest');
+await page.waitForFunction(() => window.puppetEditor.state().next.suggestions.length > 0, null, { timeout: 120000 });
+await idle();
+await page.waitForFunction(() => [...document.querySelectorAll('#suggestions img')].every((im) => im.complete && im.naturalWidth > 0));
+console.log(await page.locator('#status').textContent());
+await page.locator('#suggestions .suggestion button').first().click();
+await panelShot('editor_suggest.png', ['nextpanel']);
+await page.locator('#suggestions .suggestion button').first().click();
+await page.selectOption('#motion-view', 'side');
+await page.setInputFiles('#motion-file', motion);
+await page.waitForFunction(() => window.puppetEditor.state().inbetween?.kind === 'motion', null, { timeout: 60000 });
+console.log(await page.locator('#motion-info').textContent());
+await page.click('#motion-play');
+await page.evaluate(() => { const e = document.getElementById('ib-scrub'); e.value = 8; e.dispatchEvent(new Event('input')); });
+await panelShot('editor_motion.png', ['motionpanel']);
 await browser.close();

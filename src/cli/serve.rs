@@ -1,7 +1,8 @@
 //! `puppet serve [--model DIR] [--port 8080] [--host 127.0.0.1] [--outfit ARTWORK]… [--open]
 //! [--appearance]`:
 //! the web editor (issue 18) — a local HTTP server with a page that poses the model's puppet by
-//! drag pins and sliders, plays in-betweens, swaps outfits and downloads what it shows.
+//! drag pins and sliders, plays in-betweens and motions, swaps outfits, downloads what it shows,
+//! and says what to draw next (issue 57).
 
 use std::net::IpAddr;
 use std::path::PathBuf;
@@ -30,6 +31,12 @@ const DEMO_MODEL: &str = "out/demo/model";
 /// appearance stage redraws it. The frames to pose are those the model trained on (from
 /// its split.json) or --frames; the outfits are --outfit, or the outfits/ folder beside the
 /// frames the model trained on.
+///
+/// "What to draw next" suggests the poses whose drawings would teach the model most (as
+/// `puppet suggest`), with pictures to trace over; a drawing sent back joins a copy of the
+/// model's frames in MODEL-next/frames/ (beside the model, which is only read), and the page
+/// continues the model on them in the background into MODEL-next/model (`puppet train --from`).
+/// "Motion" plays a BVH file on the character in a loop (as `puppet retarget`).
 #[derive(Debug, clap::Args)]
 pub struct ServeArgs {
     /// The model folder written by `puppet train` (default: out/demo/model, from `puppet demo`).
@@ -78,7 +85,7 @@ pub fn run(args: ServeArgs, s: &Session) -> anyhow::Result<()> {
     let device = puppet::backend::device();
     let model = Model::load(&dir, &device)?;
     let fit = args.fit.options(&dir)?;
-    let mut options = ServeOptions::new(fit);
+    let mut options = ServeOptions::new(fit).with_model_folder(&dir);
     if args.appearance {
         options = options.with_appearance(AppearanceStage::load(&dir, &model, &device)?);
     }

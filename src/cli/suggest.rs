@@ -6,13 +6,11 @@ use std::time::Instant;
 
 use anyhow::Context as _;
 
-use puppet::edit::suggest::{suggest, Candidate, Criterion, SuggestOptions};
+use puppet::edit::suggest::{suggest, trace_picture, Candidate, Criterion, SuggestOptions};
 use puppet::fit::frame::training_frames;
 use puppet::model::Model;
 use puppet::picture::{contact_sheet, Picture};
 use puppet::puppet::pose_file::{load_poses, PoseFile};
-use puppet::render::preview::trace_over;
-use puppet::render::render_crisp;
 use puppet::synth::truth::{true_positions, Truth};
 
 use super::args::ModelArgs;
@@ -72,9 +70,6 @@ pub enum ByArg {
     Coverage,
 }
 
-/// The longest side of a trace-over picture, at least (small sprites are scaled up).
-const TRACE_SIDE: u32 = 384;
-
 /// Runs `puppet suggest`.
 pub fn run(args: SuggestArgs, s: &Session) -> anyhow::Result<()> {
     let started = Instant::now();
@@ -118,14 +113,12 @@ pub fn run(args: SuggestArgs, s: &Session) -> anyhow::Result<()> {
     let out = &args.output;
     s.outputs.lock_folder(out)?;
     let puppet = &model.puppet;
-    let (w, h) = (puppet.width, puppet.height);
-    let scale = TRACE_SIDE.div_ceil(w.max(h)).clamp(1, 8);
     let mut traces = Vec::new();
     let mut listed = Vec::new();
     for (rank, &i) in picked.iter().enumerate() {
         let c = &candidates[i];
         let stem = format!("next_{}", rank + 1);
-        let trace = trace_over(puppet, &c.pose, &render_crisp(puppet, &c.pose, w, h)?, scale);
+        let trace = trace_picture(puppet, &c.pose)?;
         s.save_png(&out.join(format!("{stem}.png")), &trace)?;
         s.outputs
             .write(&out.join(format!("{stem}.json")), &PoseFile { vertices: c.pose.clone() }.to_json())?;
@@ -153,7 +146,7 @@ pub fn run(args: SuggestArgs, s: &Session) -> anyhow::Result<()> {
             rank + 1,
             c.misread,
             c.distance,
-            describe(c)
+            c.origin
         ))?;
     }
     s.ui.say(format!(
@@ -185,17 +178,6 @@ fn listing(stem: &str, c: &Candidate) -> serde_json::Value {
         "distance_degrees": c.distance,
         "origin": c.origin,
     })
-}
-
-/// Where a suggestion came from, in words.
-fn describe(c: &Candidate) -> String {
-    use puppet::edit::suggest::Origin;
-    match &c.origin {
-        Origin::Turned { frame, limbs } => format!("drawn frame {} with {} turned", frame + 1, limbs.join(", ")),
-        Origin::Inbetween { a, b } => format!("halfway between drawn frames {} and {}", a + 1, b + 1),
-        Origin::Direction { index, steps } => format!("{steps:+} σ along the drawn frames' direction {}", index + 1),
-        Origin::Given { index } => format!("pose {} of the pool", index + 1),
-    }
 }
 
 #[cfg(test)]

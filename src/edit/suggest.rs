@@ -28,6 +28,8 @@ use crate::fit::plausible::JointRanges;
 use crate::model::Model;
 use crate::picture::Picture;
 use crate::puppet::limbs::{wrap, LimbTurns};
+use crate::puppet::Puppet;
+use crate::render::preview::trace_over;
 use crate::render::render_crisp;
 use crate::rng::Rng;
 
@@ -127,6 +129,19 @@ pub enum Origin {
         /// Its place in the pool.
         index: usize,
     },
+}
+
+impl std::fmt::Display for Origin {
+    /// Where the pose came from in words, drawn frames counted from 1: "drawn frame 2 with
+    /// arm_l turned", "halfway between drawn frames 1 and 3".
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            Origin::Turned { frame, limbs } => write!(f, "drawn frame {} with {} turned", frame + 1, limbs.join(", ")),
+            Origin::Inbetween { a, b } => write!(f, "halfway between drawn frames {} and {}", a + 1, b + 1),
+            Origin::Direction { index, steps } => write!(f, "{steps:+} σ along the drawn frames' direction {}", index + 1),
+            Origin::Given { index } => write!(f, "pose {} of the pool", index + 1),
+        }
+    }
 }
 
 /// A candidate pose and its scores.
@@ -362,6 +377,21 @@ pub fn pick(candidates: &[Candidate], measure: &LimbTurns, criterion: Criterion,
         }
     }
     picked
+}
+
+/// The longest side of a trace-over picture, at least: a small sprite is scaled up by a whole
+/// factor (at most 8) so that the mesh's hairlines stay apart.
+pub const TRACE_SIDE: u32 = 384;
+
+/// The picture an artist traces over to draw `pose` (frame pixels, global numbering): the rest
+/// art moved into the pose under its faint mesh ([`trace_over`]), scaled up to [`TRACE_SIDE`].
+///
+/// # Errors
+/// As [`render_crisp`].
+pub fn trace_picture(puppet: &Puppet, pose: &[[f32; 2]]) -> Result<Picture> {
+    let (w, h) = (puppet.width, puppet.height);
+    let scale = TRACE_SIDE.div_ceil(w.max(h).max(1)).clamp(1, 8);
+    Ok(trace_over(puppet, pose, &render_crisp(puppet, pose, w, h)?, scale))
 }
 
 /// The suggestions for `model`, whose drawn frames are `frames`: the candidates of

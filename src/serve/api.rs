@@ -21,10 +21,12 @@ use serde_json::json;
 use super::error::ApiError;
 use super::export::{export, redrawn_strip, ExportStyle, Format};
 use super::guard::{check, HostGuard};
+use super::motion::{play, PlayOptions, MAX_MOTION_BYTES};
 use super::state::{App, EditorPose};
 use crate::edit::inbetween::MAX_STEPS;
 use crate::edit::pin::Pin;
 use crate::edit::pose::PoseOptions;
+use crate::edit::retarget::View;
 use crate::edit::timing::{eased_t, spacing_t, Easing};
 use crate::puppet::LayerKind;
 use crate::render::Background;
@@ -76,6 +78,12 @@ pub fn router(app: Arc<App>, guard: HostGuard) -> Router {
         .route("/api/inbetween", post(inbetween))
         .route("/api/export", post(download))
         .route("/api/appearance", post(appearance))
+        .route("/api/suggest", post(suggest))
+        .route("/api/suggestion/{file}", get(suggestion))
+        .route("/api/drawing", post(drawing).layer(DefaultBodyLimit::max(MAX_UPLOAD_BODY)))
+        .route("/api/next", get(next))
+        .route("/api/continue", post(continue_training))
+        .route("/api/motion", post(motion).layer(DefaultBodyLimit::max(MAX_MOTION_BYTES)))
         .fallback(|| async { ApiError::not_found("no such page or API route") })
         .method_not_allowed_fallback(|| async {
             ApiError {
@@ -195,6 +203,25 @@ struct UploadQuery {
     name: Option<String>,
 }
 
+/// The body of an upload.
+fn uploaded(body: Result<Bytes, BytesRejection>) -> Result<Bytes, ApiError> {
+    body.map_err(|e| ApiError {
+        status: e.status(),
+        message: format!("the upload cannot be read: {}", e.body_text()),
+    })
+}
+
+/// The name an upload gave its file, made fit to label it in messages (printable, short), or
+/// `otherwise`.
+fn label(given: Option<String>, otherwise: &str) -> String {
+    let clean: String = given.unwrap_or_default().chars().filter(|c| !c.is_control()).take(80).collect();
+    if clean.trim().is_empty() {
+        otherwise.to_string()
+    } else {
+        clean
+    }
+}
+
 async fn upload(
     State(app): State<Arc<App>>,
     query: Result<Query<UploadQuery>, QueryRejection>,
@@ -203,18 +230,8 @@ async fn upload(
     let Ok(Query(query)) = query else {
         return Err(ApiError::bad_request("an upload takes one query parameter, name (the file's name)"));
     };
-    let bytes = body.map_err(|e| ApiError {
-        status: e.status(),
-        message: format!("the upload cannot be read: {}", e.body_text()),
-    })?;
-    // The name only labels the frame: printable, short.
-    let given = query.name.unwrap_or_default();
-    let clean: String = given.chars().filter(|c| !c.is_control()).take(80).collect();
-    let name = if clean.trim().is_empty() {
-        "uploaded frame".to_string()
-    } else {
-        clean
-    };
+    let bytes = uploaded(body)?;
+    let name = label(query.name, "uploaded frame");
     let index = blocking(move || app.upload(&name, &bytes)).await?;
     Ok(Json(json!({ "index": index, "picture": format!("/api/frame/{index}.png") })).into_response())
 }
@@ -553,4 +570,177 @@ async fn appearance(State(app): State<Arc<App>>, body: Result<Bytes, BytesReject
     })
     .await?;
     Ok(png(bytes))
+}
+
+/// `POST /api/suggest`.
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct SuggestRequest {
+    /// Suggestions wanted (default 3).
+    count: Option<usize>,
+}
+
+/// The poses worth drawing next, best first: each with its trace-over picture, pose, scores and
+/// origin in words.
+async fn suggest(State(app): State<Arc<App>>, body: Result<Bytes, BytesRejection>) -> Result<Response, ApiError> {
+    let request: SuggestRequest = parse(body)?;
+    let count = request.count.unwrap_or(3);
+    let suggested = {
+        let app = app.clone();
+        blocking(move || app.next().suggest(&app, count)).await?
+    };
+    let suggestions: Vec<_> = suggested
+        .suggestions
+        .iter()
+        .enumerate()
+        .map(|(k, s)| {
+            json!({
+                "index": k,
+                "picture": format!("/api/suggestion/{k}.png"),
+                "vertices": s.pose,
+                "misread_px": s.misread,
+                "distance_degrees": s.distance,
+                "origin": s.origin.to_string(),
+                "origin_detail": s.origin,
+            })
+        })
+        .collect();
+    Ok(Json(json!({
+        "suggestions": suggestions,
+        "candidates": suggested.candidates,
+        "seconds": suggested.seconds,
+    }))
+    .into_response())
+}
+
+async fn suggestion(State(app): State<Arc<App>>, file: Result<Path<String>, PathRejection>) -> Result<Response, ApiError> {
+    let Ok(Path(file)) = file else {
+        return Err(ApiError::bad_request("the suggestion path is not readable"));
+    };
+    Ok(png(app.next().trace(png_index(&file, "suggestion")?)?))
+}
+
+/// `POST /api/drawing?suggestion=<k>&name=<file>` with the drawing as the body.
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct DrawingQuery {
+    /// The suggestion drawn (an index into the latest suggestions), if any.
+    suggestion: Option<usize>,
+    name: Option<String>,
+}
+
+/// The artist's drawing joins the frames in the folder of drawings; answers with that folder's
+/// status and the drawing's file name there.
+async fn drawing(
+    State(app): State<Arc<App>>,
+    query: Result<Query<DrawingQuery>, QueryRejection>,
+    body: Result<Bytes, BytesRejection>,
+) -> Result<Response, ApiError> {
+    let Ok(Query(query)) = query else {
+        return Err(ApiError::bad_request(
+            "a drawing takes the query parameters suggestion (its number) and name (the file's name)",
+        ));
+    };
+    let bytes = uploaded(body)?;
+    let name = label(query.name, "drawing");
+    let (file, status) = blocking(move || {
+        let file = app.next().add_drawing(&app, query.suggestion, &name, &bytes)?;
+        Ok((file, app.next().status()))
+    })
+    .await?;
+    let mut out = json!(status);
+    out["drawing"] = json!(file);
+    Ok(Json(out).into_response())
+}
+
+async fn next(State(app): State<Arc<App>>) -> Response {
+    Json(json!(app.next().status())).into_response()
+}
+
+/// `POST /api/continue`.
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct ContinueRequest {
+    /// Optimiser steps (default: the status's `default_steps`).
+    steps: Option<u64>,
+}
+
+/// Starts the continuation in the background; answers with the status to poll at `/api/next`.
+async fn continue_training(State(app): State<Arc<App>>, body: Result<Bytes, BytesRejection>) -> Result<Response, ApiError> {
+    let request: ContinueRequest = parse(body)?;
+    let status = blocking(move || {
+        app.next().start(request.steps)?;
+        Ok(app.next().status())
+    })
+    .await?;
+    Ok(Json(json!(status)).into_response())
+}
+
+/// `POST /api/motion?name=<file>&view=front|side&rigid=&in_place=&fps=&outfit=` with the BVH
+/// file as the body.
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct MotionQuery {
+    name: Option<String>,
+    view: Option<String>,
+    #[serde(default)]
+    rigid: bool,
+    #[serde(default)]
+    in_place: bool,
+    fps: Option<f32>,
+    #[serde(default)]
+    outfit: usize,
+}
+
+/// A motion played on the character: its poses and frame time, and which joint drives which
+/// layer.
+async fn motion(
+    State(app): State<Arc<App>>,
+    query: Result<Query<MotionQuery>, QueryRejection>,
+    body: Result<Bytes, BytesRejection>,
+) -> Result<Response, ApiError> {
+    let query = match query {
+        Ok(Query(query)) => query,
+        Err(e) => {
+            return Err(ApiError::bad_request(format!(
+                "a motion takes the query parameters name, view (front or side), rigid, in_place (true or false), fps and outfit: {}",
+                e.body_text()
+            )))
+        }
+    };
+    let view = match query.view.as_deref() {
+        None | Some("front") => View::Front,
+        Some("side") => View::Side,
+        Some(other) => return Err(ApiError::bad_request(format!("view {other:?}: give front or side"))),
+    };
+    let options = PlayOptions {
+        view,
+        rigid: query.rigid,
+        in_place: query.in_place,
+        fps: query.fps,
+        outfit: query.outfit,
+    };
+    let bytes = uploaded(body)?;
+    let name = label(query.name, "motion");
+    let started = std::time::Instant::now();
+    let played = {
+        let name = name.clone();
+        blocking(move || play(&app, &name, &bytes, &options)).await?
+    };
+    let pairs: Vec<_> = played
+        .pairs
+        .iter()
+        .map(|(joint, layer)| json!({ "joint": joint, "layer": layer }))
+        .collect();
+    Ok(Json(json!({
+        "name": name,
+        "frames": played.poses.len(),
+        "frame_time": played.frame_time,
+        "joints": played.joints,
+        "pairs": pairs,
+        "warnings": played.warnings,
+        "poses": played.poses,
+        "seconds": started.elapsed().as_secs_f64(),
+    }))
+    .into_response())
 }

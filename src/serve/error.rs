@@ -56,6 +56,9 @@ fn status_of(err: &Error) -> StatusCode {
             .max_by_key(|s| s.as_u16())
             .unwrap_or(StatusCode::INTERNAL_SERVER_ERROR),
         Error::OffCharacter { .. } => StatusCode::UNPROCESSABLE_ENTITY,
+        // An output the editor may not write (someone else's folder, one in use): the state
+        // on disk is in the way, not the request.
+        Error::WouldOverwrite { .. } | Error::InUse { .. } => StatusCode::CONFLICT,
         // Image: a picture a page sent (an upload) that cannot be read.
         Error::Setting { .. } | Error::Mismatch { .. } | Error::Geometry { .. } | Error::Limit { .. } | Error::Image { .. } => {
             StatusCode::BAD_REQUEST

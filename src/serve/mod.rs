@@ -3,7 +3,10 @@
 //! §4.2 (eq. 7–9), one [`crate::edit::pose::PoseEditor`] per page — by sliders along the
 //! training frames' principal latent directions, and plays timed in-betweens (§4.1); it swaps
 //! outfits on the same body (accessory-rigs.md), shows what the appearance stage (§3.3) draws
-//! of each pose when the model has one, and downloads what it shows.
+//! of each pose when the model has one, and downloads what it shows. Issue 57 adds "what to
+//! draw next" ([`next`]: suggested poses to trace over, the artist's drawing joining a copy of
+//! the model's frames, the model continued on them in the background) and motions played on
+//! the character ([`motion`]: a BVH file retargeted to the layers).
 //!
 //! Routes (JSON unless a picture or a download; every refusal is a 4xx with `{"error": "…"}`):
 //!
@@ -29,6 +32,22 @@
 //!                                 → the file (several: a ZIP)
 //! POST /api/appearance            {session | inbetween, hidden?} → one PNG: each pose rendered
 //!                                 and redrawn by the appearance stage, side by side
+//! POST /api/suggest               {count?} → {suggestions: [{index, picture, vertices, misread_px,
+//!                                 distance_degrees, origin (words), origin_detail}], candidates,
+//!                                 seconds}: the poses worth drawing next, best first
+//! GET  /api/suggestion/<k>.png    suggestion k's trace-over picture (the latest request's)
+//! POST /api/drawing?suggestion=<k>&name=<file>
+//!                                 the body the artist's drawing (an image of the puppet's size)
+//!                                 → the status below + {drawing}: it joins a copy of the model's
+//!                                 frames in <model>-next/frames/
+//! GET  /api/next                  {available, unavailable, folder, frames, drawings,
+//!                                 default_steps, command, training: {state, step, steps,
+//!                                 message, warnings, output, error, seconds}}
+//! POST /api/continue              {steps?} → the status: `puppet train --from` on that folder in
+//!                                 the background, into <model>-next/model (model_2, … after)
+//! POST /api/motion?name=<file>&view=front|side&rigid=&in_place=&fps=&outfit=
+//!                                 the body a BVH file → {name, frames, frame_time, joints,
+//!                                 pairs: [{joint, layer}], warnings, poses, seconds}
 //! ```
 //!
 //! Points and vertices are frame pixels (origin top-left, y down) in the global numbering of
@@ -43,6 +62,8 @@ pub mod api;
 pub mod error;
 pub mod export;
 pub mod guard;
+pub mod motion;
+pub mod next;
 mod session;
 pub mod state;
 #[cfg(test)]

@@ -2,12 +2,13 @@
 //! session), the frames a page can pick and their fitted latents, the layer textures as PNG, the
 //! training frames' principal latent directions, and the editing sessions.
 
-use std::path::Path;
+use std::path::{Path, PathBuf};
 use std::sync::{Arc, Mutex, RwLock};
 
 use burn::tensor::{Device, Tensor, TensorData};
 
 use super::error::ApiError;
+use super::next::Next;
 use super::session::{lock, Session, Sessions};
 use crate::appearance::AppearanceStage;
 use crate::edit::directions::LatentDirections;
@@ -55,6 +56,9 @@ pub struct ServeOptions {
     pub max_sessions: usize,
     /// The model's appearance stage (neural-puppet.md §3.3), if the page may redraw poses with it.
     pub appearance: Option<AppearanceStage>,
+    /// The model's folder, if drawings of suggested poses may join its frames and continue it
+    /// ([`super::next`]).
+    pub model_folder: Option<PathBuf>,
 }
 
 impl ServeOptions {
@@ -64,12 +68,22 @@ impl ServeOptions {
             fit,
             max_sessions: DEFAULT_MAX_SESSIONS,
             appearance: None,
+            model_folder: None,
         }
     }
 
     /// The same options keeping at most `max_sessions` sessions.
     pub fn with_max_sessions(self, max_sessions: usize) -> Self {
         ServeOptions { max_sessions, ..self }
+    }
+
+    /// The same options taking drawings into a copy of the frames of the model in `dir` and
+    /// continuing it there (beside `dir`, which is only read).
+    pub fn with_model_folder(self, dir: &Path) -> Self {
+        ServeOptions {
+            model_folder: Some(dir.to_path_buf()),
+            ..self
+        }
     }
 
     /// The same options redrawing poses with `stage` on request.
@@ -211,6 +225,7 @@ pub struct App {
     latents: Mutex<Vec<Option<Tensor<2>>>>,
     directions: LatentDirections,
     sessions: Sessions,
+    next: Next,
 }
 
 /// The values of a latent `[1, Z]`.
@@ -274,6 +289,7 @@ impl App {
         }
         worn.insert(0, Outfit::new("as trained".into(), model, &trained, device)?);
         Ok(App {
+            next: Next::new(options.model_folder.as_deref()),
             outfits: worn,
             device: device.clone(),
             latents: Mutex::new(vec![None; frames.len()]),
@@ -319,17 +335,7 @@ impl App {
     /// [`ApiError`] 400 for bytes that are not a readable image, an image not of the puppet's
     /// size or opaque everywhere (frames are cut-out characters); 409 past [`MAX_UPLOADS`].
     pub fn upload(&self, name: &str, bytes: &[u8]) -> std::result::Result<usize, ApiError> {
-        let path = Path::new(name);
-        let (w, h) = (self.model().puppet.width, self.model().puppet.height);
-        let size = Picture::header_size(bytes, path)?;
-        if size != (w, h) {
-            return Err(ApiError::bad_request(format!(
-                "{name} is {}×{}; the puppet's frames are {w}×{h}",
-                size.0, size.1
-            )));
-        }
-        let picture = Picture::decode(bytes, path)?;
-        check_cut_out(&picture, path)?;
+        let picture = self.read_frame(name, bytes)?;
         let mut frames = write(&self.frames);
         if frames.len() - self.given >= MAX_UPLOADS {
             return Err(ApiError {
@@ -344,6 +350,43 @@ impl App {
         }));
         lock(&self.latents).push(None);
         Ok(frames.len() - 1)
+    }
+
+    /// The frame in `bytes` (PNG or another image format the reader knows, `name` naming it in
+    /// messages), checked as a frame of the puppet: its size, a cut-out character.
+    ///
+    /// # Errors
+    /// [`ApiError`] 400 for bytes that are not a readable image, an image not of the puppet's
+    /// size or opaque everywhere.
+    pub(crate) fn read_frame(&self, name: &str, bytes: &[u8]) -> std::result::Result<Picture, ApiError> {
+        let path = Path::new(name);
+        let (w, h) = (self.model().puppet.width, self.model().puppet.height);
+        let size = Picture::header_size(bytes, path)?;
+        if size != (w, h) {
+            return Err(ApiError::bad_request(format!(
+                "{name} is {}×{}; the puppet's frames are {w}×{h}",
+                size.0, size.1
+            )));
+        }
+        let picture = Picture::decode(bytes, path)?;
+        check_cut_out(&picture, path)?;
+        Ok(picture)
+    }
+
+    /// The frames given that the model did not hold out (its training frames, or the rest pose
+    /// when none were given): what suggestions start from.
+    pub fn training_frames(&self) -> Vec<Arc<EditorFrame>> {
+        read(&self.frames)[..self.given].iter().filter(|f| !f.held_out).cloned().collect()
+    }
+
+    /// The suggestions of what to draw next, the drawings sent back and the continuation.
+    pub fn next(&self) -> &Next {
+        &self.next
+    }
+
+    /// The device the editor computes on.
+    pub fn device(&self) -> &Device {
+        &self.device
     }
 
     /// The principal directions of the training frames' latents (the sliders).

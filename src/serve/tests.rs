@@ -696,3 +696,311 @@ async fn changes_from_another_origin_are_refused_and_nothing_changes() {
     let (status, answer) = call_with(&app, "POST", "/api/session", &own, r#"{"frame": 0}"#).await;
     assert_eq!(status, StatusCode::OK, "{answer}");
 }
+
+#[tokio::test]
+async fn suggestions_come_with_their_poses_words_and_trace_over_pictures() {
+    let app = app(4);
+    let (status, answer, _) = call(&app, "GET", "/api/suggestion/0.png", "").await;
+    assert_eq!(status, StatusCode::NOT_FOUND, "{answer}");
+    assert!(answer["error"].as_str().unwrap().contains("nothing was suggested yet"));
+    let started = std::time::Instant::now();
+    let (status, suggested, _) = call(&app, "POST", "/api/suggest", r#"{"count": 2}"#).await;
+    println!("suggest on the tiny model: {:.2} s", started.elapsed().as_secs_f64());
+    assert_eq!(status, StatusCode::OK, "{suggested}");
+    let list = suggested["suggestions"].as_array().unwrap();
+    assert!(!list.is_empty() && list.len() <= 2, "{suggested}");
+    assert!(suggested["candidates"].as_u64().unwrap() >= list.len() as u64);
+    let puppet = &app.model().puppet;
+    for (k, s) in list.iter().enumerate() {
+        assert_eq!(points(&s["vertices"]).len(), puppet.vertex_count());
+        assert!(s["misread_px"].as_f64().unwrap().is_finite() && s["distance_degrees"].as_f64().unwrap() >= 0.0);
+        // The tiny character has no joints: in-betweens and latent directions only.
+        let origin = s["origin"].as_str().unwrap();
+        assert!(origin.contains("drawn frames"), "{origin}");
+        assert!(s["origin_detail"]["kind"].is_string(), "{s}");
+        let (status, _, png) = call(&app, "GET", s["picture"].as_str().unwrap(), "").await;
+        assert_eq!(status, StatusCode::OK, "suggestion {k}");
+        let picture = image::load_from_memory(&png).unwrap();
+        // Scaled up to at least 384 px a side, by a whole factor: 8 × 48×40.
+        assert_eq!((picture.width(), picture.height()), (384, 320));
+    }
+    let (status, _, _) = call(&app, "GET", &format!("/api/suggestion/{}.png", list.len()), "").await;
+    assert_eq!(status, StatusCode::NOT_FOUND);
+    for (body, says) in [
+        (r#"{"count": 0}"#, "count is 0"),
+        (r#"{"count": 9}"#, "count is 9"),
+        (r#"{"n": 2}"#, "unknown field"),
+    ] {
+        let (status, answer, _) = call(&app, "POST", "/api/suggest", body).await;
+        assert_eq!(status, StatusCode::BAD_REQUEST, "{body}");
+        assert!(answer["error"].as_str().unwrap().contains(says), "{body}: {answer}");
+    }
+    // Without its model's folder, the editor has no frames for a drawing to join.
+    let (_, next, _) = call(&app, "GET", "/api/next", "").await;
+    assert_eq!(next["available"], json!(false), "{next}");
+    let png = crate::render::render_crisp(puppet, &puppet.rest_vertices(), 48, 40)
+        .unwrap()
+        .png_bytes(std::path::Path::new("d.png"))
+        .unwrap();
+    let (status, answer) = call_with(&app, "POST", "/api/drawing?suggestion=0&name=d.png", &[], png).await;
+    assert_eq!(status, StatusCode::UNPROCESSABLE_ENTITY, "{answer}");
+    assert!(
+        answer["error"].as_str().unwrap().contains("not started on a model folder"),
+        "{answer}"
+    );
+}
+
+/// Trains a model of the tiny hinged character for 2 steps into `dir/model`, on four frames in
+/// `dir/frames` (one held out), as `puppet train` writes it: what `puppet serve --model` loads.
+fn model_on_disk(dir: &std::path::Path) -> std::path::PathBuf {
+    let puppet = crate::test_util::hinged_puppet();
+    crate::puppet::format::save(&puppet, &dir.join("puppet")).unwrap();
+    let frames = dir.join("frames");
+    std::fs::create_dir_all(&frames).unwrap();
+    for (k, shift) in [[0.0, 0.0], [2.0, 0.0], [0.0, -2.0], [-2.0, 1.0]].iter().enumerate() {
+        let pose: Vec<[f32; 2]> = puppet.rest_vertices().iter().map(|v| [v[0] + shift[0], v[1] + shift[1]]).collect();
+        crate::render::render_crisp(&puppet, &pose, 48, 40)
+            .unwrap()
+            .save_png(&frames.join(format!("f{k}.png")))
+            .unwrap();
+    }
+    let text = "puppet = \"puppet\"\nframes = \"frames\"\noutput = \"model\"\ntest_fraction = 0.25\n\
+                [model]\ninput_size = 32\nlatent = 16\n[train]\nsteps = 2\nbatch = 3\nsigma = [1.0, 1.0]\n";
+    let path = dir.join("train.toml");
+    std::fs::write(&path, text).unwrap();
+    let config = crate::train::TrainConfig::parse(text, &path).unwrap();
+    crate::train::train(&config, &crate::train::TrainOptions::default(), &crate::progress::Silent).unwrap();
+    dir.join("model")
+}
+
+/// The status of `/api/next` once the continuation is no longer running (at most 2 minutes).
+async fn continued(app: &Arc<App>) -> Value {
+    let started = std::time::Instant::now();
+    loop {
+        let (_, next, _) = call(app, "GET", "/api/next", "").await;
+        if next["training"]["state"] != json!("running") {
+            return next;
+        }
+        assert!(started.elapsed().as_secs() < 120, "the continuation still runs: {next}");
+        tokio::time::sleep(std::time::Duration::from_millis(200)).await;
+    }
+}
+
+/// The files of `dir` and their bytes, sorted.
+fn contents(dir: &std::path::Path) -> Vec<(String, Vec<u8>)> {
+    let mut files: Vec<_> = std::fs::read_dir(dir)
+        .unwrap()
+        .map(|e| e.unwrap().path())
+        .filter(|p| p.is_file())
+        .map(|p| (p.file_name().unwrap().to_string_lossy().into_owned(), std::fs::read(&p).unwrap()))
+        .collect();
+    files.sort();
+    files
+}
+
+#[tokio::test]
+async fn a_drawing_joins_a_copy_of_the_frames_and_continues_the_model_into_a_new_folder() {
+    let tmp = tempfile::tempdir().unwrap();
+    let t = tmp.path();
+    let model_dir = model_on_disk(t);
+    let device = crate::backend::device();
+    let model = crate::model::Model::load(&model_dir, &device).unwrap();
+    let (frames, bad) = super::model_frames(&model_dir, &model).unwrap();
+    assert!(bad.is_empty() && frames.len() == 4);
+    let options = ServeOptions::new(FitOptions::one_pass()).with_model_folder(&model_dir);
+    let app = Arc::new(App::new(model, frames, Vec::new(), options, &device).unwrap());
+    let served = contents(&model_dir);
+    let (frames_before, split_before) = (contents(&t.join("frames")), std::fs::read(model_dir.join("split.json")).unwrap());
+    let next_dir = t.join("model-next");
+
+    let (_, next, _) = call(&app, "GET", "/api/next", "").await;
+    assert_eq!(
+        (next["available"].clone(), next["folder"].clone()),
+        (json!(true), Value::Null),
+        "{next}"
+    );
+    assert_eq!(next["default_steps"], json!(1), "a third of the model's 2 steps, rounded up");
+    let (status, answer, _) = call(&app, "POST", "/api/continue", "{}").await;
+    assert_eq!(status, StatusCode::UNPROCESSABLE_ENTITY, "{answer}");
+    assert!(answer["error"].as_str().unwrap().contains("no drawing"), "{answer}");
+    let (status, suggested, _) = call(&app, "POST", "/api/suggest", r#"{"count": 1}"#).await;
+    assert_eq!(status, StatusCode::OK, "{suggested}");
+    // The artist's drawing of suggestion 0: here, its crisp render.
+    let pose = points(&suggested["suggestions"][0]["vertices"]);
+    let puppet = &app.model().puppet;
+    let drawing = crate::render::render_crisp(puppet, &pose, 48, 40)
+        .unwrap()
+        .png_bytes(std::path::Path::new("mine.png"))
+        .unwrap();
+    let small = crate::picture::Picture::filled(8, 8, [0.0; 4])
+        .png_bytes(std::path::Path::new("s.png"))
+        .unwrap();
+    let send = |query: &str, bytes: Vec<u8>| {
+        let (app, uri) = (app.clone(), format!("/api/drawing{query}"));
+        async move { call_with(&app, "POST", &uri, &[("content-type", "image/png")], bytes).await }
+    };
+    for (query, bytes, status, says) in [
+        (
+            "?suggestion=0&name=small.png",
+            small,
+            StatusCode::BAD_REQUEST,
+            "the puppet's frames are 48×40",
+        ),
+        (
+            "?suggestion=0&name=notes.txt",
+            b"a note".to_vec(),
+            StatusCode::BAD_REQUEST,
+            "notes.txt",
+        ),
+        (
+            "?suggestion=3&name=mine.png",
+            drawing.clone(),
+            StatusCode::NOT_FOUND,
+            "no suggestion 3",
+        ),
+        ("?name=mine.png&x=1", drawing.clone(), StatusCode::BAD_REQUEST, "query parameters"),
+    ] {
+        let (got, answer) = send(query, bytes).await;
+        assert_eq!(got, status, "{query}: {answer}");
+        assert!(answer["error"].as_str().unwrap().contains(says), "{query}: {answer}");
+        assert!(!next_dir.exists(), "{query}: nothing is written");
+    }
+    // A folder of the user's where the drawings would go is left alone.
+    std::fs::create_dir(&next_dir).unwrap();
+    std::fs::write(next_dir.join("notes.txt"), "mine").unwrap();
+    let (status, answer) = send("?suggestion=0&name=mine.png", drawing.clone()).await;
+    assert_eq!(status, StatusCode::CONFLICT, "{answer}");
+    assert!(
+        answer["error"].as_str().unwrap().contains("model-next") && answer["error"].as_str().unwrap().contains("not made by puppet"),
+        "{answer}"
+    );
+    assert_eq!(contents(&next_dir), [("notes.txt".to_string(), b"mine".to_vec())]);
+    std::fs::remove_dir_all(&next_dir).unwrap();
+
+    let (status, joined) = send("?suggestion=0&name=mine.png", drawing.clone()).await;
+    assert_eq!(status, StatusCode::OK, "{joined}");
+    assert_eq!(joined["drawing"], json!("drawn_next_1.png"));
+    assert_eq!(
+        (joined["frames"].clone(), joined["drawings"].clone()),
+        (json!(5), json!(["drawn_next_1.png"]))
+    );
+    let copies = contents(&next_dir.join("frames"));
+    let names: Vec<&str> = copies.iter().map(|(n, _)| n.as_str()).filter(|n| !n.starts_with('.')).collect();
+    assert_eq!(names, ["drawn_next_1.png", "f0.png", "f1.png", "f2.png", "f3.png"]);
+    for (name, bytes) in &frames_before {
+        assert!(copies.contains(&(name.clone(), bytes.clone())), "{name} is copied as it is");
+    }
+    let (status, again) = send("?name=mine.png", drawing).await;
+    assert_eq!(status, StatusCode::OK, "{again}");
+    assert_eq!(again["drawing"], json!("drawn.png"));
+    let command = again["command"].as_str().unwrap();
+    assert!(
+        command.starts_with("puppet train --from ") && command.ends_with(&format!("{} --steps 1", next_dir.join("model").display())),
+        "{command}"
+    );
+
+    let (status, answer, _) = call(&app, "POST", "/api/continue", r#"{"steps": 0}"#).await;
+    assert_eq!(status, StatusCode::BAD_REQUEST, "{answer}");
+    let (status, started, _) = call(&app, "POST", "/api/continue", r#"{"steps": 2}"#).await;
+    assert_eq!(status, StatusCode::OK, "{started}");
+    assert_eq!(started["training"]["steps"], json!(2), "{started}");
+    let done = continued(&app).await;
+    assert_eq!(done["training"]["state"], json!("done"), "{done}");
+    let output = next_dir.join("model");
+    assert_eq!(done["training"]["output"], json!(output));
+    let split = |dir: &std::path::Path| -> Value { serde_json::from_slice(&std::fs::read(dir.join("split.json")).unwrap()).unwrap() };
+    let (before, after) = (split(&model_dir), split(&output));
+    assert_eq!(after["test"], before["test"], "the frames the model held out stay held out");
+    let trained = after["train"].as_array().unwrap();
+    assert!(
+        trained.contains(&json!("drawn_next_1.png")) && trained.contains(&json!("drawn.png")),
+        "{after}"
+    );
+    assert!(crate::model::Model::load(&output, &device).is_ok());
+    // A second continuation writes beside the first, never over it.
+    let (status, _, _) = call(&app, "POST", "/api/continue", r#"{"steps": 1}"#).await;
+    assert_eq!(status, StatusCode::OK);
+    let done = continued(&app).await;
+    assert_eq!(
+        (done["training"]["state"].clone(), done["training"]["output"].clone()),
+        (json!("done"), json!(next_dir.join("model_2")))
+    );
+    assert_eq!(contents(&model_dir), served, "the model being served is only read");
+    assert_eq!(contents(&t.join("frames")), frames_before, "so is the folder of its frames");
+    assert_eq!(std::fs::read(model_dir.join("split.json")).unwrap(), split_before);
+}
+
+/// Sends the motion `bytes` with `query`; the status and the answer.
+async fn motion(app: &Arc<App>, query: &str, bytes: Vec<u8>) -> (StatusCode, Value) {
+    call_with(app, "POST", &format!("/api/motion{query}"), &[], bytes).await
+}
+
+#[tokio::test]
+async fn a_bvh_walk_plays_on_the_character_and_bad_motions_are_refused_by_name() {
+    let app = app(4);
+    let walk = std::fs::read(std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("data/motion/walk.bvh")).unwrap();
+    let started = std::time::Instant::now();
+    let (status, played) = motion(&app, "?name=walk.bvh&view=side", walk.clone()).await;
+    println!("walk.bvh on the tiny model: {:.2} s", started.elapsed().as_secs_f64());
+    assert_eq!(status, StatusCode::OK, "{played}");
+    assert_eq!(played["frames"], json!(36), "one cycle of 36 frames");
+    assert!((played["frame_time"].as_f64().unwrap() - 1.0 / 30.0).abs() < 1e-6);
+    let poses: Vec<Vec<[f32; 2]>> = played["poses"].as_array().unwrap().iter().map(points).collect();
+    assert_eq!(poses.len(), 36);
+    assert!(poses.iter().all(|p| p.len() == app.model().puppet.vertex_count()));
+    let pairs = played["pairs"].as_array().unwrap();
+    assert!(pairs.iter().any(|p| p["layer"] == json!("head")), "{played}");
+    let moved = poses.iter().map(|p| farthest(p, &poses[0])).fold(0.0, f32::max);
+    assert!(moved > 0.5, "the walk moves the character: {moved} px at most");
+    let (status, slow) = motion(&app, "?name=walk.bvh&view=side&fps=10&rigid=true&in_place=true", walk.clone()).await;
+    assert_eq!(status, StatusCode::OK, "{slow}");
+    assert_eq!(slow["frames"], json!(12), "1.17 s at 10 frames a second");
+
+    let png = crate::picture::Picture::filled(4, 4, [0.0; 4])
+        .png_bytes(std::path::Path::new("x.png"))
+        .unwrap();
+    let no_match = b"HIERARCHY\nROOT Foo\n{\nOFFSET 0 0 0\nCHANNELS 3 Zrotation Xrotation Yrotation\nJOINT Bar\n{\nOFFSET 0 1 0\n\
+                     CHANNELS 3 Zrotation Xrotation Yrotation\nEnd Site\n{\nOFFSET 0 1 0\n}\n}\n}\nMOTION\nFrames: 1\nFrame Time: 0.1\n0 0 0 0 0 0\n"
+        .to_vec();
+    let mut long = b"HIERARCHY\nROOT Hips\n{\nOFFSET 0 0 0\nCHANNELS 3 Zrotation Xrotation Yrotation\nJOINT Head\n{\nOFFSET 0 1 0\n\
+                     CHANNELS 3 Zrotation Xrotation Yrotation\nEnd Site\n{\nOFFSET 0 1 0\n}\n}\n}\nMOTION\nFrames: 1000\nFrame Time: 0.04\n"
+        .to_vec();
+    long.extend(b"0 0 0 0 0 0\n".repeat(1000));
+    for (query, bytes, status, says) in [
+        ("?name=walk.png", png, StatusCode::BAD_REQUEST, "walk.png: a PNG image"),
+        (
+            "?name=long.bvh",
+            long,
+            StatusCode::BAD_REQUEST,
+            "long.bvh has 1000 frames at 25 frames a second; the editor plays up to 900",
+        ),
+        (
+            "?name=notes.txt",
+            b"dear diary".to_vec(),
+            StatusCode::BAD_REQUEST,
+            "notes.txt: not a BVH file",
+        ),
+        ("?name=cut.bvh", walk[..400].to_vec(), StatusCode::BAD_REQUEST, "cut.bvh"),
+        ("?name=odd.bvh", no_match.clone(), StatusCode::UNPROCESSABLE_ENTITY, "Foo"),
+        ("?name=walk.bvh&view=top", walk.clone(), StatusCode::BAD_REQUEST, "front or side"),
+        ("?name=walk.bvh&fps=0", walk.clone(), StatusCode::BAD_REQUEST, "fps is 0"),
+        ("?name=walk.bvh&fps=fast", walk.clone(), StatusCode::BAD_REQUEST, "query parameters"),
+        ("?name=walk.bvh&outfit=3", walk.clone(), StatusCode::NOT_FOUND, "no outfit 3"),
+        (
+            "?name=huge.bvh",
+            vec![b' '; super::motion::MAX_MOTION_BYTES + 1],
+            StatusCode::PAYLOAD_TOO_LARGE,
+            "cannot be read",
+        ),
+    ] {
+        let (got, answer) = motion(&app, query, bytes).await;
+        let message = answer["error"].as_str().unwrap_or_default();
+        assert!(got == status && message.contains(says), "{query}: {got} {message:?}");
+    }
+    let (_, answer) = motion(&app, "?name=odd.bvh", no_match).await;
+    let message = answer["error"].as_str().unwrap();
+    assert!(
+        message.contains("Bar") && message.contains("torso"),
+        "names the joints and the layers: {message}"
+    );
+}

@@ -8,9 +8,12 @@
 // checks the page says so; then makes and plays an in-between, shows the appearance stage's
 // redraws of the pose and of an in-between and downloads them (when served with --appearance),
 // hides and shows an accessory,
-// downloads the pose as PNG, and opens a second page that drags its own pin unseen by the first. Screenshots in OUT_DIR: loaded.png, dragged.png, removed.png,
-// inbetween.png, appearance.png, accessory_hidden.png (failure.png when a step could not finish), and the
-// downloads, export.png and appearance.gif.
+// downloads the pose as PNG; asks what to draw next, shows a suggestion posed, sends drawings
+// back (one of the wrong size, refused) and continues the model on them; plays a BVH motion in a
+// loop; and opens a second page that drags its own pin unseen by the first. Screenshots in
+// OUT_DIR: loaded.png, dragged.png, removed.png, inbetween.png, appearance.png,
+// accessory_hidden.png, suggest.png, motion.png (failure.png when a step could not finish), and
+// the downloads, export.png and appearance.gif.
 // Prints one PASS/FAIL line per check; exits 1 if any failed. Run by tests/browser.rs
 // (`cargo test --release browser`), which starts the server on the tiny test character.
 //
@@ -26,6 +29,11 @@
 //   ACCESSORY     the accessory layer to hide and show (default: the first one)
 //   UPLOAD_FRAME  a frame file to upload and use as the in-between's second key (default: none;
 //                 the second frame is the second key)
+//   DRAWING       a frame file to send back as the drawing of the first suggestion (default: none)
+//   BAD_DRAWING   an image of another size, to send first and see refused (default: none)
+//   CONTINUE_STEPS  steps of the continuation started once the drawing joined (default: none)
+//   MOTION        a BVH file to play on the character, seen from the side (default: none)
+//   MOTION_FRAMES the frames it must have (default: any)
 //   CHROMIUM      the browser (default /usr/bin/chromium)
 import fs from 'node:fs';
 import path from 'node:path';
@@ -282,6 +290,114 @@ async function appearanceStage({ page, state, idle, check, must, shot }) {
   return null;
 }
 
+// A screenshot of the elements `ids` (their bounding box in the page, scrolled or not).
+async function shotOf(name, ids) {
+  const file = path.join(outDir, name);
+  const clip = await page.evaluate((ids) => {
+    const rects = ids.map((id) => document.getElementById(id).getBoundingClientRect());
+    const [x, y] = [Math.min(...rects.map((r) => r.left)), Math.min(...rects.map((r) => r.top))];
+    const [right, bottom] = [Math.max(...rects.map((r) => r.right)), Math.max(...rects.map((r) => r.bottom))];
+    return { x: x + window.scrollX - 6, y: y + window.scrollY - 6, width: right - x + 12, height: bottom - y + 12 };
+  }, ids);
+  await page.screenshot({ path: file, clip, fullPage: true });
+  return path.relative(process.cwd(), file);
+}
+
+// What to draw next: suggestions listed with their trace-over pictures, one shown posed, a
+// drawing of the wrong size refused, a drawing joining the frames, the continuation run.
+async function drawNext({ page, state, idle, check, must }) {
+  let st = await state();
+  if (!st.next.status) return 'the page has no "what to draw next" status';
+  await page.fill('#next-count', '3');
+  const started = Date.now();
+  await page.click('#next-suggest');
+  await page.waitForFunction(() => window.puppetEditor.state().next.suggestions.length > 0, null, { timeout: 60000 }).catch(() => {});
+  await idle('suggesting');
+  st = await state();
+  must('suggestions are listed', st.next.suggestions.length > 0,
+    `${st.next.suggestions.length} in ${Date.now() - started} ms (#error: ${JSON.stringify(await page.locator('#error').textContent())})`);
+  const loaded = await page.waitForFunction(() => [...document.querySelectorAll('#suggestions img')]
+    .every((im) => im.complete && im.naturalWidth > 0), null, { timeout: 10000 }).then(() => true, () => false);
+  const sizes = await page.evaluate(() => [...document.querySelectorAll('#suggestions img')].map((im) => `${im.naturalWidth}×${im.naturalHeight}`));
+  check('each suggestion\'s trace-over picture is drawn', loaded && sizes.length === st.next.suggestions.length, sizes.join(', '));
+  check('each suggestion says where it came from and how badly it is read',
+    st.next.suggestions.every((s) => s.origin.length > 0 && Number.isFinite(s.misread_px) && s.vertices === st.puppet.vertex_count),
+    st.next.suggestions.map((s) => `${s.origin} (${f1(s.misread_px)} px)`).join('; '));
+  const before = await canvasHash(page);
+  await page.locator('#suggestions .suggestion button').first().click();
+  st = await state();
+  check('"Show posed" draws the suggestion on the canvas', st.inbetween?.kind === 'suggestion' && st.next.shown === 0
+    && (await canvasHash(page)) !== before);
+  console.log(`  screenshot ${await shotOf('suggest.png', ['view', 'nextpanel'])}`);
+  const drawingInput = page.locator('#suggestions input.drawing').first();
+  if (env.BAD_DRAWING) {
+    await drawingInput.setInputFiles(env.BAD_DRAWING);
+    await page.waitForFunction(() => document.getElementById('error').textContent !== '', null, { timeout: 10000 }).catch(() => {});
+    const said = await page.locator('#error').textContent();
+    st = await state();
+    check('a drawing of another size is refused, saying why', /the puppet's frames are/.test(said) && !st.next.status.folder, JSON.stringify(said));
+  }
+  if (env.DRAWING) {
+    await drawingInput.setInputFiles(env.DRAWING);
+    await page.waitForFunction(() => window.puppetEditor.state().next.status.drawings.length > 0, null, { timeout: 30000 }).catch(() => {});
+    st = await state();
+    const command = await page.locator('#next-command').textContent();
+    must('the drawing joins the training frames', st.next.status.drawings.length === 1 && st.next.status.folder,
+      `${JSON.stringify(st.next.status.drawings)} in ${st.next.status.folder} (#error: ${JSON.stringify(await page.locator('#error').textContent())})`);
+    check('the page shows the command that continues the model', command.startsWith('puppet train --from '), command);
+    if (env.CONTINUE_STEPS) {
+      await page.fill('#next-steps', env.CONTINUE_STEPS);
+      const shown = await page.locator('#next-command').textContent();
+      check('the command follows the steps asked for', shown.endsWith(`--steps ${env.CONTINUE_STEPS}`), shown);
+      await page.click('#next-continue');
+      await page.waitForFunction(() => { const t = window.puppetEditor.state().next.status.training; return t && t.state !== 'running'; },
+        null, { timeout: 180000, polling: 200 }).catch(() => {});
+      st = await state();
+      const t = st.next.status.training;
+      check('the continuation runs to its end in the background', t && t.state === 'done' && t.step === Number(env.CONTINUE_STEPS),
+        t ? `${t.state}: ${t.step}/${t.steps} steps in ${f1(t.seconds)} s → ${t.output} ${t.error || ''}` : 'none');
+      check('the page says where the continued model is', (await page.locator('#next-training').textContent()).includes(t?.output ?? '?'));
+    }
+  }
+  await page.locator('#suggestions .suggestion button').first().click();
+  st = await state();
+  check('"Hide" goes back to posing', !st.inbetween);
+  await page.evaluate(() => window.scrollTo(0, 0));
+  return null;
+}
+
+// A BVH motion played on the character in a loop by the player.
+async function playMotion({ page, state, idle, check, must }) {
+  if (!env.MOTION) return 'no MOTION file given';
+  await page.selectOption('#motion-view', 'side');
+  await page.setInputFiles('#motion-file', env.MOTION);
+  await page.waitForFunction(() => window.puppetEditor.state().inbetween?.kind === 'motion', null, { timeout: 60000 }).catch(() => {});
+  let st = await state();
+  must('the motion is played on the character', st.inbetween?.kind === 'motion',
+    `#error: ${JSON.stringify(await page.locator('#error').textContent())}`);
+  const frames = st.inbetween.frames;
+  check('with the file\'s frames', !env.MOTION_FRAMES || frames === Number(env.MOTION_FRAMES), `${frames} frames`);
+  const info = await page.locator('#motion-info').textContent();
+  check('the page says which joint drives which layer', info.includes('→'), info);
+  await page.waitForFunction((n) => window.puppetEditor.state().played > n, frames, { timeout: 20000 }).catch(() => {});
+  st = await state();
+  check('it plays in a loop', st.inbetween.playing && st.played > frames, `${st.played} frames shown of ${frames}`);
+  console.log(`  screenshot ${await shotOf('motion.png', ['view', 'motionpanel'])}`);
+  await page.click('#motion-play');
+  st = await state();
+  check('Pause stops it', !st.inbetween.playing);
+  await setInput(page, 'ib-scrub', 0);
+  const first = await canvasHash(page);
+  await setInput(page, 'ib-scrub', Math.floor(frames / 4));
+  check('its frames differ', (await canvasHash(page)) !== first);
+  await page.click('#motion-stop');
+  await idle('after the motion');
+  st = await state();
+  check('"Back to posing" ends it', !st.inbetween);
+  await page.evaluate(() => window.scrollTo(0, 0));
+  return null;
+}
+
 // A second page on the same server drags its own pin; neither page sees the other's.
 async function twoPages({ page, state, check, must, hand, dragScreen }) {
   const other = await browser.newPage({ viewport: { width: 1280, height: 800 }, deviceScaleFactor: 1 });
@@ -493,7 +609,7 @@ try {
   // 4–6. Later steps.
   const tools = { page, state, idle, box, check, must, shot, hand, dragScreen };
   for (const [name, step] of [['in-between', playInbetween], ['appearance', appearanceStage], ['accessory toggle', toggleAccessory],
-    ['PNG export', exportPng], ['two pages', twoPages]]) {
+    ['PNG export', exportPng], ['what to draw next', drawNext], ['motion', playMotion], ['two pages', twoPages]]) {
     const skipped = await step(tools);
     if (skipped) console.log(`SKIP ${name}: ${skipped}`);
   }
