@@ -23,6 +23,13 @@ def mean(xs):
     return sum(xs) / len(xs) if xs else float("nan")
 
 
+def standard_error(xs):
+    if len(xs) < 2:
+        return float("nan")
+    m = mean(xs)
+    return (sum((x - m) ** 2 for x in xs) / (len(xs) - 1) / len(xs)) ** 0.5
+
+
 def main(root):
     runs = sorted(p for p in pathlib.Path(root).glob("char-*/seed-*") if (p / "none" / "eval.json").is_file())
     if not runs:
@@ -55,7 +62,11 @@ def main(root):
         print(f"{fit} fit, {metric} ({unit}):")
         gains = {v: [c - x for c, x in zip(by["none"], by[v])] for v in by if v != "none"}
         for v in (v for v in VARIANTS if v in by):
-            g = f"  gain {mean(gains[v]):+.3f}  (better than control in {sum(x > 0 for x in gains[v])}/{n})" if v in gains else ""
+            g = (
+                f"  gain {mean(gains[v]):+.3f} ± {standard_error(gains[v]):.3f}  (better than control in {sum(x > 0 for x in gains[v])}/{n})"
+                if v in gains
+                else ""
+            )
             print(f"  {NAMES[v]:<20} {mean(by[v]):10.3f}{g}")
         ratio = lambda a, b: mean(gains[a]) / mean(gains[b]) if mean(gains[b]) > 0 else float("nan")
         for v in (v for v in ["misread", "coverage"] if v in gains):

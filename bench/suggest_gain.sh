@@ -7,8 +7,8 @@
 #   test/   16 more: the fixed held-out motion.
 # A base model trains on the 9 frames (BASE_STEPS). One pool frame is added, chosen by
 # `puppet suggest` (misread), by `puppet suggest --by distance` (farthest pose first) and at
-# random; `puppet train --from base` continues on the 10 frames for MORE_STEPS, and a control
-# continues on the 9 alone for the same steps. Each model's test fit (default and one-pass) is
+# random, and by `puppet suggest --by coverage`; `puppet train --from base` continues on the 10
+# frames for MORE_STEPS, and a control continues on the 9 alone for the same steps. Each model's test fit (default and one-pass) is
 # scored by `puppet eval`; a selector's gain is the control's error less its own.
 # bench/suggest_gain.py turns the reports into the table.
 #
@@ -61,13 +61,15 @@ EOF
         [ -f "$r/base/weights.bpk" ] && [ -f "$r/base/done" ] || { "$P" -q train "$r/base.toml" --resume 2>/dev/null || "$P" -q train "$r/base.toml"; touch "$r/base/done"; }
         "$P" -q suggest --model "$r/base" -n 1 --pool "$d/pool" -o "$r/pick-misread"
         "$P" -q suggest --model "$r/base" -n 1 --pool "$d/pool" --by distance -o "$r/pick-distance"
+        "$P" -q suggest --model "$r/base" -n 1 --pool "$d/pool" --by coverage -o "$r/pick-coverage"
         pick() { python3 -c "import json,sys; print(json.load(open(sys.argv[1]))['suggestions'][0]['origin']['index'])" "$1/suggestions.json"; }
         declare -A chosen=(
             [misread]=$(pick "$r/pick-misread")
             [distance]=$(pick "$r/pick-distance")
+            [coverage]=$(pick "$r/pick-coverage")
             [random]=$(python3 -c "import random; print(random.Random($c * 100 + $s).randrange($POOL))")
         )
-        for variant in none misread distance random; do
+        for variant in none misread coverage distance random; do
             v=$r/$variant
             mkdir -p "$v-frames"
             cp "$d"/train/frames/*.png "$v-frames/"
