@@ -594,14 +594,15 @@ async fn suggest(State(app): State<Arc<App>>, body: Result<Bytes, BytesRejection
         .iter()
         .enumerate()
         .map(|(k, s)| {
+            let c = &s.candidate;
             json!({
                 "index": k,
                 "picture": format!("/api/suggestion/{k}.png"),
-                "vertices": s.pose,
-                "misread_px": s.misread,
-                "distance_degrees": s.distance,
-                "origin": s.origin.to_string(),
-                "origin_detail": s.origin,
+                "vertices": c.pose,
+                "misread_px": c.misread,
+                "distance_degrees": c.distance,
+                "origin": c.origin.to_string(),
+                "origin_detail": c.origin,
             })
         })
         .collect();

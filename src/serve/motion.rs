@@ -8,7 +8,7 @@ use std::path::Path;
 use super::error::ApiError;
 use super::state::App;
 use crate::edit::retarget::bvh::Bvh;
-use crate::edit::retarget::{retarget, Mapping, Motion, MotionOptions, RetargetOptions, View};
+use crate::edit::retarget::{retarget, Head, Mapping, Motion, MotionOptions, RetargetOptions, View};
 use crate::progress::Recorder;
 
 /// The largest BVH file a page may send, bytes (a minute of a 60-joint capture at 120 frames a
@@ -67,16 +67,12 @@ pub struct Played {
 pub fn play(app: &App, name: &str, bytes: &[u8], options: &PlayOptions) -> Result<Played, ApiError> {
     let model = &app.outfit(options.outfit)?.model;
     let path = Path::new(name);
-    let head = String::from_utf8_lossy(&bytes[..bytes.len().min(64)])
-        .trim_start()
-        .to_ascii_uppercase();
-    if !head.starts_with("HIERARCHY") {
-        let what = if bytes.starts_with(b"\x89PNG") {
-            "a PNG image"
-        } else if bytes.is_empty() {
-            "empty"
-        } else {
-            "not a BVH file"
+    let head = Head::of(&bytes[..bytes.len().min(64)]);
+    if head != Head::Bvh {
+        let what = match head {
+            Head::Png => "a PNG image",
+            _ if bytes.is_empty() => "empty",
+            _ => "not a BVH file",
         };
         return Err(ApiError::bad_request(format!(
             "{name}: {what}, where a motion was expected (a BVH file, which begins with HIERARCHY)"

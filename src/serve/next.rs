@@ -16,7 +16,7 @@ use super::error::ApiError;
 use super::session::lock;
 use super::state::App;
 use crate::atomic_file::{record, Outputs};
-use crate::edit::suggest::{suggest, trace_picture, Origin, SuggestOptions};
+use crate::edit::suggest::{suggest, trace_picture, Candidate, SuggestOptions};
 use crate::model::ModelFolder;
 use crate::picture::Picture;
 use crate::progress::Progress;
@@ -37,14 +37,8 @@ const NEXT_SUFFIX: &str = "-next";
 
 /// A suggested pose as the editor keeps it.
 pub struct Suggestion {
-    /// The pose (frame pixels, the model's own numbering: outfit 0).
-    pub pose: Vec<[f32; 2]>,
-    /// How it was made.
-    pub origin: Origin,
-    /// How badly the network reads its own render of it, mean frame pixels.
-    pub misread: f32,
-    /// How far it is from the nearest drawn pose in limb turns, degrees.
-    pub distance: f32,
+    /// The pose (frame pixels, the model's own numbering: outfit 0) and its scores.
+    pub candidate: Candidate,
     /// The trace-over picture, PNG.
     pub trace: Vec<u8>,
 }
@@ -259,25 +253,17 @@ impl Next {
         if picked.is_empty() {
             return Err(unprocessable("no candidate pose could be scored, so there is nothing to suggest"));
         }
-        let scored = candidates.len();
-        let mut candidates: Vec<_> = candidates.into_iter().map(Some).collect();
         let suggestions = picked
             .iter()
             .map(|&i| {
-                let c = candidates[i].take().expect("pick returns each candidate once");
-                let trace = trace_picture(&model.puppet, &c.pose)?.png_bytes(Path::new("trace-over.png"))?;
-                Ok(Suggestion {
-                    pose: c.pose,
-                    origin: c.origin,
-                    misread: c.misread,
-                    distance: c.distance,
-                    trace,
-                })
+                let candidate = candidates[i].clone();
+                let trace = trace_picture(&model.puppet, &candidate.pose)?.png_bytes(Path::new("trace-over.png"))?;
+                Ok(Suggestion { candidate, trace })
             })
             .collect::<Result<_, ApiError>>()?;
         let suggested = Arc::new(Suggested {
             suggestions,
-            candidates: scored,
+            candidates: candidates.len(),
             seconds: started.elapsed().as_secs_f64(),
         });
         *lock(&self.suggested) = Some(suggested.clone());

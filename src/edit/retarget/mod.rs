@@ -124,6 +124,37 @@ pub struct Motion {
     pub frame_time: f32,
 }
 
+/// What the first bytes of a file show it to be.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Head {
+    /// A BVH file: `HIERARCHY` first (after white space, in any case).
+    Bvh,
+    /// A JSON object: `{` first.
+    Json,
+    /// A PNG image.
+    Png,
+    /// Anything else, nothing included.
+    Other,
+}
+
+impl Head {
+    /// What `head`, the first bytes of a file (64 are enough), shows it to be.
+    pub fn of(head: &[u8]) -> Self {
+        if head.starts_with(b"\x89PNG") {
+            return Head::Png;
+        }
+        let text = String::from_utf8_lossy(head);
+        let start = text.trim_start();
+        if start.get(..9).is_some_and(|w| w.eq_ignore_ascii_case("HIERARCHY")) {
+            Head::Bvh
+        } else if start.starts_with('{') {
+            Head::Json
+        } else {
+            Head::Other
+        }
+    }
+}
+
 /// What kind of motion `path` holds, told by its content.
 ///
 /// # Errors
@@ -153,31 +184,24 @@ pub fn motion_kind(path: &Path) -> Result<MotionKind> {
         let mut file = user_file::open(path, u64::MAX)?;
         file.read(&mut head).map_err(|e| Error::io(path, e))?
     };
-    let head = &head[..n];
-    if head.starts_with(b"\x89PNG") {
-        return Err(not_a_motion("a PNG image"));
-    }
-    let text = String::from_utf8_lossy(head);
-    let start = text.trim_start();
-    if start.get(..9).is_some_and(|w| w.eq_ignore_ascii_case("HIERARCHY")) {
-        return Ok(MotionKind::Bvh);
-    }
-    if start.starts_with('{') {
-        let bytes = user_file::read_bytes(path, user_file::DATA)?;
-        let value: serde_json::Value = serde_json::from_slice(&bytes).map_err(|e| Error::format(path, format!("not JSON: {e}")))?;
-        return if value.get("vertices").is_some() {
-            Ok(MotionKind::Poses)
-        } else if value.get("layers").is_some() {
-            Err(not_a_motion("a puppet.json"))
-        } else {
-            Err(not_a_motion("JSON without \"vertices\""))
-        };
-    }
-    if path.extension().is_some_and(|e| e.eq_ignore_ascii_case("bvh")) {
+    match Head::of(&head[..n]) {
+        Head::Png => Err(not_a_motion("a PNG image")),
+        Head::Bvh => Ok(MotionKind::Bvh),
+        Head::Json => {
+            let bytes = user_file::read_bytes(path, user_file::DATA)?;
+            let value: serde_json::Value = serde_json::from_slice(&bytes).map_err(|e| Error::format(path, format!("not JSON: {e}")))?;
+            if value.get("vertices").is_some() {
+                Ok(MotionKind::Poses)
+            } else if value.get("layers").is_some() {
+                Err(not_a_motion("a puppet.json"))
+            } else {
+                Err(not_a_motion("JSON without \"vertices\""))
+            }
+        }
         // Named a BVH file: its reader says what is wrong with it.
-        return Ok(MotionKind::Bvh);
+        Head::Other if path.extension().is_some_and(|e| e.eq_ignore_ascii_case("bvh")) => Ok(MotionKind::Bvh),
+        Head::Other => Err(not_a_motion("neither a BVH file (HIERARCHY …) nor JSON")),
     }
-    Err(not_a_motion("neither a BVH file (HIERARCHY …) nor JSON"))
 }
 
 /// Reads the motion at `path`: a BVH file, or pose files of `source` (a pose file, or a folder
