@@ -20,6 +20,11 @@ pub trait Progress: Sync {
     /// Something the user should know that does not stop the job (a layer no joint connects, a
     /// setting that was reduced to what the input allows), in the library's words.
     fn warn(&self, text: &str);
+    /// Whether whoever watches asks the job to stop at its next safe point (a training run
+    /// checkpoints and ends there, resumable). Never, by default.
+    fn stop_requested(&self) -> bool {
+        false
+    }
 }
 
 /// A [`Progress`] that ignores everything.

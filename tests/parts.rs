@@ -345,7 +345,7 @@ fn a_drawn_sheet_is_cut_then_read_with_flows_from_outside() {
 }
 
 #[test]
-fn the_back_views_of_a_real_sheet_are_set_aside_and_named() {
+fn the_back_views_of_a_real_sheet_are_set_aside_and_named_unless_all_are_kept() {
     let tmp = tempfile::tempdir().unwrap();
     let frames = repo().join("data/kenney/robot/frames");
     let run = puppet(tmp.path(), &["parts", frames.to_str().unwrap(), "-o", "parts"]);
@@ -354,4 +354,13 @@ fn the_back_views_of_a_real_sheet_are_set_aside_and_named() {
     }
     assert_eq!(run.stderr.matches("set aside").count(), 2, "{}", run.stderr);
     assert!(run.stdout.contains("from 11 poses"), "{}", run.stdout);
+    // `--keep-all`: every pose, none named.
+    let kept = puppet(tmp.path(), &["parts", frames.to_str().unwrap(), "--keep-all", "-o", "parts-all"]);
+    kept.assert_ok();
+    assert!(
+        !kept.stderr.contains("set aside") && kept.stdout.contains("from 13 poses"),
+        "{}{}",
+        kept.stderr,
+        kept.stdout
+    );
 }

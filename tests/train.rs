@@ -48,6 +48,23 @@ const SAMPLED: &str = "[train.sampled]\nshare = 1.0\n";
 /// The drawn frames moved and recoloured at each step (`[train.augment]`).
 const AUGMENT: &str = "[train.augment]\nshift = 0.05\nscale = 0.05\nmax_degrees = 5.0\ncolour = 0.1\n";
 
+/// A column of a model's training log, by its header name.
+fn column(model: &Path, name: &str) -> Vec<f64> {
+    let text = std::fs::read_to_string(model.join("log.csv")).unwrap();
+    let mut lines = text.lines();
+    assert_eq!(
+        lines.next(),
+        Some("step,total,rec,arap,joints,area,sigma,seconds,held_out,vertex,guide")
+    );
+    let k = [
+        "step", "total", "rec", "arap", "joints", "area", "sigma", "seconds", "held_out", "vertex", "guide",
+    ]
+    .iter()
+    .position(|c| *c == name)
+    .unwrap();
+    lines.map(|l| l.split(',').nth(k).unwrap().parse().unwrap()).collect()
+}
+
 fn losses(model: &Path) -> Vec<f64> {
     let text = std::fs::read_to_string(model.join("log.csv")).unwrap();
     text.lines()
@@ -364,13 +381,8 @@ fn sampled_poses_are_logged_and_their_vertex_loss_teaches_them() {
             .replace("learning_rate = 3e-4", "learning_rate = 2e-3");
         std::fs::write(&cfg, text).unwrap();
         puppet(tmp.path(), &["train", cfg.to_str().unwrap()]).assert_ok();
-        let text = std::fs::read_to_string(tmp.path().join(name).join("log.csv")).unwrap();
-        assert!(text.starts_with("step,total,rec,arap,joints,area,sigma,seconds,held_out,vertex\n"));
         assert!(tmp.path().join(name).join("sampled.png").is_file(), "the sheet of sampled poses");
-        text.lines()
-            .skip(1)
-            .map(|l| l.rsplit(',').next().unwrap().parse().unwrap())
-            .collect()
+        column(&tmp.path().join(name), "vertex")
     };
     let (taught, shown) = (run("taught", 1000.0), run("shown", 0.0));
     assert!(taught.iter().chain(&shown).all(|v| v.is_finite()), "every step has sampled poses");
@@ -381,6 +393,109 @@ fn sampled_poses_are_logged_and_their_vertex_loss_teaches_them() {
         last(&taught),
         last(&shown)
     );
+}
+
+/// Training from the prior (`puppet train --prior`): the training frames are fitted by the
+/// built-in prior first (guide.png shows the fits), the network's poses are pulled toward them for
+/// the guided share of the run and not after, and that pull lowers the guide's vertex loss. With
+/// the frames moved by augmentation (the targets moved alike: `augment::moved_point`) the guide
+/// runs for its share too.
+#[test]
+fn training_from_the_prior_follows_its_fits_for_the_guided_steps() {
+    let tmp = tempfile::tempdir().unwrap();
+    let seq = synth(tmp.path(), 4, "64x64");
+    let run = |name: &str, extra: &str| -> Vec<f64> {
+        let cfg = config(tmp.path(), name, &seq, &format!("steps = 40\ncheckpoint_every = 20\n{extra}"));
+        let text = std::fs::read_to_string(&cfg)
+            .unwrap()
+            .replace("input_size = 32", "input_size = 64")
+            .replace("learning_rate = 3e-4", "learning_rate = 2e-3");
+        std::fs::write(&cfg, text).unwrap();
+        puppet(tmp.path(), &["train", cfg.to_str().unwrap(), "--prior"]).assert_ok();
+        assert!(tmp.path().join(name).join("guide.png").is_file(), "the sheet of the prior's fits");
+        let written = std::fs::read_to_string(tmp.path().join(name).join("train.toml")).unwrap();
+        assert!(written.contains("[train.guide]"), "the run's config records the guide:\n{written}");
+        column(&tmp.path().join(name), "guide")
+    };
+    let on_for_its_share = |name: &str, guide: &[f64], guided: usize| {
+        assert!(
+            guide[..guided].iter().all(|v| v.is_finite()),
+            "{name}: guided steps log the guide: {guide:?}"
+        );
+        assert!(
+            guide[guided..].iter().all(|v| v.is_nan()),
+            "{name}: later steps are not guided: {guide:?}"
+        );
+    };
+    let guide = run("guided", "[train.guide]\nweight = 100.0\nuntil = 0.75\n");
+    on_for_its_share("guided", &guide, 30);
+    let mean = |s: &[f64]| s.iter().sum::<f64>() / s.len() as f64;
+    let (first, last) = (mean(&guide[..5]), mean(&guide[25..30]));
+    assert!(last < 0.85 * first, "the guide's vertex loss {first:.2} → {last:.2} px²");
+    // `--prior` alone: the default weight for the default fifth of the run.
+    on_for_its_share("guided-moved", &run("guided-moved", AUGMENT), 8);
+
+    // In-betweens whose keyframes may start from the prior: each keyframe is fitted no worse
+    // than from the network alone.
+    let model = tmp.path().join("guided");
+    let frames = seq.join("frames");
+    let keys_l2 = |out: &str, extra: &[&str]| -> Vec<f64> {
+        let (a, b) = (frames.join("frame_000.png"), frames.join("frame_003.png"));
+        let args = [
+            "inbetween",
+            "--model",
+            model.to_str().unwrap(),
+            a.to_str().unwrap(),
+            b.to_str().unwrap(),
+            "--steps",
+            "3",
+            "--vertex-steps",
+            "10",
+            "-o",
+            out,
+        ];
+        let run = puppet(tmp.path(), &[&args[..], extra].concat());
+        run.assert_ok();
+        assert!(tmp.path().join(out).join("sheet.png").is_file());
+        let line = run
+            .stdout
+            .lines()
+            .find(|l| l.starts_with("the first and last frames"))
+            .unwrap()
+            .to_string();
+        if !extra.is_empty() {
+            assert!(
+                run.stdout.contains("of 2 keyframes kept the fit from the prior's placement"),
+                "{}",
+                run.stdout
+            );
+        }
+        // "… fits: L2 A to a.png and B to b.png"
+        let words: Vec<&str> = line.split_whitespace().collect();
+        let after = |w: &str| words[words.iter().rposition(|x| *x == w).unwrap() + 1].parse().unwrap();
+        vec![after("L2"), after("and")]
+    };
+    let (plain, with_prior) = (keys_l2("ib", &[]), keys_l2("ib-prior", &["--prior"]));
+    assert_eq!(plain.len(), 2);
+    assert!(
+        with_prior.iter().zip(&plain).all(|(p, n)| *p <= n + 0.5),
+        "keyframe L2 with the prior {with_prior:?}, without {plain:?}"
+    );
+}
+
+/// A config that turns the guide on, trained through the library without a fit to guide by, is
+/// refused by name before anything is written.
+#[test]
+fn a_guide_without_a_fit_is_refused_before_anything_is_written() {
+    let tmp = tempfile::tempdir().unwrap();
+    let seq = synth(tmp.path(), 4, "64x64");
+    let cfg = config(tmp.path(), "unguided", &seq, "steps = 2\n[train.guide]\nweight = 10.0\n");
+    let config = puppet::TrainConfig::load(&cfg).unwrap();
+    let e = puppet::train(&config, &puppet::TrainOptions::default(), &puppet::Silent)
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("train.guide.weight"), "{e}");
+    assert!(!tmp.path().join("unguided").exists(), "nothing written");
 }
 
 /// The drawn frames augmented (`[train.augment]`): the first step's loss is measured on moved

@@ -8,7 +8,7 @@ use std::path::{Path, PathBuf};
 use anyhow::Context;
 
 use puppet::appearance::AppearanceStage;
-use puppet::edit::inbetween::{comparison_sheet, inbetween, write_inbetweens, InbetweenFiles, InbetweenPath, MAX_STEPS};
+use puppet::edit::inbetween::{along, comparison_sheet, write_inbetweens, InbetweenFiles, InbetweenPath, Interpolator, MAX_STEPS};
 use puppet::edit::manifold_path::Waypoints;
 use puppet::edit::timing::{eased_t, spacing_t, Easing};
 use puppet::eval::inbetween_eval::{score_sequence, InbetweenScore};
@@ -16,6 +16,7 @@ use puppet::fit::frame::{frame_check, load_frame, training_frames};
 use puppet::fit::FitOptions;
 use puppet::metrics::l2;
 use puppet::model::Model;
+use puppet::prior::{keep_closer, Start};
 use puppet::progress::Progress;
 use puppet::puppet::sequence::Frames;
 use puppet::render::animation::{AnimationFiles, AnimationWriter};
@@ -97,6 +98,10 @@ pub struct InbetweenArgs {
     /// Also redraw the in-betweens with the model's appearance stage (generated/).
     #[arg(long)]
     pub appearance: bool,
+    /// Fit each keyframe from the prior's placement too, and keep the fit that renders closer to
+    /// it (a keyframe in a pose the model was never shown).
+    #[arg(long, conflicts_with = "score")]
+    pub prior: bool,
 }
 
 /// `--path`.
@@ -157,7 +162,16 @@ pub fn run(args: InbetweenArgs, s: &Session) -> anyhow::Result<()> {
     s.ui.stage("inbetween", 0);
     let trained = training_frames(dir, &model, "the in-betweens take the straight path", &s.ui)?.unwrap_or_default();
     let waypoints = Waypoints::of_frames(&model, &trained.iter().collect::<Vec<_>>(), &device)?;
-    let mut ib = inbetween(&model, &a, &b, &t, &options, &waypoints, args.path.into(), &device)?;
+    let mut interp = Interpolator::new(&model, &a, &b, &options, &device)?.through(&waypoints);
+    if args.prior {
+        let keys = interp.keys().map(<[_]>::to_vec).to_vec();
+        let kept = keep_closer(&puppet::prior::shipped(&device)?, &model, &[&a, &b], keys, &options, &device, &s.ui)?;
+        let from_prior = kept.starts.iter().filter(|&&start| start == Start::Prior).count();
+        s.ui.say(format!("{from_prior} of 2 keyframes kept the fit from the prior's placement"))?;
+        let mut poses = kept.poses.into_iter();
+        interp = interp.with_keys([poses.next().unwrap_or_default(), poses.next().unwrap_or_default()]);
+    }
+    let mut ib = along(&interp, &model, &t, args.path.into(), &device)?;
     let (w, h) = (model.puppet.width, model.puppet.height);
     let key_l2 = |pose: Option<&Vec<[f32; 2]>>, frame| -> puppet::Result<f64> {
         pose.map_or(Ok(f64::NAN), |p| Ok(l2(&render_crisp(&model.puppet, p, w, h)?, frame)))

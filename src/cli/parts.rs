@@ -64,6 +64,10 @@ pub struct PartsArgs {
     /// Only cut the sheet: write OUTPUT/poses/pose_NNN.png (to compute flows on) and stop.
     #[arg(long)]
     pub cut_only: bool,
+    /// Keep every pose: by default a pose whose correspondences mostly fail to come back from
+    /// the others (a back view, a turn) is set aside with a warning naming it.
+    #[arg(long)]
+    pub keep_all: bool,
     /// Cut the sheet into a COLUMNSxROWS grid of equal cells instead of by its alpha.
     #[arg(long, value_name = "CxR", value_parser = parse_size)]
     pub grid: Option<(u32, u32)>,
@@ -183,7 +187,12 @@ pub fn run(args: PartsArgs, s: &Session) -> anyhow::Result<()> {
                 network_correspondences(&trained.net, trained.size, &poses, &device, &s.ui)?
             }
         };
-        let (poses, mut flows, _) = set_aside_strangers(poses, flows, SET_ASIDE_CHECK, &s.ui);
+        let (poses, mut flows) = if args.keep_all {
+            (poses, flows)
+        } else {
+            let (poses, flows, _) = set_aside_strangers(poses, flows, SET_ASIDE_CHECK, &s.ui);
+            (poses, flows)
+        };
         if args.flow_check > 0.0 {
             let kept = flows.keep_consistent(poses[0].width(), args.flow_check);
             s.ui.say(format!("forward–backward check: {:.1} % of the correspondences kept", 100.0 * kept))?;

@@ -2,8 +2,12 @@
 
 use std::path::{Path, PathBuf};
 
+use std::sync::Arc;
+
+use puppet::fit::FitOptions;
 use puppet::model::ModelFolder;
-use puppet::train::config::canonical;
+use puppet::prior::PriorGuide;
+use puppet::train::guide::{UntrainedFit, PRIOR_WEIGHT};
 use puppet::train::{self, TrainConfig, TrainOptions};
 
 use super::Session;
@@ -51,6 +55,11 @@ pub struct TrainArgs {
     /// Stop (checkpointed, resumable) once this many steps are done in total.
     #[arg(long, value_name = "STEPS")]
     pub pause_at: Option<u64>,
+    /// Start from the prior: fit the training frames by the built-in prior first, and pull the
+    /// network's poses of them toward those fits for the first fifth of the run (the config's
+    /// `[train.guide]`, turned on with its default weight where the config leaves it off).
+    #[arg(long, conflicts_with = "from")]
+    pub prior: bool,
 }
 
 impl TrainArgs {
@@ -72,7 +81,9 @@ impl TrainArgs {
             (None, ..) => anyhow::bail!("give a training config, or --artwork (or --from), --frames and -o"),
         };
         if let Some(model) = &self.from {
-            config.start = Some(canonical(model));
+            config = config.continuing(model);
+        } else if self.prior && config.train.guide.is_off() {
+            config.train.guide.weight = PRIOR_WEIGHT;
         }
         if let Some(steps) = self.steps {
             config.train.steps = steps;
@@ -84,10 +95,24 @@ impl TrainArgs {
 /// Runs `puppet train`.
 pub fn run(args: TrainArgs, s: &Session) -> anyhow::Result<()> {
     let config = args.config()?;
+    let guide = if config.train.guide.is_off() {
+        None
+    } else {
+        let device = puppet::backend::device();
+        // The fit the CLI gives a puppet nobody trained, with the run's loss (a masked one for
+        // frames over a background).
+        let options = FitOptions {
+            latent_steps: 0,
+            weights: config.loss.clone(),
+            ..FitOptions::default()
+        };
+        Some(Arc::new(PriorGuide::new(puppet::prior::shipped(&device)?, options, device)) as Arc<dyn UntrainedFit>)
+    };
     let options = TrainOptions {
         resume: args.resume,
         pause_at: args.pause_at,
         force: s.outputs.forced(),
+        guide,
     };
     let summary = train::train(&config, &options, &s.ui)?;
     s.ui.finish();
@@ -129,6 +154,13 @@ mod tests {
         parses(&["train", "--artwork", "a.psd", "--frames", "f", "-o", "runs/a"]);
         parses(&["train", "c.toml", "-o", "runs/b"]);
         parses(&["train", "--from", "runs/a", "--frames", "f", "-o", "runs/b", "--steps", "300"]);
+        parses(&["train", "configs/kenney-robot.toml", "--prior", "-o", "runs/c"]);
+        assert!(
+            clap::Parser::try_parse_from(["puppet", "train", "--from", "runs/a", "--prior", "--frames", "f", "-o", "x"])
+                .map(|_: crate::cli::Cli| ())
+                .is_err(),
+            "a continued model is not guided by the prior"
+        );
         let missing: crate::cli::Cli = clap::Parser::try_parse_from(["puppet", "train", "--artwork", "a.psd", "-o", "x"]).unwrap();
         let crate::cli::Command::Train(args) = missing.command else {
             panic!("parsed as another command")

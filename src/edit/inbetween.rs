@@ -313,7 +313,22 @@ pub fn inbetween(
     path: InbetweenPath,
     device: &Device,
 ) -> Result<Inbetweens> {
-    let interp = Interpolator::new(model, a, b, fit, device)?.through(waypoints);
+    along(
+        &Interpolator::new(model, a, b, fit, device)?.through(waypoints),
+        model,
+        t,
+        path,
+        device,
+    )
+}
+
+/// The in-betweens of `interp` (keyframes fitted already, e.g. with their poses replaced by
+/// closer fits: [`Interpolator::with_keys`]) at each `t`, the learned path as `path` says, the
+/// vertex and as-rigid-as-possible interpolations beside it.
+///
+/// # Errors
+/// As [`inbetween`].
+pub fn along(interp: &Interpolator, model: &Model, t: &[f32], path: InbetweenPath, device: &Device) -> Result<Inbetweens> {
     Ok(Inbetweens {
         t: t.to_vec(),
         path: match path {

@@ -38,6 +38,8 @@ impl ModelFolder {
     pub const PLOT: &'static str = "loss.png";
     /// The sheet of poses the template draws itself for training (`[train.sampled]`).
     pub const SAMPLED: &'static str = "sampled.png";
+    /// The sheet of the training frames beside the prior's fits of them (`[train.guide]`).
+    pub const GUIDE: &'static str = "guide.png";
     /// The checkpoints' subfolder.
     pub const CHECKPOINTS: &'static str = "checkpoints";
 
@@ -116,6 +118,11 @@ impl ModelFolder {
     /// `sampled.png`.
     pub fn sampled(&self) -> PathBuf {
         self.dir.join(Self::SAMPLED)
+    }
+
+    /// `guide.png`.
+    pub fn guide(&self) -> PathBuf {
+        self.dir.join(Self::GUIDE)
     }
 
     /// `checkpoints/`.

@@ -31,6 +31,7 @@ use crate::progress::Progress;
 use crate::puppet::Puppet;
 use crate::render::render_crisp;
 use crate::train::config::canonical;
+use crate::train::guide::UntrainedFit;
 use crate::train::trainer::load_or_build_puppet;
 use crate::user_file;
 use pairs::{MixedPairs, PosedPairs};
@@ -331,6 +332,32 @@ pub fn fit_with_prior(
     let network = model.to_frame_vertices(model.decode(fit_latents(model, frames, options, device)?, device));
     progress.stage("fit from the network", frames.len() as u64);
     let from_network = fit_from(model, frames, &network, options, device, progress)?;
+    keep_closer(prior, model, frames, from_network, options, device, progress)
+}
+
+/// Fits `frames` from the prior's placement by the latent-free stages of `options` and keeps,
+/// for each frame, whichever of that fit and `fitted` (the network's fit of it, every template
+/// vertex, frame pixels) renders closer to it (lower crisp L2).
+///
+/// # Errors
+/// As [`place::place`] and [`fit_from`]; [`Error::Mismatch`] if `fitted` does not hold one
+/// pose per frame.
+pub fn keep_closer(
+    prior: &TrainedNet,
+    model: &Model,
+    frames: &[&Picture],
+    fitted: Vec<Vec<[f32; 2]>>,
+    options: &FitOptions,
+    device: &Device,
+    progress: &dyn Progress,
+) -> Result<PriorFit> {
+    if fitted.len() != frames.len() {
+        return Err(Error::mismatch(
+            "the fits to compare with the prior's",
+            fitted.len(),
+            format!("{} frames", frames.len()),
+        ));
+    }
     progress.stage("fit from the prior", frames.len() as u64);
     let from_prior = fit_from(model, frames, &placements(prior, model, frames, device)?, options, device, progress)?;
     let puppet = &model.puppet;
@@ -338,7 +365,7 @@ pub fn fit_with_prior(
         poses: Vec::with_capacity(frames.len()),
         starts: Vec::with_capacity(frames.len()),
     };
-    for ((frame, network), prior) in frames.iter().zip(from_network).zip(from_prior) {
+    for ((frame, network), prior) in frames.iter().zip(fitted).zip(from_prior) {
         let score = |pose: &[[f32; 2]]| -> Result<f64> { Ok(l2(&render_crisp(puppet, pose, puppet.width, puppet.height)?, frame)) };
         let (pose, start) = if score(&prior)? < score(&network)? {
             (prior, Start::Prior)
@@ -349,6 +376,33 @@ pub fn fit_with_prior(
         fit.starts.push(start);
     }
     Ok(fit)
+}
+
+/// The prior's zero-shot fit ([`fit_untrained`]) as the fit `[train.guide]` pulls a network
+/// toward: `puppet train --prior`.
+pub struct PriorGuide {
+    net: TrainedNet,
+    options: FitOptions,
+    device: Device,
+}
+
+impl PriorGuide {
+    /// The guide of prior `net`, fitting by `options`' latent-free stages on `device`.
+    pub fn new(net: TrainedNet, options: FitOptions, device: Device) -> Self {
+        PriorGuide { net, options, device }
+    }
+}
+
+impl std::fmt::Debug for PriorGuide {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("PriorGuide").field("options", &self.options).finish_non_exhaustive()
+    }
+}
+
+impl UntrainedFit for PriorGuide {
+    fn fit(&self, model: &Model, frames: &[&Picture], progress: &dyn Progress) -> Result<Vec<Vec<[f32; 2]>>> {
+        fit_untrained(&self.net, model, frames, &self.options, &self.device, progress)
+    }
 }
 
 /// The prior's placement of each frame, the body's free vertices as the model's stages take

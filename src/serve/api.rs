@@ -83,6 +83,7 @@ pub fn router(app: Arc<App>, guard: HostGuard) -> Router {
         .route("/api/drawing", post(drawing).layer(DefaultBodyLimit::max(MAX_UPLOAD_BODY)))
         .route("/api/next", get(next))
         .route("/api/continue", post(continue_training))
+        .route("/api/continue/stop", post(stop_training))
         .route("/api/motion", post(motion).layer(DefaultBodyLimit::max(MAX_MOTION_BYTES)))
         .fallback(|| async { ApiError::not_found("no such page or API route") })
         .method_not_allowed_fallback(|| async {
@@ -445,8 +446,11 @@ struct ExportRequest {
     format: String,
     /// The session whose current pose to export…
     session: Option<String>,
-    /// …or an in-between.
+    /// …or an in-between…
     inbetween: Option<InbetweenRequest>,
+    /// …or the motion played last.
+    #[serde(default)]
+    motion: bool,
     /// Accessory layers to leave out.
     #[serde(default)]
     hidden: Vec<String>,
@@ -494,7 +498,13 @@ async fn download(State(app): State<Arc<App>>, body: Result<Bytes, BytesRejectio
             sigma,
             appearance: if request.appearance { Some(app.appearance()?) } else { None },
         };
-        let d = drawn(&app, request.session.as_deref(), request.inbetween.as_ref(), "export")?;
+        let d = drawn(
+            &app,
+            request.session.as_deref(),
+            request.inbetween.as_ref(),
+            request.motion,
+            "export",
+        )?;
         Ok(export(&app.outfit(d.outfit)?.model, d.poses, format, &style, d.stem)?)
     })
     .await?;
@@ -519,11 +529,19 @@ struct Drawn {
     stem: &'static str,
 }
 
-/// What a download or a redraw asks for: the session's current pose, or an in-between (keys
-/// included). Blocks for fits.
-fn drawn(app: &App, session: Option<&str>, inbetween: Option<&InbetweenRequest>, what: &str) -> Result<Drawn, ApiError> {
-    match (session, inbetween) {
-        (Some(id), None) => {
+/// What a download or a redraw asks for: the session's current pose, an in-between (keys
+/// included) or the motion played last. Blocks for fits.
+fn drawn(app: &App, session: Option<&str>, inbetween: Option<&InbetweenRequest>, motion: bool, what: &str) -> Result<Drawn, ApiError> {
+    match (session, inbetween, motion) {
+        (None, None, true) => {
+            let played = app.played()?;
+            Ok(Drawn {
+                outfit: played.outfit,
+                poses: played.poses.clone(),
+                stem: "motion",
+            })
+        }
+        (Some(id), None, false) => {
             let (outfit, pose) = app.current_pose(id)?;
             Ok(Drawn {
                 outfit,
@@ -531,13 +549,13 @@ fn drawn(app: &App, session: Option<&str>, inbetween: Option<&InbetweenRequest>,
                 stem: "pose",
             })
         }
-        (None, Some(between)) => Ok(Drawn {
+        (None, Some(between), false) => Ok(Drawn {
             outfit: between.outfit,
             poses: between.poses(app, &between.t()?)?,
             stem: "inbetween",
         }),
         _ => Err(ApiError::bad_request(format!(
-            "give either a session (its pose) or an inbetween to {what}"
+            "give one of a session (its pose), an inbetween or motion = true to {what}"
         ))),
     }
 }
@@ -549,8 +567,11 @@ fn drawn(app: &App, session: Option<&str>, inbetween: Option<&InbetweenRequest>,
 struct AppearanceRequest {
     /// The session whose current pose to redraw…
     session: Option<String>,
-    /// …or an in-between.
+    /// …or an in-between…
     inbetween: Option<InbetweenRequest>,
+    /// …or the motion played last.
+    #[serde(default)]
+    motion: bool,
     /// Accessory layers to leave out.
     #[serde(default)]
     hidden: Vec<String>,
@@ -564,7 +585,13 @@ async fn appearance(State(app): State<Arc<App>>, body: Result<Bytes, BytesReject
     }
     let bytes = blocking(move || {
         let (stage, device) = app.appearance()?;
-        let d = drawn(&app, request.session.as_deref(), request.inbetween.as_ref(), "redraw")?;
+        let d = drawn(
+            &app,
+            request.session.as_deref(),
+            request.inbetween.as_ref(),
+            request.motion,
+            "redraw",
+        )?;
         let strip = redrawn_strip(&app.outfit(d.outfit)?.model, &d.poses, &request.hidden, stage, device)?;
         Ok(strip.png_bytes(std::path::Path::new("appearance.png"))?)
     })
@@ -675,6 +702,12 @@ async fn continue_training(State(app): State<Arc<App>>, body: Result<Bytes, Byte
     })
     .await?;
     Ok(Json(json!(status)).into_response())
+}
+
+/// Asks the running continuation to stop after its step; answers with the status.
+async fn stop_training(State(app): State<Arc<App>>) -> Result<Response, ApiError> {
+    app.next().stop()?;
+    Ok(Json(json!(app.next().status())).into_response())
 }
 
 /// `POST /api/motion?name=<file>&view=front|side&rigid=&in_place=&fps=&outfit=` with the BVH

@@ -27,10 +27,10 @@
 //! POST /api/latent                {session, latent, sliders?} → {vertices, latent}
 //! POST /api/outfit                {session, outfit} → {fitted, fitted_latent, vertices, latent}
 //! POST /api/inbetween             {from, to, count?, easing?, spacing?, outfit?} → {t, poses}
-//! POST /api/export                {format: png|gif|apng|sheet|spine, session | inbetween,
+//! POST /api/export                {format: png|gif|apng|sheet|spine, session | inbetween | motion,
 //!                                 hidden?, background?, delay_ms?, render?, appearance?}
 //!                                 → the file (several: a ZIP)
-//! POST /api/appearance            {session | inbetween, hidden?} → one PNG: each pose rendered
+//! POST /api/appearance            {session | inbetween | motion, hidden?} → one PNG: each pose rendered
 //!                                 and redrawn by the appearance stage, side by side
 //! POST /api/suggest               {count?} → {suggestions: [{index, picture, vertices, misread_px,
 //!                                 distance_degrees, origin (words), origin_detail}], candidates,
@@ -45,6 +45,9 @@
 //!                                 message, warnings, output, error, seconds}}
 //! POST /api/continue              {steps?} → the status: `puppet train --from` on that folder in
 //!                                 the background, into <model>-next/model (model_2, … after)
+//! POST /api/continue/stop         → the status: the continuation ends after its step,
+//!                                 checkpointed (`puppet train <output>/train.toml --resume`
+//!                                 finishes it)
 //! POST /api/motion?name=<file>&view=front|side&rigid=&in_place=&fps=&outfit=
 //!                                 the body a BVH file → {name, frames, frame_time, joints,
 //!                                 pairs: [{joint, layer}], warnings, poses, seconds}

@@ -6,6 +6,7 @@
 //! model being served is only read, and so is the folder of frames it trained on.
 
 use std::path::{Path, PathBuf};
+use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::{Arc, Mutex};
 use std::time::Instant;
 
@@ -70,7 +71,10 @@ struct Folder {
 /// Where a continuation stands, as a page polls it.
 #[derive(Clone, Debug, Serialize)]
 pub struct TrainingStatus {
-    /// `running`, `done` or `failed`.
+    /// `running`, `stopping` (asked to stop: it ends at its next step), `done`, `stopped`
+    /// (checkpointed before its last step: `puppet train <output>/train.toml --resume` finishes
+    /// it) or
+    /// `failed`.
     pub state: &'static str,
     /// The steps done, of `steps`.
     pub step: u64,
@@ -93,6 +97,8 @@ struct Training {
     started: Instant,
     output: PathBuf,
     status: Mutex<TrainingStatus>,
+    /// Set by [`Next::stop`]; the trainer ends at its next step.
+    stop: AtomicBool,
 }
 
 impl Training {
@@ -100,15 +106,25 @@ impl Training {
         let mut status = lock(&self.status).clone();
         if status.state == "running" {
             status.seconds = self.started.elapsed().as_secs_f64();
+            if self.stop.load(Ordering::Relaxed) {
+                status.state = "stopping";
+            }
         }
         status
     }
 
-    fn end(&self, outcome: std::result::Result<(), String>) {
+    /// Whether the trainer has not ended yet (asked to stop or not).
+    fn is_running(&self) -> bool {
+        lock(&self.status).state == "running"
+    }
+
+    /// Records how the run ended: `Ok(finished)` or the error's text.
+    fn end(&self, outcome: std::result::Result<bool, String>) {
         let mut status = lock(&self.status);
         status.seconds = self.started.elapsed().as_secs_f64();
         match outcome {
-            Ok(()) => status.state = "done",
+            Ok(true) => status.state = "done",
+            Ok(false) => status.state = "stopped",
             Err(e) => {
                 status.state = "failed";
                 status.error = Some(e);
@@ -132,6 +148,10 @@ impl Progress for Training {
 
     fn warn(&self, text: &str) {
         lock(&self.status).warnings.push(text.to_string());
+    }
+
+    fn stop_requested(&self) -> bool {
+        self.stop.load(Ordering::Relaxed)
     }
 }
 
@@ -358,7 +378,7 @@ impl Next {
             )));
         }
         let mut training = lock(&self.training);
-        if let Some(t) = training.as_ref().filter(|t| t.status().state == "running") {
+        if let Some(t) = training.as_ref().filter(|t| t.is_running()) {
             return Err(conflict(format!(
                 "a continuation is running already (into {}): wait for it to end",
                 t.output.display()
@@ -375,8 +395,10 @@ impl Next {
             ));
         };
         let output = next_output(&folder.dir);
-        let mut config = config.clone().replacing_paths(None, Some(&folder.frames), Some(&output));
-        config.start = Some(model_dir.to_path_buf());
+        let mut config = config
+            .clone()
+            .replacing_paths(None, Some(&folder.frames), Some(&output))
+            .continuing(model_dir);
         config.train.steps = steps;
         let run = Arc::new(Training {
             started: Instant::now(),
@@ -391,19 +413,35 @@ impl Next {
                 error: None,
                 seconds: 0.0,
             }),
+            stop: AtomicBool::new(false),
         });
         *training = Some(run.clone());
         std::thread::spawn(move || {
             // A panic in the trainer must not leave the page polling a run that never ends.
             let outcome = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
-                train(&config, &TrainOptions::default(), run.as_ref()).map(|_| ())
+                train(&config, &TrainOptions::default(), run.as_ref()).map(|summary| summary.finished)
             }));
             run.end(match outcome {
-                Ok(Ok(())) => Ok(()),
+                Ok(Ok(finished)) => Ok(finished),
                 Ok(Err(e)) => Err(e.to_string()),
                 Err(_) => Err("the trainer stopped on an internal error".to_string()),
             });
         });
+        Ok(())
+    }
+
+    /// Asks the running continuation to stop: it ends after its current step, checkpointed, and
+    /// `puppet train <folder>/train.toml --resume` finishes it.
+    ///
+    /// # Errors
+    /// [`ApiError`] 409 when no continuation is running.
+    pub fn stop(&self) -> Result<(), ApiError> {
+        let training = lock(&self.training);
+        let run = training
+            .as_ref()
+            .filter(|t| t.is_running())
+            .ok_or_else(|| conflict("no continuation is running"))?;
+        run.stop.store(true, Ordering::Relaxed);
         Ok(())
     }
 

@@ -8,6 +8,7 @@ use std::sync::{Arc, Mutex, RwLock};
 use burn::tensor::{Device, Tensor, TensorData};
 
 use super::error::ApiError;
+use super::motion::Played;
 use super::next::Next;
 use super::session::{lock, Session, Sessions};
 use crate::appearance::AppearanceStage;
@@ -226,6 +227,8 @@ pub struct App {
     directions: LatentDirections,
     sessions: Sessions,
     next: Next,
+    /// The motion played last, for downloads.
+    played: Mutex<Option<Arc<Played>>>,
 }
 
 /// The values of a latent `[1, Z]`.
@@ -290,6 +293,7 @@ impl App {
         worn.insert(0, Outfit::new("as trained".into(), model, &trained, device)?);
         Ok(App {
             next: Next::new(options.model_folder.as_deref()),
+            played: Mutex::new(None),
             outfits: worn,
             device: device.clone(),
             latents: Mutex::new(vec![None; frames.len()]),
@@ -382,6 +386,21 @@ impl App {
     /// The suggestions of what to draw next, the drawings sent back and the continuation.
     pub fn next(&self) -> &Next {
         &self.next
+    }
+
+    /// Keeps `played` as the motion played last.
+    pub fn keep_played(&self, played: Arc<Played>) {
+        *lock(&self.played) = Some(played);
+    }
+
+    /// The motion played last.
+    ///
+    /// # Errors
+    /// [`ApiError`] 404 before any motion was played.
+    pub fn played(&self) -> std::result::Result<Arc<Played>, ApiError> {
+        lock(&self.played)
+            .clone()
+            .ok_or_else(|| ApiError::not_found("no motion has been played yet: load a BVH file first"))
     }
 
     /// The device the editor computes on.

@@ -9,6 +9,7 @@ use serde_json::{json, Value};
 use tower::ServiceExt as _;
 
 use super::api::{MAX_BODY, MAX_INBETWEENS, MAX_PINS};
+use super::next::MAX_CONTINUE_STEPS;
 use super::{router, App, EditorFrame, HostGuard, ServeOptions};
 use crate::appearance::AppearanceStage;
 use crate::fit::FitOptions;
@@ -256,11 +257,11 @@ async fn malformed_requests_get_a_4xx_with_a_message_and_the_server_keeps_servin
         ),
         post("/api/inbetween", r#"{"from": 0, "to": 2, "outfit": 3}"#, "no outfit 3"),
         post("/api/export", r#"{"format": "psd", "session": "x"}"#, "not a download format"),
-        post("/api/export", r#"{"format": "png"}"#, "either a session"),
+        post("/api/export", r#"{"format": "png"}"#, "give one of a session"),
         post(
             "/api/export",
             json!({ "format": "png", "session": session, "inbetween": { "from": 0, "to": 2 } }),
-            "either a session",
+            "give one of a session",
         ),
         post(
             "/api/export",
@@ -601,10 +602,10 @@ async fn the_appearance_stage_redraws_the_pose_and_every_inbetween_and_downloads
         assert!(answer["error"].as_str().unwrap().contains(says), "{answer}");
     }
     for (body, says) in [
-        (json!({}), "either a session"),
+        (json!({}), "give one of a session"),
         (
             json!({ "session": session, "inbetween": { "from": 0, "to": 1 } }),
-            "either a session",
+            "give one of a session",
         ),
         (json!({ "session": "nope" }), "session"),
         (json!({ "session": session, "hidden": ["nothing"] }), "nothing"),
@@ -778,7 +779,7 @@ async fn continued(app: &Arc<App>) -> Value {
     let started = std::time::Instant::now();
     loop {
         let (_, next, _) = call(app, "GET", "/api/next", "").await;
-        if next["training"]["state"] != json!("running") {
+        if next["training"]["state"] != json!("running") && next["training"]["state"] != json!("stopping") {
             return next;
         }
         assert!(started.elapsed().as_secs() < 120, "the continuation still runs: {next}");
@@ -925,6 +926,26 @@ async fn a_drawing_joins_a_copy_of_the_frames_and_continues_the_model_into_a_new
         (done["training"]["state"].clone(), done["training"]["output"].clone()),
         (json!("done"), json!(next_dir.join("model_2")))
     );
+    // A continuation stopped from the page ends checkpointed, and `train --resume` on its
+    // config finishes it; with none running, a stop is refused.
+    let (status, _, _) = call(&app, "POST", "/api/continue", &format!(r#"{{"steps": {MAX_CONTINUE_STEPS}}}"#)).await;
+    assert_eq!(status, StatusCode::OK);
+    let (status, stopping, _) = call(&app, "POST", "/api/continue/stop", "").await;
+    assert_eq!(status, StatusCode::OK, "{stopping}");
+    let stopped = continued(&app).await;
+    let output = next_dir.join("model_3");
+    assert_eq!(stopped["training"]["state"], json!("stopped"), "{stopped}");
+    assert!(stopped["training"]["step"].as_u64().unwrap() < MAX_CONTINUE_STEPS, "{stopped}");
+    assert!(output.join("checkpoints").is_dir() && output.join("train.toml").is_file());
+    let (status, answer, _) = call(&app, "POST", "/api/continue/stop", "").await;
+    assert_eq!(status, StatusCode::CONFLICT, "{answer}");
+    let mut config = crate::train::TrainConfig::load(&output.join("train.toml")).unwrap();
+    config.train.steps = stopped["training"]["step"].as_u64().unwrap() + 1;
+    let resumed = crate::train::TrainOptions {
+        resume: true,
+        ..crate::train::TrainOptions::default()
+    };
+    assert!(crate::train::train(&config, &resumed, &crate::progress::Silent).unwrap().finished);
     assert_eq!(contents(&model_dir), served, "the model being served is only read");
     assert_eq!(contents(&t.join("frames")), frames_before, "so is the folder of its frames");
     assert_eq!(std::fs::read(model_dir.join("split.json")).unwrap(), split_before);
@@ -940,6 +961,9 @@ async fn a_bvh_walk_plays_on_the_character_and_bad_motions_are_refused_by_name()
     let app = app(4);
     let walk = std::fs::read(std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("data/motion/walk.bvh")).unwrap();
     let started = std::time::Instant::now();
+    let (status, answer, _) = call(&app, "POST", "/api/export", r#"{"format": "gif", "motion": true}"#).await;
+    assert_eq!(status, StatusCode::NOT_FOUND, "{answer}");
+    assert!(answer["error"].as_str().unwrap().contains("no motion"), "{answer}");
     let (status, played) = motion(&app, "?name=walk.bvh&view=side", walk.clone()).await;
     println!("walk.bvh on the tiny model: {:.2} s", started.elapsed().as_secs_f64());
     assert_eq!(status, StatusCode::OK, "{played}");
@@ -952,6 +976,14 @@ async fn a_bvh_walk_plays_on_the_character_and_bad_motions_are_refused_by_name()
     assert!(pairs.iter().any(|p| p["layer"] == json!("head")), "{played}");
     let moved = poses.iter().map(|p| farthest(p, &poses[0])).fold(0.0, f32::max);
     assert!(moved > 0.5, "the walk moves the character: {moved} px at most");
+    // The motion played last downloads as an animation.
+    let (status, _, gif) = call(&app, "POST", "/api/export", r#"{"format": "gif", "motion": true, "delay_ms": 33}"#).await;
+    assert_eq!(status, StatusCode::OK);
+    assert!(gif.starts_with(b"GIF89a"));
+    let frames = image::codecs::gif::GifDecoder::new(std::io::Cursor::new(gif)).unwrap();
+    assert_eq!(image::AnimationDecoder::into_frames(frames).count(), 36, "one GIF frame per pose");
+    let (status, answer, _) = call(&app, "POST", "/api/export", r#"{"format": "gif", "motion": true, "session": "x"}"#).await;
+    assert_eq!(status, StatusCode::BAD_REQUEST, "{answer}");
     let (status, slow) = motion(&app, "?name=walk.bvh&view=side&fps=10&rigid=true&in_place=true", walk.clone()).await;
     assert_eq!(status, StatusCode::OK, "{slow}");
     assert_eq!(slow["frames"], json!(12), "1.17 s at 10 frames a second");

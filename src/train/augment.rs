@@ -35,6 +35,8 @@ pub struct Augmented {
     pub inputs: Vec<Vec<f32>>,
     /// The image loss's targets: the same frames moved, colours as drawn.
     pub targets: Vec<Vec<f32>>,
+    /// Each frame's move, as [`moved_point`] takes it.
+    pub moves: Vec<[f32; 4]>,
 }
 
 impl Augment {
@@ -94,8 +96,21 @@ impl Augment {
                 (moved, input)
             })
             .unzip();
-        Augmented { inputs, targets }
+        Augmented {
+            inputs,
+            targets,
+            moves: draws.iter().map(|&(motion, _)| motion).collect(),
+        }
     }
+}
+
+/// Where the move `[angle, scale, dx, dy]` of a frame takes its point `p` (working pixels): the
+/// forward map of the similarity a frame's picture is moved by.
+pub fn moved_point([angle, scale, dx, dy]: [f32; 4], p: [f32; 2], size: usize) -> [f32; 2] {
+    let centre = size as f32 / 2.0;
+    let (s, c) = angle.sin_cos();
+    let (x, y) = (p[0] - centre, p[1] - centre);
+    [scale * (c * x - s * y) + centre + dx, scale * (s * x + c * y) + centre + dy]
 }
 
 /// `planes` `[4, size, size]` moved by the similarity `[angle, scale, dx, dy]` about the square's
@@ -167,6 +182,14 @@ mod tests {
         let turned = moved(&frame, size, [std::f32::consts::FRAC_PI_2, 1.0, 0.0, 0.0]);
         let alpha = |p: &[f32], x: usize, y: usize| p[3 * n + y * size + x];
         assert!((alpha(&turned, 9, 5) - 1.0).abs() < 1e-5 && alpha(&turned, 5, 5) < 1e-5);
+        // The square's centre goes where the picture's square went, for vertices moved alike.
+        let close = |a: [f32; 2], b: [f32; 2]| (a[0] - b[0]).hypot(a[1] - b[1]) < 1e-5;
+        assert!(close(
+            moved_point([std::f32::consts::FRAC_PI_2, 1.0, 0.0, 0.0], [6.0, 6.0], size),
+            [10.0, 6.0]
+        ));
+        assert!(close(moved_point([0.0, 1.0, 3.0, -2.0], [6.0, 6.0], size), [9.0, 4.0]));
+        assert!(close(moved_point([0.0, 2.0, 0.0, 0.0], [6.0, 6.0], size), [4.0, 4.0]));
         // Doubling about the centre: [4, 8)² becomes [0, 8)².
         let doubled = moved(&frame, size, [0.0, 2.0, 0.0, 0.0]);
         assert!(alpha(&doubled, 1, 1) > 0.99 && alpha(&doubled, 9, 9) < 1e-5);

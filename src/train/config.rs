@@ -38,6 +38,10 @@
 //! max_degrees = 0.0                 # turned within ± this
 //! colour = 0.0                      # the input's channels multiplied within 1 ± this
 //!
+//! [train.guide]                     # start from the prior (issue 56; not the paper's): the
+//! weight = 0.0                      #   training frames' poses pulled toward the prior's fits
+//! until = 0.2                       #   of them, 0 = off; for this share of the steps
+//!
 //! [train.adam]                      # the optimiser; all optional (PyTorch's defaults)
 //! beta_1 = 0.9
 //! beta_2 = 0.999
@@ -68,6 +72,7 @@ use crate::puppet::sequence::FrameCheck;
 use crate::user_file;
 
 use super::augment::Augment;
+use super::guide::Guide;
 use super::optim::AdamSettings;
 use super::sampled::SampledPoses;
 use crate::error::{Context, Error, Result};
@@ -198,6 +203,10 @@ pub struct TrainSettings {
     /// The drawn frames moved and recoloured at each step (off by default).
     #[serde(skip_serializing_if = "Augment::is_off")]
     pub augment: Augment,
+    /// The network's poses of the training frames pulled toward the prior's fits of them early in
+    /// the run (off by default).
+    #[serde(skip_serializing_if = "Guide::is_off")]
+    pub guide: Guide,
 }
 
 impl Default for TrainSettings {
@@ -213,6 +222,7 @@ impl Default for TrainSettings {
             adam: AdamSettings::new(),
             sampled: SampledPoses::default(),
             augment: Augment::default(),
+            guide: Guide::default(),
         }
     }
 }
@@ -343,6 +353,15 @@ impl TrainConfig {
         self
     }
 
+    /// This config continuing the trained model `dir` ([`TrainConfig::start`]), with the guide
+    /// off: the model's network already places its frames, and the guide is for one that starts
+    /// untrained.
+    pub fn continuing(mut self, dir: &Path) -> Self {
+        self.start = Some(canonical(dir));
+        self.train.guide = Guide::default();
+        self
+    }
+
     /// Checks values that TOML types cannot: ranges and the input size.
     ///
     /// # Errors
@@ -405,7 +424,8 @@ impl TrainConfig {
             })?;
         t.adam.validate()?;
         t.sampled.validate()?;
-        t.augment.validate()
+        t.augment.validate()?;
+        t.guide.validate()
     }
 
     /// The frame checks of this run for frames of a `width` × `height` puppet.

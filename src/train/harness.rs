@@ -182,7 +182,7 @@ impl RunFolder {
             self.save(run, plan, 0, 0.0, &log)?;
         }
         let mut last = None;
-        while step < stop {
+        while step < stop && !progress.stop_requested() {
             let t0 = Instant::now();
             let mut row = run.step(step)?;
             if let Some(losses) = run.non_finite(&row) {

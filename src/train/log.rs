@@ -83,6 +83,8 @@ log_row! {
         held_out = "held_out",
         /// The sampled poses' vertex loss, unweighted (NaN without sampled poses).
         vertex = "vertex",
+        /// The guide's vertex loss, unweighted (NaN where the guide is off).
+        guide = "guide",
     }
 }
 
@@ -291,6 +293,7 @@ mod tests {
             seconds: step as f64,
             held_out: if step.is_multiple_of(2) { 2.0 / step as f64 } else { f64::NAN },
             vertex: if step.is_multiple_of(2) { 3.0 / step as f64 } else { f64::NAN },
+            guide: if step.is_multiple_of(2) { 4.0 / step as f64 } else { f64::NAN },
         }
     }
 
@@ -305,9 +308,9 @@ mod tests {
         let log = TrainLog::<LogRow>::open(&path, 3).unwrap();
         assert_eq!(log.rows().iter().map(|r| r.step).collect::<Vec<_>>(), [1, 2, 3]);
         assert_eq!(std::fs::read_to_string(&path).unwrap().lines().count(), 4);
-        assert_eq!(log.rows()[1], row(2, 0.5), "a measured held-out loss and vertex loss read back");
+        assert_eq!(log.rows()[1], row(2, 0.5), "measured held-out, vertex and guide losses read back");
         assert!(
-            log.rows()[0].held_out.is_nan() && log.rows()[0].vertex.is_nan(),
+            log.rows()[0].held_out.is_nan() && log.rows()[0].vertex.is_nan() && log.rows()[0].guide.is_nan(),
             "unmeasured ones read back as NaN"
         );
     }

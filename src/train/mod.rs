@@ -5,6 +5,7 @@
 pub mod augment;
 pub mod checkpoint;
 pub mod config;
+pub mod guide;
 pub mod harness;
 pub mod log;
 pub mod optim;

@@ -9,14 +9,17 @@
 //! every file of the model folder as it was.
 
 use std::path::Path;
+use std::sync::Arc;
 
 use burn::module::Module;
 use burn::optim::{GradientsParams, ModuleOptimizer};
 use burn::tensor::{Device, Tensor, TensorData};
 use serde::{Deserialize, Serialize};
 
+use super::augment::moved_point;
 use super::checkpoint::{self, Checkpoint};
 use super::config::{canonical, TrainConfig};
+use super::guide::{guide_sheet, UntrainedFit};
 use super::harness::{Plan, Run, RunFolder};
 use super::log::{plot, LogRow};
 use super::optim::{adam, optimizer_bytes, optimizer_from_bytes};
@@ -49,6 +52,9 @@ pub struct TrainOptions {
     pub pause_at: Option<u64>,
     /// Write into an output folder even if it holds files puppet did not write.
     pub force: bool,
+    /// The fit `[train.guide]` pulls the training frames' poses toward (the prior's zero-shot
+    /// fit, `puppet::prior::PriorGuide`); a config that turns the guide on needs one.
+    pub guide: Option<Arc<dyn UntrainedFit>>,
 }
 
 /// The frames a model trained on and those held out, by file name.
@@ -200,7 +206,24 @@ pub fn train(config: &TrainConfig, options: &TrainOptions, progress: &dyn Progre
         model.net = start.net_for(&model)?;
     }
     let pick = |idx: &[usize]| idx.iter().map(|&i| &frames.frames[i]).collect::<Vec<_>>();
+    let guide = if config.train.guide.is_off() {
+        None
+    } else {
+        let fitter = options.guide.as_ref().ok_or_else(|| {
+            Error::setting(
+                "train.guide.weight",
+                config.train.guide.weight,
+                "0 here: this caller has no untrained fit to guide by (puppet train gives the prior's)",
+            )
+            .with_path(&config.output)
+        })?;
+        progress.stage("fitting the training frames from the prior", 0);
+        Some(fitter.fit(&model, &pick(&train_idx), progress)?)
+    };
     let mut trainer = Trainer::new(config, model, &pick(&train_idx), &pick(&test_idx), &device)?;
+    if let Some(fits) = &guide {
+        trainer.guide_by(fits)?;
+    }
     match run.previous() {
         Some(c) => {
             // Everything is checked before anything is written.
@@ -217,6 +240,9 @@ pub fn train(config: &TrainConfig, options: &TrainOptions, progress: &dyn Progre
             write_atomic(&folder.split(), &split_json)?;
             if let Some(sheet) = trainer.sampled_sheet()? {
                 sheet.save_png(&folder.sampled())?;
+            }
+            if let Some(fits) = &guide {
+                guide_sheet(&trainer.model, &pick(&train_idx), fits)?.save_png(&folder.guide())?;
             }
         }
     }
@@ -365,6 +391,9 @@ pub struct Trainer {
     batches: BatchOrder,
     /// Draws the poses shown beside the drawn frames, when the config asks for them.
     sampler: Option<PoseSampler>,
+    /// Each training frame's untrained fit (working pixels) the guide pulls toward; empty when
+    /// the guide is off.
+    guide: Vec<Vec<[f32; 2]>>,
     config: TrainConfig,
     device: Device,
 }
@@ -392,10 +421,34 @@ impl Trainer {
             objective,
             batches: BatchOrder::new(frames.len(), config.train.batch.min(frames.len()), config.seed),
             sampler: (!config.train.sampled.is_off()).then(|| PoseSampler::new(&model, &config.train.sampled, config.seed)),
+            guide: Vec::new(),
             config: config.clone(),
             device: device.clone(),
             model,
         })
+    }
+
+    /// Pulls the network's poses of the training frames toward `fits` (one per training frame,
+    /// frame pixels) while `[train.guide]` is on.
+    ///
+    /// # Errors
+    /// [`Error::Mismatch`] if there is not one fit of every template vertex per training frame.
+    pub fn guide_by(&mut self, fits: &[Vec<[f32; 2]>]) -> Result<()> {
+        let vertices = self.model.puppet.vertex_count();
+        if fits.len() != self.inputs.len() || fits.iter().any(|f| f.len() != vertices) {
+            return Err(Error::mismatch(
+                "the guide's fits",
+                format!(
+                    "{} fits of {:?} vertices",
+                    fits.len(),
+                    fits.iter().map(Vec::len).collect::<Vec<_>>()
+                ),
+                format!("one fit of {vertices} vertices per training frame ({})", self.inputs.len()),
+            ));
+        }
+        let letterbox = &self.model.letterbox;
+        self.guide = fits.iter().map(|f| f.iter().map(|&p| letterbox.to_work(p)).collect()).collect();
+        Ok(())
     }
 
     /// A sheet of sampled poses as the network is shown them (`None` without sampling).
@@ -428,7 +481,8 @@ impl Trainer {
     /// # Errors
     /// Shape errors from the rasterizer or ARAP operations.
     pub fn losses(&self, step: u64) -> Result<(LogRow, LossTerms)> {
-        let chosen: Vec<&Vec<f32>> = self.batches.batch(step).into_iter().map(|i| &self.inputs[i]).collect();
+        let order = self.batches.batch(step);
+        let chosen: Vec<&Vec<f32>> = order.iter().map(|&i| &self.inputs[i]).collect();
         let drawn = chosen.len();
         let augment = &self.config.train.augment;
         let size = self.model.letterbox.size as usize;
@@ -469,9 +523,24 @@ impl Trainer {
             }
             (None, None) => None,
         };
+        let guide = &self.config.train.guide;
+        let guided = (!self.guide.is_empty() && guide.shown_at(step, self.config.train.steps)).then(|| {
+            let poses: Vec<Vec<[f32; 2]>> = order
+                .iter()
+                .enumerate()
+                .map(|(k, &i)| match &augmented {
+                    Some(a) => self.guide[i].iter().map(|&p| moved_point(a.moves[k], p, size)).collect(),
+                    None => self.guide[i].clone(),
+                })
+                .collect();
+            self.vertex_loss(on_frames.clone(), &poses)
+        });
         let mut terms = self.objective.evaluate(on_frames, targets(&images), sigma, &self.device)?;
         if let Some(vertex) = &vertex {
             terms.total = terms.total + vertex.clone().mul_scalar(sampled.vertex_weight);
+        }
+        if let Some(guided) = &guided {
+            terms.total = terms.total + guided.clone().mul_scalar(guide.weight);
         }
         let row = LogRow {
             step: step + 1,
@@ -484,12 +553,13 @@ impl Trainer {
             seconds: 0.0,
             held_out: f64::NAN,
             vertex: vertex.as_ref().map_or(f64::NAN, scalar),
+            guide: guided.as_ref().map_or(f64::NAN, scalar),
         };
         Ok((row, terms))
     }
 
     /// The mean squared distance (working pixels²) between `predicted` vertices `[K, V, 2]` and
-    /// the sampled poses' own.
+    /// `poses` (working pixels).
     fn vertex_loss(&self, predicted: Tensor<3>, poses: &[Vec<[f32; 2]>]) -> Tensor<1> {
         let [_, count, _] = predicted.dims();
         let flat: Vec<f32> = poses.iter().flatten().flatten().copied().collect();
@@ -565,8 +635,13 @@ impl Run for Trainer {
         } else {
             format!(", sampled poses' vertices {:.2e}", row.vertex)
         };
+        let guide = if row.guide.is_nan() {
+            String::new()
+        } else {
+            format!(", from the prior's fits {:.2e}", row.guide)
+        };
         format!(
-            "loss {:.3e} (rec {:.3e}, arap {:.2e}, joints {:.2e}{vertex}) σ {:.2}",
+            "loss {:.3e} (rec {:.3e}, arap {:.2e}, joints {:.2e}{vertex}{guide}) σ {:.2}",
             row.total, row.rec, row.arap, row.joints, row.sigma
         )
     }

@@ -1,0 +1,36 @@
+#!/usr/bin/env bash
+# Issue 56's "trained from the prior" figure (docs/results.md "Training from the prior"): per
+# Kenney character, the Kenney config (configs/kenney-*.toml: 1700 steps, the split holding out
+# walk0, walk4 and fall, the robot also climb0) trained from scratch and with `--prior` (the
+# training frames' poses pulled toward the built-in prior's fits for the first half of the run),
+# each for the full steps and for a third of them; then `puppet eval` on the held-out frames,
+# default fit and one pass, beside DIS flow warping the idle frame (bench/flow_dis.py). The prior never trained on a Kenney character (configs/prior.toml).
+#
+#   bash bench/guide_kenney.sh            # about 40 min on the 2-core machine, idle
+#   python3 bench/guide_kenney.py runs/guide-kenney
+set -euo pipefail
+cd "$(dirname "$0")/.."
+P=${PUPPET:-target/release/puppet}
+OUT=${OUT:-runs/guide-kenney}
+CHARACTERS=${CHARACTERS:-"robot male_adventurer female_adventurer"}
+FULL=${FULL:-1700}
+THIRD=$((FULL / 3))
+
+for c in $CHARACTERS; do
+    mkdir -p "$OUT/$c"
+    prefix=$(ls "data/kenney/$c/frames" | head -1 | sed 's/_.*//') # robot, maleAdventurer, …
+    [ -f "$OUT/$c/dis.txt" ] || python3 bench/flow_dis.py warp --reference "data/kenney/$c/frames/${prefix}_idle.png" \
+        "data/kenney/$c/frames/${prefix}_"{walk0,walk4,fall}.png >"$OUT/$c/dis.txt"
+    for run in scratch-$FULL prior-$FULL scratch-$THIRD prior-$THIRD; do
+        m=$OUT/$c/$run
+        steps=${run#*-}
+        flag=$([ "${run%-*}" = prior ] && echo --prior || true)
+        if [ ! -f "$m/done" ]; then
+            "$P" -q train "configs/kenney-$c.toml" $flag --steps "$steps" -o "$m" --resume 2>/dev/null ||
+                "$P" -q train "configs/kenney-$c.toml" $flag --steps "$steps" -o "$m"
+            touch "$m/done"
+        fi
+        [ -f "$m/default.json" ] || "$P" -q eval --model "$m" "data/kenney/$c/frames" -o "$m/default.json" >/dev/null
+        [ -f "$m/one-pass.json" ] || "$P" -q eval --model "$m" "data/kenney/$c/frames" --one-pass -o "$m/one-pass.json" >/dev/null
+    done
+done
