@@ -28,6 +28,7 @@ use crate::edit::pin::Pin;
 use crate::edit::pose::PoseOptions;
 use crate::edit::retarget::View;
 use crate::edit::timing::{eased_t, spacing_t, Easing};
+use crate::picture::Picture;
 use crate::puppet::LayerKind;
 use crate::render::Background;
 
@@ -534,10 +535,10 @@ struct Drawn {
 fn drawn(app: &App, session: Option<&str>, inbetween: Option<&InbetweenRequest>, motion: bool, what: &str) -> Result<Drawn, ApiError> {
     match (session, inbetween, motion) {
         (None, None, true) => {
-            let played = app.played()?;
+            let motion = app.motion()?;
             Ok(Drawn {
-                outfit: played.outfit,
-                poses: played.poses.clone(),
+                outfit: motion.outfit,
+                poses: motion.poses.clone(),
                 stem: "motion",
             })
         }
@@ -614,7 +615,12 @@ async fn suggest(State(app): State<Arc<App>>, body: Result<Bytes, BytesRejection
     let count = request.count.unwrap_or(3);
     let suggested = {
         let app = app.clone();
-        blocking(move || app.next().suggest(&app, count)).await?
+        blocking(move || {
+            let frames = app.training_frames();
+            let pictures: Vec<&Picture> = frames.iter().map(|f| &f.picture).collect();
+            app.next().suggest(app.model(), &pictures, count, app.device())
+        })
+        .await?
     };
     let suggestions: Vec<_> = suggested
         .suggestions
@@ -672,7 +678,8 @@ async fn drawing(
     let bytes = uploaded(body)?;
     let name = label(query.name, "drawing");
     let (file, status) = blocking(move || {
-        let file = app.next().add_drawing(&app, query.suggestion, &name, &bytes)?;
+        let drawing = app.read_frame(&name, &bytes)?;
+        let file = app.next().add_drawing(&drawing, query.suggestion, &name)?;
         Ok((file, app.next().status()))
     })
     .await?;

@@ -4,7 +4,6 @@
 //! and the poses sent back for the page to play in a loop.
 
 use std::path::Path;
-use std::sync::Arc;
 
 use super::error::ApiError;
 use super::state::App;
@@ -46,8 +45,6 @@ pub struct PlayOptions {
 /// A motion as the page plays it.
 #[derive(Clone, Debug)]
 pub struct Played {
-    /// The outfit the poses are of.
-    pub outfit: usize,
     /// Each frame's pose (frame pixels, the outfit's numbering).
     pub poses: Vec<Vec<[f32; 2]>>,
     /// Seconds per frame.
@@ -61,14 +58,14 @@ pub struct Played {
 }
 
 /// The motion of the BVH file `bytes` (`name` naming it in messages) played on `app`'s
-/// character as `options` ask, kept as the motion a page downloads ([`App::played`]). Blocks for
+/// character as `options` ask, kept as the motion a page downloads ([`App::motion`]). Blocks for
 /// the pull (about 60 frames a second on two cores).
 ///
 /// # Errors
 /// [`ApiError`] 400 for bytes that are not a BVH file (naming the line), an fps that is not a
 /// positive number or a motion past [`MAX_MOTION_FRAMES`] or [`MAX_MOTION_VERTICES`]; 404 for an outfit that does not
 /// exist; 422 when no joint of the skeleton matches a layer (naming both); as [`retarget`].
-pub fn play(app: &App, name: &str, bytes: &[u8], options: &PlayOptions) -> Result<Arc<Played>, ApiError> {
+pub fn play(app: &App, name: &str, bytes: &[u8], options: &PlayOptions) -> Result<Played, ApiError> {
     let model = &app.outfit(options.outfit)?.model;
     let path = Path::new(name);
     let head = Head::of(&bytes[..bytes.len().min(64)]);
@@ -125,14 +122,12 @@ pub fn play(app: &App, name: &str, bytes: &[u8], options: &PlayOptions) -> Resul
         .into_iter()
         .map(|(from, to)| (from.to_string(), to.to_string()))
         .collect();
-    let played = Arc::new(Played {
-        outfit: options.outfit,
+    app.keep_motion(options.outfit, played.poses.clone());
+    Ok(Played {
         poses: played.poses,
         frame_time: motion.frame_time,
         joints: bvh.joints.len(),
         pairs,
         warnings: recorder.warnings(),
-    });
-    app.keep_played(played.clone());
-    Ok(played)
+    })
 }

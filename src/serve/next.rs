@@ -11,14 +11,14 @@ use std::sync::{Arc, Mutex};
 use std::time::Instant;
 
 use axum::http::StatusCode;
+use burn::tensor::Device;
 use serde::Serialize;
 
 use super::error::ApiError;
 use super::session::lock;
-use super::state::App;
 use crate::atomic_file::{record, Outputs};
 use crate::edit::suggest::{suggest, trace_picture, Candidate, SuggestOptions};
-use crate::model::ModelFolder;
+use crate::model::{Model, ModelFolder};
 use crate::picture::Picture;
 use crate::progress::Progress;
 use crate::train::config::canonical;
@@ -246,30 +246,28 @@ impl Next {
         config.train.steps.div_ceil(3).max(1)
     }
 
-    /// Suggests `count` poses to draw from the training frames the editor was given (those not
-    /// held out), with their trace-over pictures; kept for [`Next::trace`]. Blocks for seconds.
+    /// Suggests `count` poses of `model` to draw from its drawn `frames` (the training frames the
+    /// editor was given), with their trace-over pictures; kept for [`Next::trace`]. Blocks for
+    /// seconds.
     ///
     /// # Errors
     /// [`ApiError`] 400 for a count past 1 to [`MAX_SUGGESTIONS`]; 422 when no frame trains or
     /// no candidate could be scored; as [`suggest`] and [`trace_picture`].
-    pub fn suggest(&self, app: &App, count: usize) -> Result<Arc<Suggested>, ApiError> {
+    pub fn suggest(&self, model: &Model, frames: &[&Picture], count: usize, device: &Device) -> Result<Arc<Suggested>, ApiError> {
         if !(1..=MAX_SUGGESTIONS).contains(&count) {
             return Err(ApiError::bad_request(format!("count is {count}; give from 1 to {MAX_SUGGESTIONS}")));
         }
         let started = Instant::now();
-        let frames = app.training_frames();
         if frames.is_empty() {
             return Err(unprocessable(
                 "every frame the editor was given is held out: there is no drawn frame to suggest from",
             ));
         }
-        let pictures: Vec<&Picture> = frames.iter().map(|f| &f.picture).collect();
-        let model = app.model();
         let options = SuggestOptions {
             count,
             ..SuggestOptions::default()
         };
-        let (candidates, picked) = suggest(model, &pictures, None, &options, app.device())?;
+        let (candidates, picked) = suggest(model, frames, None, &options, device)?;
         if picked.is_empty() {
             return Err(unprocessable("no candidate pose could be scored, so there is nothing to suggest"));
         }
@@ -318,21 +316,20 @@ impl Next {
         }
     }
 
-    /// Adds the drawing `bytes` (an image of the puppet's size, `name` naming it in messages) of
+    /// Adds `drawing` (read and checked by the editor, `name` naming it in messages) of
     /// suggestion `suggestion` (or of no suggestion) to the folder of drawings, making that
     /// folder first — the model's frames copied into `<model>-next/frames/` — if this editor
     /// has not. The drawing is written as `drawn_next_<k>.png` (`drawn.png` for none), never
     /// over a file there. Nothing is written when anything is wrong.
     ///
     /// # Errors
-    /// [`ApiError`] 400 for a drawing that is not an image of the puppet's size with a cut-out
-    /// character; 404 for a suggestion that does not exist; 422 when the model's folder, its
+    /// [`ApiError`] 404 for a suggestion that does not exist; 422 when the model's folder, its
     /// split or its frames are not known; 409 when `<model>-next` exists and puppet did not
     /// make it, or another process is writing into it.
-    pub fn add_drawing(&self, app: &App, suggestion: Option<usize>, name: &str, bytes: &[u8]) -> Result<String, ApiError> {
+    pub fn add_drawing(&self, drawing: &Picture, suggestion: Option<usize>, name: &str) -> Result<String, ApiError> {
         let (model_dir, _) = self.model()?;
         // The drawing is written as PNG whatever it came as: the trainer reads PNG frames.
-        let png = app.read_frame(name, bytes)?.png_bytes(Path::new(name))?;
+        let png = drawing.png_bytes(Path::new(name))?;
         let stem = match suggestion {
             Some(k) => {
                 let count = lock(&self.suggested).as_ref().map_or(0, |s| s.suggestions.len());

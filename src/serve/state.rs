@@ -8,7 +8,6 @@ use std::sync::{Arc, Mutex, RwLock};
 use burn::tensor::{Device, Tensor, TensorData};
 
 use super::error::ApiError;
-use super::motion::Played;
 use super::next::Next;
 use super::session::{lock, Session, Sessions};
 use crate::appearance::AppearanceStage;
@@ -214,6 +213,14 @@ pub struct EditorPose {
     pub latent: Vec<f32>,
 }
 
+/// A motion a page played, as its downloads draw it.
+pub struct PlayedMotion {
+    /// The outfit the poses are of.
+    pub outfit: usize,
+    /// Each frame's pose, frame pixels.
+    pub poses: Vec<Vec<[f32; 2]>>,
+}
+
 /// The web editor's state, shared by every request.
 pub struct App {
     outfits: Vec<Outfit>,
@@ -228,7 +235,7 @@ pub struct App {
     sessions: Sessions,
     next: Next,
     /// The motion played last, for downloads.
-    played: Mutex<Option<Arc<Played>>>,
+    motion: Mutex<Option<Arc<PlayedMotion>>>,
 }
 
 /// The values of a latent `[1, Z]`.
@@ -293,7 +300,7 @@ impl App {
         worn.insert(0, Outfit::new("as trained".into(), model, &trained, device)?);
         Ok(App {
             next: Next::new(options.model_folder.as_deref()),
-            played: Mutex::new(None),
+            motion: Mutex::new(None),
             outfits: worn,
             device: device.clone(),
             latents: Mutex::new(vec![None; frames.len()]),
@@ -388,17 +395,17 @@ impl App {
         &self.next
     }
 
-    /// Keeps `played` as the motion played last.
-    pub fn keep_played(&self, played: Arc<Played>) {
-        *lock(&self.played) = Some(played);
+    /// Keeps `poses` (of outfit `outfit`, frame pixels) as the motion played last.
+    pub fn keep_motion(&self, outfit: usize, poses: Vec<Vec<[f32; 2]>>) {
+        *lock(&self.motion) = Some(Arc::new(PlayedMotion { outfit, poses }));
     }
 
     /// The motion played last.
     ///
     /// # Errors
     /// [`ApiError`] 404 before any motion was played.
-    pub fn played(&self) -> std::result::Result<Arc<Played>, ApiError> {
-        lock(&self.played)
+    pub fn motion(&self) -> std::result::Result<Arc<PlayedMotion>, ApiError> {
+        lock(&self.motion)
             .clone()
             .ok_or_else(|| ApiError::not_found("no motion has been played yet: load a BVH file first"))
     }
