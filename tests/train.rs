@@ -483,6 +483,49 @@ fn training_from_the_prior_follows_its_fits_for_the_guided_steps() {
     );
 }
 
+/// An untrained fit that counts its calls: the rest pose for every frame.
+#[derive(Debug, Default)]
+struct CountingFit(std::sync::atomic::AtomicUsize);
+
+impl puppet::train::guide::UntrainedFit for CountingFit {
+    fn fit(&self, model: &puppet::Model, frames: &[&puppet::Picture], _: &dyn puppet::Progress) -> puppet::Result<Vec<Vec<[f32; 2]>>> {
+        self.0.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+        Ok(frames.iter().map(|_| model.puppet.rest_vertices()).collect())
+    }
+}
+
+/// The training frames are fitted once for the guided steps: a run paused inside them fits them
+/// again when resumed, one resumed past them does not.
+#[test]
+fn a_run_resumed_past_the_guided_steps_does_not_fit_its_frames_again() {
+    let tmp = tempfile::tempdir().unwrap();
+    let seq = synth(tmp.path(), 4, "64x64");
+    let cfg = config(
+        tmp.path(),
+        "guided",
+        &seq,
+        "steps = 10\ncheckpoint_every = 1\n[train.guide]\nweight = 10.0\nuntil = 0.3\n",
+    );
+    let config = puppet::TrainConfig::load(&cfg).unwrap();
+    let fit = std::sync::Arc::new(CountingFit::default());
+    let run = |resume: bool, pause_at: Option<u64>| {
+        let options = puppet::TrainOptions {
+            resume,
+            pause_at,
+            guide: Some(fit.clone()),
+            ..puppet::TrainOptions::default()
+        };
+        puppet::train(&config, &options, &puppet::Silent).unwrap()
+    };
+    let calls = || fit.0.load(std::sync::atomic::Ordering::Relaxed);
+    run(false, Some(2));
+    assert_eq!(calls(), 1);
+    run(true, Some(5));
+    assert_eq!(calls(), 2, "resumed at step 2 of 3 guided ones: fitted again");
+    assert!(run(true, None).finished);
+    assert_eq!(calls(), 2, "resumed at step 5, past the guided steps: not fitted");
+}
+
 /// A config that turns the guide on, trained through the library without a fit to guide by, is
 /// refused by name before anything is written.
 #[test]

@@ -206,7 +206,9 @@ pub fn train(config: &TrainConfig, options: &TrainOptions, progress: &dyn Progre
         model.net = start.net_for(&model)?;
     }
     let pick = |idx: &[usize]| idx.iter().map(|&i| &frames.frames[i]).collect::<Vec<_>>();
-    let guide = if config.train.guide.is_off() {
+    // A run resumed past the guided steps needs no fits.
+    let resumed_at = run.previous().map_or(0, |c| c.state.step);
+    let guide = if !config.train.guide.shown_at(resumed_at, config.train.steps) {
         None
     } else {
         let fitter = options.guide.as_ref().ok_or_else(|| {
