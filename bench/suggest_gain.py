@@ -1,6 +1,6 @@
 #!/usr/bin/env python3
-"""The table of bench/suggest_gain.sh: per selector, the held-out error after the tenth frame and
-its gain over the control (the same continuation on the nine frames alone), mean over every
+"""The table of bench/suggest_gain.sh: per selector, the held-out error after the added frame and
+its gain over the control (the same continuation on the training frames alone), mean over every
 character and seed; then suggest's gain as a multiple of random's and farthest-first's.
 
     python3 bench/suggest_gain.py runs/suggest-gain
@@ -11,7 +11,7 @@ import sys
 
 VARIANTS = ["none", "misread", "coverage", "distance", "random"]
 NAMES = {
-    "none": "control (9 frames)",
+    "none": "control (the training frames alone)",
     "misread": "suggest (misread)",
     "coverage": "suggest (coverage)",
     "distance": "farthest first",

@@ -2,17 +2,18 @@
 # Issue 57's suggest figure (docs/results.md "Suggest"): which tenth drawing teaches a model most?
 #
 # For each generator character (seeds CHARS) and training seed (SEEDS):
-#   train/  9 drawn frames, independent random poses (APES §5.1 ranges);
+#   train/  TRAIN (9) drawn frames, independent random poses (APES §5.1 ranges);
 #   pool/   32 more such frames: the drawings the artist could add, with their true poses;
 #   test/   16 more: the fixed held-out motion.
-# A base model trains on the 9 frames (BASE_STEPS). One pool frame is added, chosen by
+# A base model trains on those frames (BASE_STEPS). One pool frame is added, chosen by
 # `puppet suggest` (misread), by `puppet suggest --by distance` (farthest pose first) and at
-# random, and by `puppet suggest --by coverage`; `puppet train --from base` continues on the 10
-# frames for MORE_STEPS, and a control continues on the 9 alone for the same steps. Each model's test fit (default and one-pass) is
+# random, and by `puppet suggest --by coverage`; `puppet train --from base` continues on the
+# TRAIN + 1 frames for MORE_STEPS, and a control continues on the TRAIN alone for the same steps. Each model's test fit (default and one-pass) is
 # scored by `puppet eval`; a selector's gain is the control's error less its own.
 # bench/suggest_gain.py turns the reports into the table.
 #
 #   bash bench/suggest_gain.sh            # about 45 min on the 2-core machine, idle
+#   TRAIN=5 OUT=runs/suggest-gain-5 bash bench/suggest_gain.sh   # one frame added to five
 #   python3 bench/suggest_gain.py runs/suggest-gain
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -22,6 +23,7 @@ BASE_STEPS=${BASE_STEPS:-1200}
 MORE_STEPS=${MORE_STEPS:-400}
 CHARS=${CHARS:-"31 32 33 34 35"}
 SEEDS=${SEEDS:-"1 2"}
+TRAIN=${TRAIN:-9}
 POOL=32
 
 synth() { # OUT SEED MOTION_SEED FRAMES
@@ -30,7 +32,7 @@ synth() { # OUT SEED MOTION_SEED FRAMES
 
 for c in $CHARS; do
     d=$OUT/char-$c
-    synth "$d/train" "$c" $((c * 10 + 1)) 9
+    synth "$d/train" "$c" $((c * 10 + 1)) "$TRAIN"
     synth "$d/pool" "$c" $((c * 10 + 2)) $POOL
     synth "$d/test" "$c" $((c * 10 + 3)) 16
     for s in $SEEDS; do
@@ -48,7 +50,7 @@ input_size = 64
 
 [train]
 steps = $BASE_STEPS
-batch = 9
+batch = $TRAIN
 learning_rate = 1e-4
 learning_rate_end = 1e-5
 sigma = [4.0, 0.5]

@@ -10,13 +10,15 @@ use std::sync::Arc;
 
 use anyhow::Context as _;
 use puppet::appearance::AppearanceStage;
+use puppet::fit::{FitOptions, DEFAULT_LATENT_STEPS, DEFAULT_VERTEX_STEPS};
 use puppet::model::Model;
+use puppet::parts::learn::TrainedNet;
 use puppet::progress::Progress as _;
 use puppet::puppet::artwork;
 use puppet::puppet::build::BuildOptions;
 use puppet::rig::outfit::dress;
 use puppet::rig::RigOptions;
-use puppet::serve::{folder_frames, model_frames, model_outfits, App, ServeOptions};
+use puppet::serve::{folder_frames, model_frames, model_outfits, App, ServeOptions, UploadPrior};
 
 use super::args::LatentFitArgs;
 use super::Session;
@@ -65,6 +67,15 @@ pub struct ServeArgs {
     /// appearance train`), beside the render, and download those frames.
     #[arg(long)]
     pub appearance: bool,
+    /// Fit an uploaded frame by the network alone. By default it is also fitted by the prior
+    /// puppet ships (as `puppet fit --puppet`) and that fit pulled onto the model's manifold,
+    /// and the session starts from whichever draws closer to the frame (about a second more
+    /// per upload).
+    #[arg(long)]
+    pub no_prior: bool,
+    /// Another prior than the built-in one: a `puppet prior train` run folder.
+    #[arg(long, value_name = "DIR", conflicts_with = "no_prior")]
+    pub prior_net: Option<PathBuf>,
     #[command(flatten)]
     pub fit: LatentFitArgs,
 }
@@ -86,6 +97,14 @@ pub fn run(args: ServeArgs, s: &Session) -> anyhow::Result<()> {
     let model = Model::load(&dir, &device)?;
     let fit = args.fit.options(&dir)?;
     let mut options = ServeOptions::new(fit).with_model_folder(&dir);
+    if !args.no_prior {
+        let net = match &args.prior_net {
+            Some(run) => TrainedNet::load(run, &device)?,
+            None => puppet::prior::shipped(&device)?,
+        };
+        let zero_shot = FitOptions::for_model(&dir, DEFAULT_LATENT_STEPS, DEFAULT_VERTEX_STEPS)?;
+        options = options.with_prior(UploadPrior::new(net, zero_shot));
+    }
     if args.appearance {
         options = options.with_appearance(AppearanceStage::load(&dir, &model, &device)?);
     }

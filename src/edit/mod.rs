@@ -17,6 +17,7 @@ pub mod manifold_path;
 pub mod pin;
 pub mod pin_overlay;
 pub mod pose;
+pub mod prior_start;
 pub mod retarget;
 pub mod suggest;
 pub mod timing;

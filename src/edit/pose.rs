@@ -43,6 +43,7 @@ use crate::objective::arap_op::arap_loss;
 use crate::objective::{joint_loss, regularised_triangles};
 use crate::picture::Picture;
 use crate::progress::Progress;
+use crate::puppet::Puppet;
 use crate::render::animation::{write_poses, AnimationWriter};
 
 /// Settings of the latent optimisation (eq. 8–9).
@@ -493,6 +494,18 @@ impl<'m> PoseEditor<'m> {
         }
         Ok(loss)
     }
+}
+
+/// The most body vertices [`body_pins`] pins: enough to hold every layer's shape, few enough
+/// that the pins' matrix stays small.
+const MAX_BODY_PINS: usize = 256;
+
+/// The body vertices that pin a whole pose when one is pulled onto the learned manifold (a
+/// retargeted pose, the prior's fit of a frame): every one, or evenly spaced ones past 256.
+pub fn body_pins(puppet: &Puppet) -> Vec<usize> {
+    let free = puppet.free_vertices();
+    let stride = free.len().div_ceil(MAX_BODY_PINS).max(1);
+    free.into_iter().step_by(stride).collect()
 }
 
 /// Checks `z0` is one latent of `model`'s size.

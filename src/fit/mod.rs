@@ -493,6 +493,28 @@ pub fn fit_latents(model: &Model, frames: &[&Picture], options: &FitOptions, dev
     analysis.latents(model.net.encode(analysis.images.clone()))
 }
 
+/// `options.latent_steps` Adam steps on the latents `z0` `[B, Z]` of `frames` (one batch): the
+/// latent stage of [`fit_latents`] from a start found another way (a pose pulled onto the
+/// manifold).
+///
+/// # Errors
+/// As [`fit_latents`]; [`Error::Mismatch`] if `z0` is not one latent of the model's size per
+/// frame.
+pub fn refine_latents(model: &Model, frames: &[&Picture], z0: Tensor<2>, options: &FitOptions, device: &Device) -> Result<Tensor<2>> {
+    let expected = [frames.len(), model.config.latent];
+    if z0.dims() != expected {
+        return Err(Error::mismatch(
+            "the starting latents",
+            format!("{:?}", z0.dims()),
+            format!("{expected:?}"),
+        ));
+    }
+    if options.latent_steps == 0 || frames.is_empty() {
+        return Ok(z0);
+    }
+    Analysis::new(model, frames, options, device)?.latents(z0)
+}
+
 /// Analysis by synthesis of a batch of frames: the training objective through the soft
 /// rasterizer, lowered by Adam on the latents or on the vertices.
 struct Analysis<'a> {

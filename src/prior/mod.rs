@@ -22,7 +22,7 @@ use crate::fit::{fit_from, fit_latents, FitOptions};
 use crate::metrics::l2;
 use crate::model::deformation::DeformationNetConfig;
 use crate::model::Model;
-use crate::parts::learn::{train_correspondence, LearnConfig, LearnOptions, LearnSummary, PairSource, TrainedNet};
+use crate::parts::learn::{train_correspondence, LearnConfig, LearnOptions, LearnSummary, PairSource};
 use crate::parts::matching::{features, nearest_scored, Foreground, WorkingPose};
 use crate::parts::pose::SheetPose;
 use crate::picture::{ImageLimits, Picture};
@@ -35,6 +35,10 @@ use crate::train::guide::UntrainedFit;
 use crate::train::trainer::load_or_build_puppet;
 use crate::user_file;
 use pairs::{MixedPairs, PosedPairs};
+
+/// The prior is a correspondence network of the kind `puppet parts` uses (its trained weights
+/// and working size).
+pub use crate::parts::learn::TrainedNet;
 
 /// Added to the seed for the held-out pairs: poses no training pair shows.
 const HELD_OUT_SEEDS: u64 = 1 << 40;

@@ -29,6 +29,7 @@ use crate::edit::pose::PoseOptions;
 use crate::edit::retarget::View;
 use crate::edit::timing::{eased_t, spacing_t, Easing};
 use crate::picture::Picture;
+use crate::prior::Start;
 use crate::puppet::LayerKind;
 use crate::render::Background;
 
@@ -277,9 +278,16 @@ struct SessionRequest {
 
 async fn session(State(app): State<Arc<App>>, body: Result<Bytes, BytesRejection>) -> Result<Response, ApiError> {
     let request: SessionRequest = parse(body)?;
-    let (id, fit) = blocking(move || app.open_session(request.frame, request.outfit)).await?;
+    let (id, fit, choice) = blocking(move || app.open_session(request.frame, request.outfit)).await?;
     let mut out = pose_json(Some(&fit), &fit);
     out["session"] = json!(id);
+    if let Some(c) = choice {
+        let start = match c.start {
+            Start::Prior => "prior",
+            Start::Network => "network",
+        };
+        out["start"] = json!({ "kept": start, "network_l2": c.network_l2, "prior_l2": c.prior_l2 });
+    }
     Ok(Json(out).into_response())
 }
 

@@ -21,7 +21,8 @@
 //! GET  /api/frames                {frames: [{index, name, held_out, picture}]}
 //! GET  /api/frame/<i>.png         frame i
 //! POST /api/upload?name=<file>    the body an image of the puppet's size → {index, picture}
-//! POST /api/session               {frame, outfit?} → {session, fitted, fitted_latent, vertices, latent}
+//! POST /api/session               {frame, outfit?} → {session, fitted, fitted_latent, vertices, latent,
+//!                                 start?: {kept: prior|network, network_l2, prior_l2} for an upload}
 //! POST /api/drag                  {session, pins: [{from: [x, y], to: [x, y]}], alpha_reg?,
 //!                                 alpha_joints?, steps?} → {vertices, pin_error, latent}
 //! POST /api/latent                {session, latent, sliders?} → {vertices, latent}
@@ -75,7 +76,7 @@ mod tests;
 pub use api::router;
 pub use error::ApiError;
 pub use guard::HostGuard;
-pub use state::{folder_frames, model_frames, model_outfits, App, EditorFrame, EditorPose, Outfit, ServeOptions};
+pub use state::{folder_frames, model_frames, model_outfits, App, EditorFrame, EditorPose, Outfit, ServeOptions, UploadPrior};
 
 /// Serves the editor of `app` on `listener` until the process ends, to the names of the address
 /// it listens on ([`HostGuard`]).

@@ -16,11 +16,13 @@ use crate::edit::inbetween::Interpolator;
 use crate::edit::manifold_path::Waypoints;
 use crate::edit::pin::Pin;
 use crate::edit::pose::{Dragged, PoseEditor, PoseOptions};
+use crate::edit::prior_start::{starting_latent, StartChoice, PULL_STEPS};
 use crate::error::{Error, Result};
 use crate::fit::frame::{check_cut_out, frame_check};
 use crate::fit::{fit_latents, FitOptions};
 use crate::model::Model;
 use crate::picture::Picture;
+use crate::prior::TrainedNet;
 use crate::puppet::sequence::Frames;
 use crate::puppet::Puppet;
 use crate::rig::outfit::outfits_in;
@@ -59,6 +61,35 @@ pub struct ServeOptions {
     /// The model's folder, if drawings of suggested poses may join its frames and continue it
     /// ([`super::next`]).
     pub model_folder: Option<PathBuf>,
+    /// The prior an uploaded frame is also fitted from, if any.
+    pub prior: Option<Arc<UploadPrior>>,
+}
+
+/// How an uploaded frame — a drawing the network may never have seen a pose like — is also
+/// fitted from the character-agnostic prior ([`crate::edit::prior_start`]).
+#[derive(Debug)]
+pub struct UploadPrior {
+    /// The prior.
+    pub net: TrainedNet,
+    /// The latent-free stages of its zero-shot fit.
+    pub zero_shot: FitOptions,
+    /// The drag that pulls that fit onto the model's manifold.
+    pub pull: PoseOptions,
+}
+
+impl UploadPrior {
+    /// Fitting from `net` by `zero_shot`'s latent-free stages, pulled by [`PULL_STEPS`] drag
+    /// steps.
+    pub fn new(net: TrainedNet, zero_shot: FitOptions) -> Self {
+        UploadPrior {
+            net,
+            zero_shot,
+            pull: PoseOptions {
+                steps: PULL_STEPS,
+                ..PoseOptions::default()
+            },
+        }
+    }
 }
 
 impl ServeOptions {
@@ -69,6 +100,15 @@ impl ServeOptions {
             max_sessions: DEFAULT_MAX_SESSIONS,
             appearance: None,
             model_folder: None,
+            prior: None,
+        }
+    }
+
+    /// The same options also fitting each uploaded frame from `prior`.
+    pub fn with_prior(self, prior: UploadPrior) -> Self {
+        ServeOptions {
+            prior: Some(Arc::new(prior)),
+            ..self
         }
     }
 
@@ -203,6 +243,10 @@ impl Outfit {
     }
 }
 
+/// A frame's fitted latent `[1, Z]`, and for an upload fitted with the prior beside the
+/// network, which start was kept.
+type FrameFit = (Tensor<2>, Option<StartChoice>);
+
 /// A pose as a page receives it: vertices in frame pixels (the session outfit's numbering) and
 /// the latent that decodes to them (a page keeps it to undo to).
 #[derive(Clone, Debug)]
@@ -229,8 +273,8 @@ pub struct App {
     /// The frames given, then those pages uploaded.
     frames: RwLock<Vec<Arc<EditorFrame>>>,
     given: usize,
-    /// Per frame, its fitted latent once a page has asked for it.
-    latents: Mutex<Vec<Option<Tensor<2>>>>,
+    /// Per frame, its fit once a page has asked for it.
+    latents: Mutex<Vec<Option<FrameFit>>>,
     directions: LatentDirections,
     sessions: Sessions,
     next: Next,
@@ -458,31 +502,41 @@ impl App {
     }
 
     /// Frame `k`'s fitted latent `[1, Z]` (fitted by the model as trained, which draws what the
-    /// frames show; kept for the next request). Blocks for the fit.
+    /// frames show; an uploaded frame also from the prior, if the options have one, the closer
+    /// start kept and said), kept for the next request. Blocks for the fit.
     ///
     /// # Errors
-    /// [`ApiError`] 404 for a frame that does not exist; as [`fit_latents`].
-    fn fitted_latent(&self, frame: usize) -> std::result::Result<Tensor<2>, ApiError> {
+    /// [`ApiError`] 404 for a frame that does not exist; as [`fit_latents`] and
+    /// [`starting_latent`].
+    fn fitted_latent(&self, frame: usize) -> std::result::Result<FrameFit, ApiError> {
         let f = self.frame(frame)?;
         let mut latents = lock(&self.latents);
-        if let Some(z) = &latents[frame] {
-            return Ok(z.clone());
+        if let Some(fit) = &latents[frame] {
+            return Ok(fit.clone());
         }
-        let z =
-            fit_latents(self.model(), &[&f.picture], &self.options.fit, &self.device).map_err(|e| ApiError::from(e.with_frame(&f.name)))?;
-        latents[frame] = Some(z.clone());
-        Ok(z)
+        let (model, options) = (self.model(), &self.options.fit);
+        let fit = match &self.options.prior {
+            Some(prior) if frame >= self.given => {
+                starting_latent(&prior.net, model, &f.picture, options, &prior.zero_shot, &prior.pull, &self.device)
+                    .map(|(z, choice)| (z, Some(choice)))
+            }
+            _ => fit_latents(model, &[&f.picture], options, &self.device).map(|z| (z, None)),
+        }
+        .map_err(|e| ApiError::from(e.with_frame(&f.name)))?;
+        latents[frame] = Some(fit.clone());
+        Ok(fit)
     }
 
     /// Fits frame `frame` and opens a session on it drawn in outfit `outfit` (closing the least
-    /// recently used session beyond [`ServeOptions::max_sessions`]); returns its id and the fit.
+    /// recently used session beyond [`ServeOptions::max_sessions`]); returns its id, the fit,
+    /// and for an upload fitted with the prior beside the network, which start was kept.
     /// Blocks for the fit: call it off the async runtime's threads.
     ///
     /// # Errors
     /// [`ApiError`] 404 for a frame or an outfit that does not exist; as [`fit_latents`].
-    pub fn open_session(&self, frame: usize, outfit: usize) -> std::result::Result<(String, EditorPose), ApiError> {
+    pub fn open_session(&self, frame: usize, outfit: usize) -> std::result::Result<(String, EditorPose, Option<StartChoice>), ApiError> {
         let worn = self.outfit(outfit)?.model.clone();
-        let z0 = self.fitted_latent(frame)?;
+        let (z0, choice) = self.fitted_latent(frame)?;
         let editor = PoseEditor::shared_at(worn, z0, &self.device)?;
         let fit = EditorPose {
             vertices: editor.fitted().to_vec(),
@@ -493,7 +547,7 @@ impl App {
             outfit,
             sources: Vec::new(),
         });
-        Ok((id, fit))
+        Ok((id, fit, choice))
     }
 
     /// Drags session `id`'s pins (`(source, target)`, frame pixels) by the latent optimisation
@@ -611,7 +665,7 @@ impl App {
     /// [`Interpolator::manifold_rigid_poses`].
     pub fn inbetween(&self, a: usize, b: usize, t: &[f32], outfit: usize) -> std::result::Result<Vec<Vec<[f32; 2]>>, ApiError> {
         let outfit = self.outfit(outfit)?;
-        let (za, zb) = (self.fitted_latent(a)?, self.fitted_latent(b)?);
+        let (za, zb) = (self.fitted_latent(a)?.0, self.fitted_latent(b)?.0);
         let interpolator = Interpolator::between(&outfit.model, za, zb, &self.device).through(&outfit.waypoints);
         Ok(interpolator.manifold_rigid_poses(&outfit.model, t)?)
     }

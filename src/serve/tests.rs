@@ -19,6 +19,11 @@ use crate::model::appearance::AppearanceNetConfig;
 /// (an untrained one predicts the rest pose whatever the latent, so no drag could move it),
 /// offering three frames: the rest render, a copy shifted 2 px right (held out) and one 3 px up.
 fn app(max_sessions: usize) -> Arc<App> {
+    app_with(ServeOptions::new(FitOptions::one_pass()).with_max_sessions(max_sessions))
+}
+
+/// [`app`] with `options`.
+fn app_with(options: ServeOptions) -> Arc<App> {
     let (model, device) = crate::edit::test_support::small_model(0.3);
     let rest = model.puppet.rest_vertices();
     let shifted: Vec<[f32; 2]> = rest.iter().map(|v| [v[0] + 2.0, v[1]]).collect();
@@ -31,7 +36,6 @@ fn app(max_sessions: usize) -> Arc<App> {
             picture: crate::render::render_crisp(&model.puppet, v, 48, 40).unwrap(),
         })
         .collect();
-    let options = ServeOptions::new(FitOptions::one_pass()).with_max_sessions(max_sessions);
     Arc::new(App::new(model, frames, Vec::new(), options, &device).unwrap())
 }
 
@@ -528,6 +532,43 @@ async fn an_uploaded_frame_can_be_posed_and_in_betweened_and_bad_uploads_are_ref
 
 /// The app of [`app`] with an untrained appearance stage (pix2pix's random weights: its redraw
 /// is not the render, so a route answering with the render would be caught).
+#[tokio::test]
+async fn an_upload_is_also_fitted_from_the_prior_and_starts_from_the_closer_fit() {
+    let zero_shot = FitOptions {
+        latent_steps: 0,
+        vertex_steps: 10,
+        ..FitOptions::default()
+    };
+    let prior = super::UploadPrior::new(crate::prior::shipped(&crate::backend::device()).unwrap(), zero_shot);
+    let app = app_with(
+        ServeOptions::new(FitOptions {
+            latent_steps: 5,
+            ..FitOptions::one_pass()
+        })
+        .with_prior(prior),
+    );
+    let puppet = &app.model().puppet;
+    let left: Vec<[f32; 2]> = puppet.rest_vertices().iter().map(|v| [v[0] - 2.0, v[1]]).collect();
+    let frame = crate::render::render_crisp(puppet, &left, 48, 40).unwrap();
+    let (status, answer) = upload(&app, "?name=left.png", frame.png_bytes(std::path::Path::new("left.png")).unwrap()).await;
+    assert_eq!(status, StatusCode::OK, "{answer}");
+    let (status, opened, _) = call(&app, "POST", "/api/session", r#"{"frame": 3}"#).await;
+    assert_eq!(status, StatusCode::OK, "{opened}");
+    let start = &opened["start"];
+    let (network, prior) = (start["network_l2"].as_f64().unwrap(), start["prior_l2"].as_f64().unwrap());
+    assert_eq!(start["kept"], json!(if prior < network { "prior" } else { "network" }), "{start}");
+    // The session starts from the pose kept: it renders at the smaller of the two L2s.
+    let fitted = crate::render::render_crisp(puppet, &points(&opened["fitted"]), 48, 40).unwrap();
+    let drawn = crate::metrics::l2(&fitted, &frame);
+    assert!(
+        (drawn - network.min(prior)).abs() <= 1e-3 * drawn.max(1.0),
+        "{drawn} against {start}"
+    );
+    // A frame the editor was given is fitted by the network alone, as before.
+    let (_, given, _) = call(&app, "POST", "/api/session", r#"{"frame": 0}"#).await;
+    assert!(given.get("start").is_none() && given.get("fitted").is_some(), "{given}");
+}
+
 fn app_with_appearance() -> (Arc<App>, AppearanceStage) {
     let (model, device) = crate::edit::test_support::small_model(0.3);
     let config = AppearanceNetConfig::new(model.letterbox.size as usize).with_max_channels(16);

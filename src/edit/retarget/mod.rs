@@ -29,7 +29,7 @@ use std::path::{Path, PathBuf};
 use burn::tensor::Device;
 use rayon::prelude::*;
 
-use crate::edit::pose::{PoseEditor, PoseOptions};
+use crate::edit::pose::{body_pins, PoseEditor, PoseOptions};
 use crate::error::{Error, Result};
 use crate::model::Model;
 use crate::picture::Picture;
@@ -838,7 +838,7 @@ impl<'p> Retargeter<'p> {
             .map(|p| render_crisp(&model.puppet, p, w, h))
             .collect::<Result<_>>()?;
         let z = model.encode(&pictures.iter().collect::<Vec<_>>(), device)?;
-        let pins = pinned_vertices(&model.puppet);
+        let pins = body_pins(&model.puppet);
         let runs = 2.min(rigid.len());
         let n = rigid.len();
         let pulled: Vec<Vec<Vec<[f32; 2]>>> = (0..runs)
@@ -861,17 +861,6 @@ impl<'p> Retargeter<'p> {
             .collect::<Result<_>>()?;
         Ok(pulled.into_iter().flatten().collect())
     }
-}
-
-/// The most vertices pinned in a pull: enough to hold every layer's shape, few enough that
-/// the pins' matrix stays small.
-const MAX_PINS: usize = 256;
-
-/// The body vertices a pull pins: every one, or evenly spaced ones past [`MAX_PINS`].
-fn pinned_vertices(puppet: &Puppet) -> Vec<usize> {
-    let free = puppet.free_vertices();
-    let stride = free.len().div_ceil(MAX_PINS).max(1);
-    free.into_iter().step_by(stride).collect()
 }
 
 /// Plays `motion` on `model`'s character (module doc): the plain turns, and unless
