@@ -71,6 +71,10 @@ def main(root):
         ratio = lambda a, b: mean(gains[a]) / mean(gains[b]) if mean(gains[b]) > 0 else float("nan")
         for v in (v for v in ["misread", "coverage"] if v in gains):
             print(f"  {NAMES[v]}'s gain / random's: {ratio(v, 'random'):.2f}   / farthest-first's: {ratio(v, 'distance'):.2f}")
+            # Paired: the same run's base model and control, so the spread between runs cancels.
+            for other in ["random", "distance"]:
+                d = [a - b for a, b in zip(gains[v], gains[other])]
+                print(f"    {NAMES[v]} less {NAMES[other]}, paired: {mean(d):+.3f} ± {standard_error(d):.3f} (ahead in {sum(x > 0 for x in d)}/{n})")
         print()
 
 

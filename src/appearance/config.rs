@@ -33,7 +33,7 @@ use serde::{Deserialize, Serialize};
 use crate::error::{Error, Result};
 use crate::model::appearance::AppearanceNetConfig;
 use crate::objective::adversarial::AdversarialLoss;
-use crate::train::config::load_checked;
+use crate::train::config::{load_checked, parse_checked};
 use crate::train::optim::AdamSettings;
 
 /// The networks' width.
@@ -126,6 +126,14 @@ impl AppearanceConfig {
     /// As [`load_checked`], with [`AppearanceConfig::validate`].
     pub fn load(path: &Path) -> Result<Self> {
         load_checked(path, Self::validate)
+    }
+
+    /// Parses and checks the text of the config file `path` (which only names it in errors).
+    ///
+    /// # Errors
+    /// As [`parse_checked`], with [`AppearanceConfig::validate`].
+    pub fn parse(text: &str, path: &Path) -> Result<Self> {
+        parse_checked(text, path, Self::validate)
     }
 
     /// Checks every value.

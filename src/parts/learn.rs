@@ -30,7 +30,7 @@ use crate::picture::Picture;
 use crate::progress::Progress;
 use crate::rng::Rng;
 use crate::train::checkpoint::{Checkpoint, OPTIMIZER, WEIGHTS};
-use crate::train::config::{canonical, load_checked};
+use crate::train::config::{canonical, parse_checked};
 use crate::train::harness::{Plan, Run, RunFolder};
 use crate::train::log::{log_row, plot_rows};
 use crate::train::optim::{adam, learning_rate_at, optimizer_bytes, optimizer_from_bytes, AdamSettings};
@@ -163,9 +163,18 @@ impl LearnConfig {
     /// Reads and checks a config file.
     ///
     /// # Errors
-    /// As [`load_checked`], with [`LearnConfig::validate`].
+    /// [`Error::Io`]/[`Error::Limit`] naming the file; as [`LearnConfig::parse`].
     pub fn load(path: &Path) -> Result<Self> {
-        let mut config: LearnConfig = load_checked(path, Self::validate)?;
+        Self::parse(&user_file::read_text(path, user_file::CONFIG)?, path)
+    }
+
+    /// Parses and checks the text of the config file `path` (a relative `start` is made
+    /// relative to its folder).
+    ///
+    /// # Errors
+    /// As [`parse_checked`], with [`LearnConfig::validate`].
+    pub fn parse(text: &str, path: &Path) -> Result<Self> {
+        let mut config: LearnConfig = parse_checked(text, path, Self::validate)?;
         config.resolve_paths(path);
         Ok(config)
     }

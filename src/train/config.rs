@@ -277,8 +277,15 @@ fn default_test_fraction() -> f64 {
 /// parse or an unknown key; what `validate` reports (e.g. [`Error::Setting`] for a value out of
 /// range), about `path`.
 pub fn load_checked<T: serde::de::DeserializeOwned>(path: &Path, validate: impl FnOnce(&T) -> Result<()>) -> Result<T> {
-    let text = user_file::read_text(path, user_file::CONFIG)?;
-    let config: T = toml::from_str(&text).map_err(|e| Error::format(path, e.to_string()))?;
+    parse_checked(&user_file::read_text(path, user_file::CONFIG)?, path, validate)
+}
+
+/// [`load_checked`] of the text of the config file `path` (which only names it in errors).
+///
+/// # Errors
+/// As [`load_checked`], but for reading the file.
+pub fn parse_checked<T: serde::de::DeserializeOwned>(text: &str, path: &Path, validate: impl FnOnce(&T) -> Result<()>) -> Result<T> {
+    let config: T = toml::from_str(text).map_err(|e| Error::format(path, e.to_string()))?;
     validate(&config).map_err(|e| e.with_path(path))?;
     Ok(config)
 }
