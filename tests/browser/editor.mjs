@@ -167,6 +167,16 @@ async function playInbetween({ page, state, check, must, shot }) {
     const now = await page.locator('#thumbs img').count();
     must('an uploaded frame joins the thumbnails', now === frames + 1, `${frames} → ${now} (#error: ${await page.locator('#error').textContent()})`);
     frames = now;
+    // Posing the upload: it is also fitted from the prior, and the status line says which start
+    // the session kept, with both L2s.
+    const before = await page.locator('#frame').inputValue();
+    await setInput(page, 'frame', frames - 1);
+    await page.waitForFunction(() => /^fitted .* (from the prior's fit|by the network) \(L2 \d+/.test(document.getElementById('status').textContent),
+      null, { timeout: 30000 }).catch(() => {});
+    const said = await page.locator('#status').textContent();
+    check('a session on the upload says which start it kept', /(from the prior's fit|by the network) \(L2 \d+/.test(said), said);
+    await setInput(page, 'frame', before);
+    await page.waitForFunction(() => /^fitted /.test(document.getElementById('status').textContent), null, { timeout: 30000 }).catch(() => {});
   }
   if (frames < 2) return `${frames} frame(s): an in-between needs two`;
   // Keys by thumbnail: a click for the first, shift-click for the second (the upload, if any).
