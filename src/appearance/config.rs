@@ -33,8 +33,9 @@ use serde::{Deserialize, Serialize};
 use crate::error::{Error, Result};
 use crate::model::appearance::AppearanceNetConfig;
 use crate::objective::adversarial::AdversarialLoss;
-use crate::train::config::{load_checked, parse_checked};
+use crate::train::config::parse_checked;
 use crate::train::optim::AdamSettings;
+use crate::user_file;
 
 /// The networks' width.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
@@ -123,9 +124,9 @@ impl AppearanceConfig {
     /// Reads and checks a config file.
     ///
     /// # Errors
-    /// As [`load_checked`], with [`AppearanceConfig::validate`].
+    /// [`Error::Io`]/[`Error::Limit`] naming the file; as [`AppearanceConfig::parse`].
     pub fn load(path: &Path) -> Result<Self> {
-        load_checked(path, Self::validate)
+        Self::parse(&user_file::read_text(path, user_file::CONFIG)?, path)
     }
 
     /// Parses and checks the text of the config file `path` (which only names it in errors).

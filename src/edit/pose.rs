@@ -498,10 +498,11 @@ impl<'m> PoseEditor<'m> {
 
 /// The most body vertices [`body_pins`] pins: enough to hold every layer's shape, few enough
 /// that the pins' matrix stays small.
-const MAX_BODY_PINS: usize = 256;
+pub const MAX_BODY_PINS: usize = 256;
 
 /// The body vertices that pin a whole pose when one is pulled onto the learned manifold (a
-/// retargeted pose, the prior's fit of a frame): every one, or evenly spaced ones past 256.
+/// retargeted pose, the prior's fit of a frame): every one, or evenly spaced ones past
+/// [`MAX_BODY_PINS`].
 pub fn body_pins(puppet: &Puppet) -> Vec<usize> {
     let free = puppet.free_vertices();
     let stride = free.len().div_ceil(MAX_BODY_PINS).max(1);

@@ -269,21 +269,13 @@ fn default_test_fraction() -> f64 {
     0.3
 }
 
-/// Reads the TOML config file `path` as a `T` and checks it with `validate` (the appearance
-/// stage's and the parts network's configs, which hold no paths to resolve).
+/// Parses `text`, the TOML config file `path` (which only names it in errors), as a `T` and
+/// checks it with `validate` (the appearance stage's and the parts network's configs, which hold
+/// no paths to resolve).
 ///
 /// # Errors
-/// [`Error::Io`]/[`Error::Limit`] naming the file; [`Error::Format`] for TOML that does not
-/// parse or an unknown key; what `validate` reports (e.g. [`Error::Setting`] for a value out of
-/// range), about `path`.
-pub fn load_checked<T: serde::de::DeserializeOwned>(path: &Path, validate: impl FnOnce(&T) -> Result<()>) -> Result<T> {
-    parse_checked(&user_file::read_text(path, user_file::CONFIG)?, path, validate)
-}
-
-/// [`load_checked`] of the text of the config file `path` (which only names it in errors).
-///
-/// # Errors
-/// As [`load_checked`], but for reading the file.
+/// [`Error::Format`] naming `path` for TOML that does not parse or an unknown key; what
+/// `validate` reports (e.g. [`Error::Setting`] for a value out of range), about `path`.
 pub fn parse_checked<T: serde::de::DeserializeOwned>(text: &str, path: &Path, validate: impl FnOnce(&T) -> Result<()>) -> Result<T> {
     let config: T = toml::from_str(text).map_err(|e| Error::format(path, e.to_string()))?;
     validate(&config).map_err(|e| e.with_path(path))?;
