@@ -5,11 +5,10 @@
 //! manifold), of the plain turns (`--rigid`), and of B's training frame nearest each true frame
 //! (image L2, neural-puppet.md Figure 5's last row).
 //!
+//! `bench/retarget_synth.sh` draws the pairs, trains their models and runs this both ways:
+//!
 //! ```sh
-//! puppet synth -o A --seed 3 --motion-seed 7 --frames 48 --size 128x128
-//! puppet synth -o B --seed 5 --motion-seed 7 --frames 48 --size 128x128
-//! puppet train b.toml          # B's frames, B/template; see docs/results.md "Retargeting"
-//! cargo run --release --example retarget_synth -- A B model-b
+//! cargo run --release --example retarget_synth -- A B MODEL_OF_B
 //! ```
 
 #![allow(clippy::print_stdout)] // the example reports on stdout
