@@ -1,7 +1,9 @@
 #!/usr/bin/env python3
 """The table of bench/suggest_gain.sh: per selector, the held-out error after the added frame and
 its gain over the control (the same continuation on the training frames alone), mean over every
-character and seed; then suggest's gain as a multiple of random's and farthest-first's.
+character and seed; then suggest's gain as a multiple of random's and farthest-first's. Where a
+run's continuations were repeated with other training seeds (bench/suggest_gain.sh's
+AGAIN_SEEDS), each variant's error in that run is the mean over those seeds.
 
     python3 bench/suggest_gain.py runs/suggest-gain
 """
@@ -50,11 +52,20 @@ def main(root):
             del reports["coverage"]
         picks = {v: (run / f"{v}-frames.index").read_text().strip() for v in reports if v != "none"}
         same += picks["misread"] == picks["distance"]
-        print(f"{run.parent.name}/{run.name}: picks {picks}")
-        for fit in ["default", "one-pass"]:
+        # The continuations again with other training seeds (AGAIN_SEEDS), where every variant has
+        # both reports: each variant's error is then the mean over the seeds.
+        again = [
+            d
+            for d in run.glob("again-seed-*")
+            if all((d / v / f"eval{suffix}.json").is_file() for v in reports for suffix in ["", "-one-pass"])
+        ]
+        print(f"{run.parent.name}/{run.name}: picks {picks}, training seeds {1 + len(again)}")
+        for fit, suffix in [("default", ""), ("one-pass", "-one-pass")]:
             for metric in ["vertex_error", "l2"]:
                 for v in reports:
-                    rows.setdefault((fit, metric), {}).setdefault(v, []).append(reports[v][fit][metric])
+                    values = [reports[v][fit][metric]]
+                    values += [json.load(open(d / v / f"eval{suffix}.json"))["mean"][metric] for d in again]
+                    rows.setdefault((fit, metric), {}).setdefault(v, []).append(mean(values))
     n = len(rows[("default", "l2")]["none"])
     print(f"\n{n} runs; suggest and farthest-first picked the same frame in {same}\n")
     for (fit, metric), by in rows.items():

@@ -14,6 +14,7 @@
 #
 #   bash bench/suggest_gain.sh            # about 45 min on the 2-core machine, idle
 #   TRAIN=5 OUT=runs/suggest-gain-5 bash bench/suggest_gain.sh   # one frame added to five
+#   AGAIN_SEEDS="2 3 4 5" … bash bench/suggest_gain.sh    # each continuation with 4 more seeds (~3 h)
 #   python3 bench/suggest_gain.py runs/suggest-gain
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -24,7 +25,9 @@ MORE_STEPS=${MORE_STEPS:-400}
 CHARS=${CHARS:-"31 32 33 34 35"}
 SEEDS=${SEEDS:-"1 2"}
 TRAIN=${TRAIN:-9}
+AGAIN_SEEDS=${AGAIN_SEEDS:-}
 POOL=32
+source bench/continue.sh
 
 synth() { # OUT SEED MOTION_SEED FRAMES
     [ -f "$1/truth.json" ] || "$P" -q synth -o "$1" --seed "$2" --motion-seed "$3" --motion random --frames "$4" --size 128x128
@@ -81,10 +84,16 @@ EOF
                 cp "$src" "$v-frames/added.png"
                 echo "$k" >"$v-frames.index"
             fi
-            [ -f "$v/done" ] || { "$P" -q train --from "$r/base" --frames "$v-frames" -o "$v" --steps "$MORE_STEPS" --resume 2>/dev/null ||
-                "$P" -q train --from "$r/base" --frames "$v-frames" -o "$v" --steps "$MORE_STEPS"; touch "$v/done"; }
-            [ -f "$v/eval.json" ] || "$P" -q eval --model "$v" "$d/test" --all -o "$v/eval.json" >/dev/null
-            [ -f "$v/eval-one-pass.json" ] || "$P" -q eval --model "$v" "$d/test" --all --one-pass -o "$v/eval-one-pass.json" >/dev/null
+            continue_and_score "$r" "$v" "$v-frames"
+        done
+        # The same continuations with other training seeds: one run's gain is mostly the seed's luck
+        # (docs/results.md "Suggest"), and bench/suggest_gain.py averages over the seeds.
+        for s in $AGAIN_SEEDS; do
+            mkdir -p "$r/again-seed-$s"
+            sed "s/^seed = .*/seed = $s/" "$r/none/train.toml" >"$r/again-seed-$s/train.toml"
+            for variant in none misread coverage distance random; do
+                continue_and_score "$r" "$r/again-seed-$s/$variant" "$r/$variant-frames" "$r/again-seed-$s/train.toml"
+            done
         done
     done
 done

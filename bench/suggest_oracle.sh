@@ -20,6 +20,8 @@ POOL=32
 AGAIN=${AGAIN:-}
 AGAIN_SEEDS=${AGAIN_SEEDS:-}
 
+source bench/continue.sh
+
 continue_with() { # RUN DIR ADDED_POOL_INDEX_OR_none [CONFIG]
     local r=$1 v=$2 k=$3 d
     d=$(dirname "$r")
@@ -27,9 +29,7 @@ continue_with() { # RUN DIR ADDED_POOL_INDEX_OR_none [CONFIG]
     mkdir -p "$v-frames"
     cp "$d"/train/frames/*.png "$v-frames/"
     [ "$k" = none ] || cp "$(ls "$d"/pool/frames/*.png | sort -V | sed -n "$((k + 1))p")" "$v-frames/added.png"
-    [ -f "$v/done" ] || { "$P" -q train ${4:-} --from "$r/base" --frames "$v-frames" -o "$v" --steps "$MORE_STEPS" --resume 2>/dev/null ||
-        "$P" -q train ${4:-} --from "$r/base" --frames "$v-frames" -o "$v" --steps "$MORE_STEPS"; touch "$v/done"; }
-    "$P" -q eval --model "$v" "$d/test" --all -o "$v/eval.json" >/dev/null
+    ONE_PASS=0 continue_and_score "$r" "$v" "$v-frames" "${4:-}"
     rm -rf "$v/checkpoints" "$v-frames"
 }
 
