@@ -5,6 +5,8 @@
 # criterion's ranking of the pool can be set against the gain each frame actually gives.
 # Frames a selector already picked reuse that selector's continuation.
 #
+# FRAMES limits the pool frames continued to those listed (default: all 32).
+#
 # How much of a frame's gain is the frame and how much the training's seed: for the control and
 # each pool frame in AGAIN, the continuation runs again with each seed in AGAIN_SEEDS (the base
 # model stays the one of seed 1), in again-seed-S/.
@@ -19,6 +21,7 @@ MORE_STEPS=${MORE_STEPS:-400}
 POOL=32
 AGAIN=${AGAIN:-}
 AGAIN_SEEDS=${AGAIN_SEEDS:-}
+FRAMES=${FRAMES:-$(seq 0 $((POOL - 1)))}
 
 source bench/continue.sh
 
@@ -39,7 +42,7 @@ for r in $RUNS; do
         [ -f "$r/rank-$criterion/suggestions.json" ] ||
             "$P" -q suggest --model "$r/base" -n $POOL --separation 0 --pool "$d/pool" --by $criterion -o "$r/rank-$criterion" >/dev/null
     done
-    for k in $(seq 0 $((POOL - 1))); do
+    for k in $FRAMES; do
         v=$r/pool-$k
         [ -f "$v/eval.json" ] && continue
         for picked in "$r"/*-frames.index; do
