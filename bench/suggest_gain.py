@@ -11,6 +11,8 @@ import json
 import pathlib
 import sys
 
+from suggest_oracle import variance_split
+
 VARIANTS = ["none", "misread", "coverage", "distance", "random"]
 NAMES = {
     "none": "control (the training frames alone)",
@@ -37,6 +39,7 @@ def main(root):
     if not runs:
         sys.exit(f"{root}: no finished runs")
     rows = {}  # (fit, metric) -> variant -> [value per run]
+    by_seed = {}  # fit -> per run with training seeds repeated: variant -> [vertex error per seed]
     same = 0
     for run in runs:
         reports = {}
@@ -62,10 +65,14 @@ def main(root):
         print(f"{run.parent.name}/{run.name}: picks {picks}, training seeds {1 + len(again)}")
         for fit, suffix in [("default", ""), ("one-pass", "-one-pass")]:
             for metric in ["vertex_error", "l2"]:
+                per_seed = {}
                 for v in reports:
                     values = [reports[v][fit][metric]]
                     values += [json.load(open(d / v / f"eval{suffix}.json"))["mean"][metric] for d in again]
                     rows.setdefault((fit, metric), {}).setdefault(v, []).append(mean(values))
+                    per_seed[v] = values
+                if metric == "vertex_error" and again:
+                    by_seed.setdefault(fit, []).append(per_seed)
     n = len(rows[("default", "l2")]["none"])
     print(f"\n{n} runs; suggest and farthest-first picked the same frame in {same}\n")
     for (fit, metric), by in rows.items():
@@ -87,6 +94,24 @@ def main(root):
                 d = [a - b for a, b in zip(gains[v], gains[other])]
                 print(f"    {NAMES[v]} less {NAMES[other]}, paired: {mean(d):+.3f} ± {standard_error(d):.3f} (ahead in {sum(x > 0 for x in d)}/{n})")
         print()
+    seed_noise(by_seed)
+
+
+def seed_noise(by_seed):
+    """How much of one continuation's measured gain is its pick and how much its training seed,
+    per fit, over the runs whose continuations ran with every seed."""
+    for fit, runs in by_seed.items():
+        n = min(len(r["none"]) for r in runs)
+        split = []
+        for r in runs:
+            gains = [[c - x for c, x in zip(r["none"][:n], r[v][:n])] for v in r if v != "none"]
+            seed_mean = [mean([g[i] for g in gains]) for i in range(n)]
+            split.append([[x - m for x, m in zip(g, seed_mean)] for g in gains])
+        within, between, icc = variance_split(split)
+        control_sd = mean([standard_error(r["none"][:n]) * n**0.5 for r in runs])
+        print(f"{fit} fit, vertex error, {len(runs)} runs × {n} training seeds: a pick's gain varies {within**0.5:.3f} px "
+              f"from seed to seed, the picks' own gains {between**0.5:.3f} px; share that is the pick (ICC) {icc:+.2f}; "
+              f"the control's sd over seeds {control_sd:.3f} px")
 
 
 if __name__ == "__main__":

@@ -90,6 +90,28 @@ def main(runs):
         seeds(run, gains, scores)
 
 
+def variance_split(runs):
+    """One-way analysis of variance of gains measured under several training seeds. `runs` is a
+    list of runs, each a list of groups (a frame or a selector), each group its gains under the
+    same n seeds, with each seed's mean over the run's groups already taken out (a seed can move
+    every group alike; paired comparisons cancel that). Returns the variance of one measurement
+    around its group's mean (within), the variance of the groups' own gains (between), and the
+    intraclass correlation: the share of one measurement's variance that is its group."""
+    n = len(runs[0][0])
+    between_sum = within_sum = 0.0
+    between_df = within_df = 0
+    for groups in runs:
+        means = [sum(g) / n for g in groups]
+        grand = sum(means) / len(means)
+        between_sum += n * sum((m - grand) ** 2 for m in means)
+        between_df += len(means) - 1
+        within_sum += sum((x - sum(g) / n) ** 2 for g in groups for x in g)
+        within_df += len(groups) * (n - 1)
+    between, within = between_sum / between_df, within_sum / within_df
+    icc = (between - within) / (between + (n - 1) * within)
+    return within, max(0.0, (between - within) / n), icc
+
+
 def seeds(run, gains, scores):
     """The gains of the frames continued again with other seeds, and the variance between frames."""
     again = sorted(
@@ -117,13 +139,8 @@ def seeds(run, gains, scores):
     seed_mean = [sum(g[i] for g in full.values()) / len(full) for i in range(n)]
     print("    mean over these frames by seed: " + "  ".join(f"{m:+.3f}" for m in seed_mean))
     full = {k: [x - m for x, m in zip(g, seed_mean)] for k, g in full.items()}
-    means = [sum(g) / n for g in full.values()]
-    grand = sum(means) / len(means)
-    between = n * sum((m - grand) ** 2 for m in means) / (len(means) - 1)
-    within = sum((x - sum(g) / n) ** 2 for g in full.values() for x in g) / (len(full) * (n - 1))
-    icc = (between - within) / (between + (n - 1) * within)
-    frame_sd = max(0.0, (between - within) / n) ** 0.5
-    print(f"    mean gain over these frames and seeds {sum(seed_mean) / n:+.3f}; sd of the frames' own gains {frame_sd:.3f}")
+    within, between, icc = variance_split([list(full.values())])
+    print(f"    mean gain over these frames and seeds {sum(seed_mean) / n:+.3f}; sd of the frames' own gains {between ** 0.5:.3f}")
     ks = sorted(full)
     for name, by in scores.items():
         print(f"    {name:24} rho against the frames' mean gains {spearman([by[k] for k in ks], [sum(full[k]) / n for k in ks]):+.2f}")
