@@ -14,7 +14,7 @@
 #
 #   bash bench/suggest_gain.sh            # about 45 min on the 2-core machine, idle
 #   TRAIN=5 OUT=runs/suggest-gain-5 bash bench/suggest_gain.sh   # one frame added to five
-#   AGAIN_SEEDS="2 3 4 5" … bash bench/suggest_gain.sh    # each continuation with 4 more seeds (~3 h)
+#   AGAIN_SEEDS="2 3 4 5" … bash bench/suggest_gain.sh    # each continuation with 4 more seeds (~3 h, ~12 GB of weights)
 #   python3 bench/suggest_gain.py runs/suggest-gain
 set -euo pipefail
 cd "$(dirname "$0")/.."

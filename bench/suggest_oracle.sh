@@ -33,7 +33,7 @@ continue_with() { # RUN DIR ADDED_POOL_INDEX_OR_none [CONFIG]
     cp "$d"/train/frames/*.png "$v-frames/"
     [ "$k" = none ] || cp "$(ls "$d"/pool/frames/*.png | sort -V | sed -n "$((k + 1))p")" "$v-frames/added.png"
     ONE_PASS=0 continue_and_score "$r" "$v" "$v-frames" "${4:-}"
-    rm -rf "$v/checkpoints" "$v-frames"
+    rm -rf "$v-frames"
 }
 
 for r in $RUNS; do
