@@ -72,7 +72,13 @@ fn suggestions_are_written_and_a_drawing_of_one_continues_the_model() {
     assert_eq!(pose.vertices.len(), built.vertex_count());
     let listing: serde_json::Value = serde_json::from_slice(&std::fs::read(t.join("next/suggestions.json")).unwrap()).unwrap();
     assert_eq!(listing["suggestions"].as_array().unwrap().len(), 2, "{listing}");
-    assert_eq!(listing["criterion"], "misread");
+    assert_eq!(listing["criterion"], "coverage");
+    // The tiny model reads its frames alike, so the search widened past --margin's 25° to find
+    // poses 12° from every drawn one.
+    assert!(listing["margin_degrees"].as_f64().unwrap() > 25.0, "{listing}");
+    for pick in listing["suggestions"].as_array().unwrap() {
+        assert!(pick["distance_degrees"].as_f64().unwrap() >= 12.0, "{pick}");
+    }
 
     // The generator as the artist: its frames' true poses ranked, farthest first too.
     let pool = synth(t, "pool", 4, 5);
@@ -148,6 +154,9 @@ fn bad_pools_and_starts_are_refused_by_name_and_nothing_is_written() {
     std::fs::write(t.join("words.json"), "hello").unwrap();
     puppet(t, &["suggest", "--model", s(&model), "--pool", "words.json", "-o", "refused"]).assert_error(&["words.json"]);
     puppet(t, &["suggest", "--model", s(&model), "-n", "0", "-o", "refused"]).assert_error(&["count"]);
+    // No candidate is that far from every drawn pose, even searched widest.
+    let far = puppet(t, &["suggest", "--model", s(&model), "--separation", "60", "-o", "refused"]);
+    far.assert_error(&["60°", "from every drawn pose", "widened by 90°", "--separation"]);
     assert!(!t.join("refused").exists());
     // Continuing a model of another character.
     let other = synth_character(t, "other-seq", 9, 3, 4);

@@ -6,7 +6,7 @@ use std::time::Instant;
 
 use anyhow::Context as _;
 
-use puppet::edit::suggest::{suggest, trace_picture, Candidate, Criterion, SuggestOptions};
+use puppet::edit::suggest::{suggest, trace_picture, Candidate, Criterion, Ranking, SuggestOptions};
 use puppet::fit::frame::training_frames;
 use puppet::model::Model;
 use puppet::picture::{contact_sheet, Picture};
@@ -18,8 +18,10 @@ use super::Session;
 
 /// Suggest the poses whose drawings would teach the model most: poses near those drawn (limbs
 /// turned a little past the drawn ranges, in-betweens of drawn frames, steps along the ways the
-/// drawn frames differ), ranked by how badly the network reads its own render of each (or,
-/// with --by distance, by how far each is from every drawn pose), n different ones kept.
+/// drawn frames differ), ranked by how badly the network reads its own renders of the poses
+/// around each, beyond what the drawn frames teach already (or, with --by misread, of the pose
+/// alone; with --by distance, by how far each is from every drawn pose), n different ones kept,
+/// none next to a drawn pose.
 ///
 /// Writes into OUTPUT, best first: next_N.png (the rest art moved into the pose under its faint
 /// mesh: trace over it), next_N.json (the pose), sheet.png (all of them) and suggestions.json
@@ -43,7 +45,7 @@ pub struct SuggestArgs {
     #[arg(long, value_name = "DIR")]
     pub frames: Option<PathBuf>,
     /// What ranks a pose.
-    #[arg(long, default_value = "misread", value_name = "CRITERION")]
+    #[arg(long, default_value = "coverage", value_name = "CRITERION")]
     pub by: ByArg,
     /// Candidates made by turning limbs of drawn poses.
     #[arg(long, default_value_t = SuggestOptions::default().turned, value_name = "N")]
@@ -66,7 +68,8 @@ pub enum ByArg {
     Misread,
     /// How far the pose's limb turns are from the nearest drawn pose's (farthest first).
     Distance,
-    /// How badly the network reads the candidates around the pose, nearer ones counting more.
+    /// How badly the network reads the candidates around the pose, nearer ones counting more,
+    /// beyond what the drawn poses teach already.
     Coverage,
 }
 
@@ -103,11 +106,16 @@ pub fn run(args: SuggestArgs, s: &Session) -> anyhow::Result<()> {
         .as_deref()
         .map(|path| pool_poses(path, &model.puppet, s).with_context(|| format!("--pool {}", path.display())))
         .transpose()?;
-    let (candidates, picked) = suggest(&model, &frames.iter().collect::<Vec<_>>(), pool, &options, &device)?;
+    let ranking = suggest(&model, &frames.iter().collect::<Vec<_>>(), pool, &options, &device)?;
     let seconds = started.elapsed().as_secs_f64();
-    if picked.is_empty() {
-        anyhow::bail!("no candidate pose could be scored, so there is nothing to suggest");
+    if ranking.picked.is_empty() {
+        anyhow::bail!("{} (try a smaller --separation)", ranking.why_none(options.separation_degrees));
     }
+    let Ranking {
+        candidates,
+        picked,
+        margin_degrees,
+    } = ranking;
 
     // Everything is known to work: only now is the output folder made.
     let out = &args.output;
@@ -133,6 +141,7 @@ pub fn run(args: SuggestArgs, s: &Session) -> anyhow::Result<()> {
         "model": model_dir,
         "criterion": options.criterion,
         "candidates": candidates.len(),
+        "margin_degrees": margin_degrees,
         "drawn_frames": frames.len(),
         "suggestions": listed,
     });
@@ -142,11 +151,18 @@ pub fn run(args: SuggestArgs, s: &Session) -> anyhow::Result<()> {
     for (rank, &i) in picked.iter().enumerate() {
         let c = &candidates[i];
         s.ui.print(format!(
-            "next_{}: misread {:.2} px, {:.1}° from the nearest drawn pose ({})",
+            "next_{}: misread {:.2} px, coverage {:.1} px, {:.1}° from the nearest drawn pose ({})",
             rank + 1,
             c.misread,
+            c.coverage,
             c.distance,
             c.origin
+        ))?;
+    }
+    if let Some(m) = margin_degrees.filter(|&m| m != options.margin_degrees) {
+        s.ui.say(format!(
+            "the drawn frames read alike, so their turn ranges were widened by {m}° (--margin {}) to find poses apart from them",
+            options.margin_degrees
         ))?;
     }
     s.ui.say(format!(

@@ -11,13 +11,15 @@
 //! bends and squashes it) is read back by the network in one pass, and the score is the mean
 //! distance of the body's vertices from where the network puts them. A pose the network reads
 //! back well is one it has in effect learned; one it misreads is where a drawing teaches most.
-//! [`Criterion::Coverage`] sums the misread of the candidates around a pose, nearer ones
-//! counting more: a drawing teaches its neighbourhood. [`Criterion::Distance`], the turn-space
+//! [`Criterion::Coverage`], the default, sums the misread of the candidates around a pose,
+//! nearer ones counting more, beyond what the drawn poses teach already: a drawing teaches its
+//! neighbourhood. [`Criterion::Distance`], the turn-space
 //! distance from the nearest drawn pose (farthest first), is the baseline both are measured
 //! against (docs/results.md "Suggest").
 //!
 //! [`pick`] takes the best-scored candidates greedily, each at least a set turn-space distance
-//! from those already taken, so n suggestions are n different poses.
+//! from the drawn poses and from those already taken, so n suggestions are n poses different
+//! from each other and from what was drawn.
 
 use burn::tensor::{Device, Tensor, TensorData};
 use rayon::prelude::*;
@@ -37,13 +39,14 @@ use crate::rng::Rng;
 #[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize)]
 #[serde(rename_all = "lowercase")]
 pub enum Criterion {
-    /// The network misreads its own render of the pose (module doc): the default.
+    /// The network misreads its own render of the pose (module doc).
     Misread,
     /// The pose is far, in limb turns, from every drawn pose (farthest first).
     Distance,
     /// The candidates near the pose in turn space are misread, weighted by nearness
-    /// ([`COVERAGE_DEGREES`]): a drawing teaches its neighbourhood, so a pose among many
-    /// misread ones is worth more than a misread outlier.
+    /// ([`COVERAGE_DEGREES`]) beyond what the drawn poses already teach ([`coverage`]): a
+    /// drawing teaches its neighbourhood, so a pose among many misread ones is worth more than
+    /// a misread outlier. The default: it gains most (docs/results.md "Suggest").
     Coverage,
 }
 
@@ -75,7 +78,7 @@ impl Default for SuggestOptions {
             turned: 96,
             margin_degrees: 25.0,
             separation_degrees: 12.0,
-            criterion: Criterion::Misread,
+            criterion: Criterion::Coverage,
             seed: 1,
         }
     }
@@ -326,24 +329,33 @@ pub fn score(model: &Model, drawn_poses: &[Vec<[f32; 2]>], poses: Vec<(Vec<[f32;
         })
         .collect();
     let misread: Vec<f32> = candidates.iter().map(|c| c.misread).collect();
-    for (c, v) in candidates.iter_mut().zip(coverage(&turns, &misread)) {
+    for (c, v) in candidates.iter_mut().zip(coverage(&turns, &misread, &drawn_turns)) {
         c.coverage = v;
     }
     Ok(candidates)
 }
 
-/// Per pose (limb turns `turns[i]`), the `misread` of every pose weighted by its nearness,
-/// `exp(−d² / 2w²)` with `d` the [`turn_distance`] and `w` [`COVERAGE_DEGREES`]
-/// ([`Criterion::Coverage`]).
-pub fn coverage(turns: &[Vec<f32>], misread: &[f32]) -> Vec<f32> {
+/// Per pose (limb turns `turns[i]`), what a drawing of it would add to what the drawn poses
+/// (`drawn_turns`) already teach ([`Criterion::Coverage`]): the `misread` of every pose `q`,
+/// weighted by how much nearer the pose is to `q` than the nearest drawn pose is,
+/// `max(0, k(pose, q) − max_d k(d, q))` with `k = exp(−t² / 2w²)`, `t` the [`turn_distance`]
+/// and `w` [`COVERAGE_DEGREES`]. Without the drawn poses' share, the densest neighbourhood of
+/// suggest's own candidates, which are made around the drawn poses, would be next to a drawn one.
+pub fn coverage(turns: &[Vec<f32>], misread: &[f32], drawn_turns: &[Vec<f32>]) -> Vec<f32> {
     let width = 2.0 * COVERAGE_DEGREES * COVERAGE_DEGREES;
+    let nearness = |a: &[f32], b: &[f32]| (-turn_distance(a, b).powi(2) / width).exp();
+    let taught: Vec<f32> = turns
+        .par_iter()
+        .map(|q| drawn_turns.iter().map(|d| nearness(d, q)).fold(0.0, f32::max))
+        .collect();
     turns
         .par_iter()
         .map(|t| {
             turns
                 .iter()
                 .zip(misread)
-                .map(|(u, m)| m * (-turn_distance(t, u).powi(2) / width).exp())
+                .zip(&taught)
+                .map(|((q, m), c)| m * (nearness(t, q) - c).max(0.0))
                 .sum()
         })
         .collect()
@@ -353,10 +365,29 @@ fn distance(a: [f32; 2], b: [f32; 2]) -> f32 {
     (a[0] - b[0]).hypot(a[1] - b[1])
 }
 
-/// The indices of at most `count` candidates, best first under `criterion`, each at least
-/// `separation_degrees` in turn space ([`turn_distance`]) from those before it. Candidates
-/// whose score is not a number are never picked.
-pub fn pick(candidates: &[Candidate], measure: &LimbTurns, criterion: Criterion, count: usize, separation_degrees: f32) -> Vec<usize> {
+/// How [`pick`] chooses: the criterion, how many, and how far apart.
+#[derive(Clone, Copy, Debug)]
+pub struct Picking {
+    /// What the candidates are ranked by.
+    pub criterion: Criterion,
+    /// Candidates wanted, at most.
+    pub count: usize,
+    /// The least turn-space distance ([`turn_distance`], degrees) of a pick from each earlier
+    /// pick and from each drawn pose.
+    pub separation_degrees: f32,
+}
+
+/// The indices of at most `picking.count` candidates, best first under its criterion, each at
+/// least its separation in turn space from the poses already drawn (`drawn_poses`: a pose next
+/// to a drawn one is drawn in effect) and from the picks before it. Candidates whose score is
+/// not a number are never picked; for a puppet without limbs, which has no turn distance, only
+/// the best is.
+pub fn pick(candidates: &[Candidate], drawn_poses: &[Vec<[f32; 2]>], measure: &LimbTurns, picking: Picking) -> Vec<usize> {
+    let Picking {
+        criterion,
+        count,
+        separation_degrees,
+    } = picking;
     let mut order: Vec<usize> = (0..candidates.len())
         .filter(|&i| candidates[i].score(criterion).is_finite())
         .collect();
@@ -367,12 +398,19 @@ pub fn pick(candidates: &[Candidate], measure: &LimbTurns, criterion: Criterion,
             .then(a.cmp(&b))
     });
     let turns: Vec<Vec<f32>> = candidates.iter().map(|c| measure.of(&c.pose)).collect();
+    // Without limbs every pose is 0° from every other: only the best is taken.
+    let mut taken: Vec<Vec<f32>> = if measure.limbs().is_empty() {
+        Vec::new()
+    } else {
+        drawn_poses.iter().map(|p| measure.of(p)).collect()
+    };
     let mut picked: Vec<usize> = Vec::new();
     for i in order {
         if picked.len() == count {
             break;
         }
-        if picked.iter().all(|&j| turn_distance(&turns[i], &turns[j]) >= separation_degrees) {
+        if taken.iter().all(|t| turn_distance(&turns[i], t) >= separation_degrees) {
+            taken.push(turns[i].clone());
             picked.push(i);
         }
     }
@@ -394,9 +432,48 @@ pub fn trace_picture(puppet: &Puppet, pose: &[[f32; 2]]) -> Result<Picture> {
     Ok(trace_over(puppet, pose, &render_crisp(puppet, pose, w, h)?, scale))
 }
 
+/// What [`suggest`] found.
+#[derive(Clone, Debug)]
+pub struct Ranking {
+    /// Every scored candidate of the search that was kept.
+    pub candidates: Vec<Candidate>,
+    /// The picked candidates (indices into `candidates`), best first.
+    pub picked: Vec<usize>,
+    /// The degrees the drawn turn ranges were widened by to make the candidates: the options'
+    /// margin, or a wider one when too few candidates were apart from the drawn poses
+    /// ([`WIDEST_MARGIN_DEGREES`]); `None` for a pool.
+    pub margin_degrees: Option<f32>,
+}
+
+impl Ranking {
+    /// Why nothing was picked, in words, for an empty `picked`: no candidate could be scored,
+    /// or none is `separation_degrees` from every drawn pose.
+    pub fn why_none(&self, separation_degrees: f32) -> String {
+        if self.candidates.iter().all(|c| !c.misread.is_finite()) {
+            return "no candidate pose could be scored, so there is nothing to suggest".into();
+        }
+        let widened = match self.margin_degrees {
+            Some(m) => format!(", even with the drawn turn ranges widened by {m}°"),
+            None => String::new(),
+        };
+        format!(
+            "none of the {} candidate poses is {separation_degrees}° in limb turns (the separation) from every drawn pose{widened}: the drawn frames already show them",
+            self.candidates.len()
+        )
+    }
+}
+
+/// The widest margin [`suggest`] doubles the options' margin up to when too few of its
+/// candidates are new poses: a model whose drawn frames read alike (one early in training)
+/// makes candidates all next to them.
+pub const WIDEST_MARGIN_DEGREES: f32 = 90.0;
+
 /// The suggestions for `model`, whose drawn frames are `frames`: the candidates of
 /// [`candidate_poses`] (or `pool`, poses the caller gives, instead), scored, and the picked
-/// ones best first. Returns every scored candidate and the picks (indices into it).
+/// ones best first ([`pick`]). When fewer than the options' count of the candidates are apart
+/// from the drawn poses and each other, the search is made again with the margin doubled, up
+/// to [`WIDEST_MARGIN_DEGREES`], and the search with the most picks (the narrowest of equals;
+/// the widest when none picks any) is kept.
 ///
 /// # Errors
 /// As [`SuggestOptions::validate`], [`Drawn::read`], [`candidate_poses`] and [`score`].
@@ -406,21 +483,53 @@ pub fn suggest(
     pool: Option<Vec<Vec<[f32; 2]>>>,
     options: &SuggestOptions,
     device: &Device,
-) -> Result<(Vec<Candidate>, Vec<usize>)> {
+) -> Result<Ranking> {
     options.validate()?;
     let drawn = Drawn::read(model, frames, device)?;
-    let poses = match pool {
-        Some(pool) => pool
+    let measure = LimbTurns::new(&model.puppet);
+    let picking = Picking {
+        criterion: options.criterion,
+        count: options.count,
+        separation_degrees: options.separation_degrees,
+    };
+    let rank = |poses, margin_degrees| -> Result<Ranking> {
+        let candidates = score(model, &drawn.poses, poses, device)?;
+        let picked = pick(&candidates, &drawn.poses, &measure, picking);
+        Ok(Ranking {
+            candidates,
+            picked,
+            margin_degrees,
+        })
+    };
+    if let Some(pool) = pool {
+        let poses = pool
             .into_iter()
             .enumerate()
             .map(|(index, p)| (p, Origin::Given { index }))
-            .collect(),
-        None => candidate_poses(model, &drawn, options, device)?,
-    };
-    let candidates = score(model, &drawn.poses, poses, device)?;
-    let measure = LimbTurns::new(&model.puppet);
-    let picked = pick(&candidates, &measure, options.criterion, options.count, options.separation_degrees);
-    Ok((candidates, picked))
+            .collect();
+        return rank(poses, None);
+    }
+    let mut margin = options.margin_degrees;
+    let mut best: Option<Ranking> = None;
+    loop {
+        let widened = SuggestOptions {
+            margin_degrees: margin,
+            ..options.clone()
+        };
+        let ranking = rank(candidate_poses(model, &drawn, &widened, device)?, Some(margin))?;
+        if best
+            .as_ref()
+            .is_none_or(|b| b.picked.is_empty() || ranking.picked.len() > b.picked.len())
+        {
+            best = Some(ranking);
+        }
+        let found = best.as_ref().map_or(0, |b| b.picked.len());
+        // A puppet without limbs makes its candidates from latents only: no margin changes them.
+        if found == options.count || margin >= WIDEST_MARGIN_DEGREES || measure.limbs().is_empty() {
+            return Ok(best.expect("one search was made"));
+        }
+        margin = (2.0 * margin).clamp(1.0, WIDEST_MARGIN_DEGREES);
+    }
 }
 
 #[cfg(test)]
@@ -455,10 +564,16 @@ mod tests {
         let deg = |a: f32| vec![a.to_radians()];
         // Three poses close together, each misread by 2 px; one far off, misread by 4 px.
         let turns = [deg(0.0), deg(5.0), deg(-5.0), deg(90.0)];
-        let scores = coverage(&turns, &[2.0, 2.0, 2.0, 4.0]);
+        let scores = coverage(&turns, &[2.0, 2.0, 2.0, 4.0], &[]);
         assert!(scores[0] > scores[3] && scores[0] > scores[1], "{scores:?}");
         // Alone, a pose's coverage is its misread.
         assert!((scores[3] - 4.0).abs() < 1e-3, "{scores:?}");
+        // With 0° drawn, the crowd is taught already: the outlier is worth more, the crowd's
+        // centre nothing, and each pose of the crowd gets only what it adds beyond the drawing.
+        let taught = coverage(&turns, &[2.0, 2.0, 2.0, 4.0], &[deg(0.0)]);
+        assert!(taught[3] > taught[1] && taught[0].abs() < 1e-6, "{taught:?}");
+        assert!((taught[3] - 4.0).abs() < 1e-2, "{taught:?}");
+        assert!(taught[1] > 0.0 && taught[1] < 0.5 * scores[1], "{taught:?}");
     }
 
     #[test]
@@ -482,11 +597,23 @@ mod tests {
         ];
         let n = measure.limbs().len() as f32;
         let separation = 5.0 / n.sqrt();
-        assert_eq!(pick(&candidates, &measure, Criterion::Misread, 3, separation), vec![1, 3, 0]);
-        assert_eq!(pick(&candidates, &measure, Criterion::Misread, 1, separation), vec![1]);
+        let by = |criterion, count, separation_degrees| Picking {
+            criterion,
+            count,
+            separation_degrees,
+        };
+        let misread = |count, separation| pick(&candidates, &[], &measure, by(Criterion::Misread, count, separation));
+        assert_eq!(misread(3, separation), vec![1, 3, 0]);
+        assert_eq!(misread(1, separation), vec![1]);
         // Without a separation, the near-twin is taken; the unscored one never is.
-        assert_eq!(pick(&candidates, &measure, Criterion::Misread, 9, 0.0), vec![1, 2, 3, 0]);
-        assert_eq!(pick(&candidates, &measure, Criterion::Distance, 2, separation), vec![0, 4]);
+        assert_eq!(misread(9, 0.0), vec![1, 2, 3, 0]);
+        assert_eq!(pick(&candidates, &[], &measure, by(Criterion::Distance, 2, separation)), vec![0, 4]);
+        // A pose next to a drawn one is drawn in effect: with −38° drawn, −40° is passed over.
+        let drawn = [turned(-38.0)];
+        assert_eq!(
+            pick(&candidates, &drawn, &measure, by(Criterion::Misread, 3, separation)),
+            vec![1, 0]
+        );
     }
 
     #[test]
@@ -533,10 +660,25 @@ mod tests {
         )
         .unwrap();
         assert!(given[0].distance < 1e-3, "{}", given[0].distance);
-        let (all, picked) = suggest(&model, &frames, None, &options, &device).unwrap();
-        assert!(!picked.is_empty() && picked.len() <= 3 && picked.iter().all(|&i| i < all.len()));
+        let found = suggest(&model, &frames, None, &options, &device).unwrap();
+        let picked = &found.picked;
+        assert!(!picked.is_empty() && picked.len() <= 3 && picked.iter().all(|&i| i < found.candidates.len()));
         let same = suggest(&model, &frames, None, &options, &device).unwrap();
-        assert_eq!(same.1, picked, "seeded");
+        assert_eq!(&same.picked, picked, "seeded");
+        assert!(picked.iter().all(|&i| found.candidates[i].distance >= options.separation_degrees));
+        // The untrained network reads both frames as the rest pose, so no candidate turned at
+        // most 10° past them is 30° from a drawn pose: the search widens until it finds one.
+        let narrow = SuggestOptions {
+            margin_degrees: 10.0,
+            separation_degrees: 30.0,
+            count: 1,
+            ..options.clone()
+        };
+        let widened = suggest(&model, &frames, None, &narrow, &device).unwrap();
+        let margin = widened.margin_degrees.unwrap();
+        assert!(margin > 10.0 && margin <= WIDEST_MARGIN_DEGREES, "{margin}");
+        assert_eq!(widened.picked.len(), 1);
+        assert!(widened.candidates[widened.picked[0]].distance >= 30.0);
     }
 
     #[test]

@@ -641,6 +641,7 @@ async fn suggest(State(app): State<Arc<App>>, body: Result<Bytes, BytesRejection
                 "picture": format!("/api/suggestion/{k}.png"),
                 "vertices": c.pose,
                 "misread_px": c.misread,
+                "coverage_px": c.coverage,
                 "distance_degrees": c.distance,
                 "origin": c.origin.to_string(),
                 "origin_detail": c.origin,

@@ -17,7 +17,7 @@ use serde::Serialize;
 use super::error::ApiError;
 use super::session::lock;
 use crate::atomic_file::{record, Outputs};
-use crate::edit::suggest::{suggest, trace_picture, Candidate, SuggestOptions};
+use crate::edit::suggest::{suggest, trace_picture, Candidate, Ranking, SuggestOptions};
 use crate::model::{Model, ModelFolder};
 use crate::picture::Picture;
 use crate::progress::Progress;
@@ -267,10 +267,11 @@ impl Next {
             count,
             ..SuggestOptions::default()
         };
-        let (candidates, picked) = suggest(model, frames, None, &options, device)?;
-        if picked.is_empty() {
-            return Err(unprocessable("no candidate pose could be scored, so there is nothing to suggest"));
+        let ranking = suggest(model, frames, None, &options, device)?;
+        if ranking.picked.is_empty() {
+            return Err(unprocessable(ranking.why_none(options.separation_degrees)));
         }
+        let Ranking { candidates, picked, .. } = ranking;
         let suggestions = picked
             .iter()
             .map(|&i| {

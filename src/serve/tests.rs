@@ -756,6 +756,7 @@ async fn suggestions_come_with_their_poses_words_and_trace_over_pictures() {
     for (k, s) in list.iter().enumerate() {
         assert_eq!(points(&s["vertices"]).len(), puppet.vertex_count());
         assert!(s["misread_px"].as_f64().unwrap().is_finite() && s["distance_degrees"].as_f64().unwrap() >= 0.0);
+        assert!(s["coverage_px"].as_f64().unwrap() >= 0.0);
         // The tiny character has no joints: in-betweens and latent directions only.
         let origin = s["origin"].as_str().unwrap();
         assert!(origin.contains("drawn frames"), "{origin}");
