@@ -365,29 +365,13 @@ fn distance(a: [f32; 2], b: [f32; 2]) -> f32 {
     (a[0] - b[0]).hypot(a[1] - b[1])
 }
 
-/// How [`pick`] chooses: the criterion, how many, and how far apart.
-#[derive(Clone, Copy, Debug)]
-pub struct Picking {
-    /// What the candidates are ranked by.
-    pub criterion: Criterion,
-    /// Candidates wanted, at most.
-    pub count: usize,
-    /// The least turn-space distance ([`turn_distance`], degrees) of a pick from each earlier
-    /// pick and from each drawn pose.
-    pub separation_degrees: f32,
-}
-
-/// The indices of at most `picking.count` candidates, best first under its criterion, each at
-/// least its separation in turn space from the poses already drawn (`drawn_poses`: a pose next
-/// to a drawn one is drawn in effect) and from the picks before it. Candidates whose score is
-/// not a number are never picked; for a puppet without limbs, which has no turn distance, only
-/// the best is.
-pub fn pick(candidates: &[Candidate], drawn_poses: &[Vec<[f32; 2]>], measure: &LimbTurns, picking: Picking) -> Vec<usize> {
-    let Picking {
-        criterion,
-        count,
-        separation_degrees,
-    } = picking;
+/// The indices of at most `options.count` candidates, best first under its criterion, each at
+/// least its separation in turn space ([`turn_distance`]) from the poses already drawn
+/// (`drawn_poses`: a pose next to a drawn one is drawn in effect) and from the picks before it.
+/// Candidates whose score is not a number are never picked; for a puppet without limbs, which
+/// has no turn distance, only the best is.
+pub fn pick(candidates: &[Candidate], drawn_poses: &[Vec<[f32; 2]>], measure: &LimbTurns, options: &SuggestOptions) -> Vec<usize> {
+    let (criterion, count, separation_degrees) = (options.criterion, options.count, options.separation_degrees);
     let mut order: Vec<usize> = (0..candidates.len())
         .filter(|&i| candidates[i].score(criterion).is_finite())
         .collect();
@@ -487,14 +471,9 @@ pub fn suggest(
     options.validate()?;
     let drawn = Drawn::read(model, frames, device)?;
     let measure = LimbTurns::new(&model.puppet);
-    let picking = Picking {
-        criterion: options.criterion,
-        count: options.count,
-        separation_degrees: options.separation_degrees,
-    };
     let rank = |poses, margin_degrees| -> Result<Ranking> {
         let candidates = score(model, &drawn.poses, poses, device)?;
-        let picked = pick(&candidates, &drawn.poses, &measure, picking);
+        let picked = pick(&candidates, &drawn.poses, &measure, options);
         Ok(Ranking {
             candidates,
             picked,
@@ -597,21 +576,25 @@ mod tests {
         ];
         let n = measure.limbs().len() as f32;
         let separation = 5.0 / n.sqrt();
-        let by = |criterion, count, separation_degrees| Picking {
+        let by = |criterion, count, separation_degrees| SuggestOptions {
             criterion,
             count,
             separation_degrees,
+            ..SuggestOptions::default()
         };
-        let misread = |count, separation| pick(&candidates, &[], &measure, by(Criterion::Misread, count, separation));
+        let misread = |count, separation| pick(&candidates, &[], &measure, &by(Criterion::Misread, count, separation));
         assert_eq!(misread(3, separation), vec![1, 3, 0]);
         assert_eq!(misread(1, separation), vec![1]);
         // Without a separation, the near-twin is taken; the unscored one never is.
         assert_eq!(misread(9, 0.0), vec![1, 2, 3, 0]);
-        assert_eq!(pick(&candidates, &[], &measure, by(Criterion::Distance, 2, separation)), vec![0, 4]);
+        assert_eq!(
+            pick(&candidates, &[], &measure, &by(Criterion::Distance, 2, separation)),
+            vec![0, 4]
+        );
         // A pose next to a drawn one is drawn in effect: with −38° drawn, −40° is passed over.
         let drawn = [turned(-38.0)];
         assert_eq!(
-            pick(&candidates, &drawn, &measure, by(Criterion::Misread, 3, separation)),
+            pick(&candidates, &drawn, &measure, &by(Criterion::Misread, 3, separation)),
             vec![1, 0]
         );
     }
