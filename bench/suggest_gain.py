@@ -13,11 +13,15 @@ import sys
 
 from suggest_oracle import variance_split
 
-VARIANTS = ["none", "misread", "coverage", "distance", "random"]
+VARIANTS = ["none", "misread", "coverage", "typical", "distance", "random"]
+# The suggest criteria: a run may lack any of them (bench/suggest_gain.sh's VARIANTS), never the
+# control and the two baselines.
+CRITERIA = ["misread", "coverage", "typical"]
 NAMES = {
     "none": "control (the training frames alone)",
     "misread": "suggest (misread)",
     "coverage": "suggest (coverage)",
+    "typical": "suggest (typical)",
     "distance": "farthest first",
     "random": "random",
 }
@@ -40,7 +44,7 @@ def main(root):
         sys.exit(f"{root}: no finished runs")
     rows = {}  # (fit, metric) -> variant -> [value per run]
     by_seed = {}  # fit -> per run with training seeds repeated: variant -> [vertex error per seed]
-    same = 0
+    same = {}  # criterion -> runs where it picked farthest-first's frame
     for run in runs:
         reports = {}
         for v in VARIANTS:
@@ -49,12 +53,21 @@ def main(root):
                 for fit, suffix in [("default", ""), ("one-pass", "-one-pass")]
                 if (run / v / f"eval{suffix}.json").is_file()
             }
-        if any(len(reports[v]) < 2 for v in VARIANTS if v != "coverage"):
+        if any(len(reports[v]) < 2 for v in VARIANTS if v not in CRITERIA):
             continue
-        if len(reports["coverage"]) < 2:
-            del reports["coverage"]
+        for v in CRITERIA:
+            if len(reports[v]) < 2:
+                del reports[v]
         picks = {v: (run / f"{v}-frames.index").read_text().strip() for v in reports if v != "none"}
-        same += picks["misread"] == picks["distance"]
+        # Every criterion's pick, continued or not (the pick-* folders of bench/suggest_gain.sh).
+        all_picks = {
+            p.name[len("pick-"):]: json.load(open(p / "suggestions.json"))["suggestions"][0]["origin"]["index"]
+            for p in sorted(run.glob("pick-*"))
+            if (p / "suggestions.json").is_file()
+        }
+        for v in reports:
+            if v in CRITERIA:
+                same[v] = same.get(v, 0) + (picks[v] == picks["distance"])
         # The continuations again with other training seeds (AGAIN_SEEDS), where every variant has
         # both reports: each variant's error is then the mean over the seeds.
         again = [
@@ -62,7 +75,7 @@ def main(root):
             for d in run.glob("again-seed-*")
             if all((d / v / f"eval{suffix}.json").is_file() for v in reports for suffix in ["", "-one-pass"])
         ]
-        print(f"{run.parent.name}/{run.name}: picks {picks}, training seeds {1 + len(again)}")
+        print(f"{run.parent.name}/{run.name}: continued {picks}, every pick {all_picks}, training seeds {1 + len(again)}")
         for fit, suffix in [("default", ""), ("one-pass", "-one-pass")]:
             for metric in ["vertex_error", "l2"]:
                 per_seed = {}
@@ -74,7 +87,13 @@ def main(root):
                 if metric == "vertex_error" and again:
                     by_seed.setdefault(fit, []).append(per_seed)
     n = len(rows[("default", "l2")]["none"])
-    print(f"\n{n} runs; suggest and farthest-first picked the same frame in {same}\n")
+    # A criterion continued in only some runs cannot be paired run by run with the others.
+    for by in rows.values():
+        for v in [v for v in by if len(by[v]) != n]:
+            print(f"{NAMES[v]}: continued in {len(by[v])} of {n} runs, left out", file=sys.stderr)
+            del by[v]
+    same_text = ", ".join(f"{v} in {k}" for v, k in same.items())
+    print(f"\n{n} runs; the criteria picked farthest-first's frame: {same_text}\n")
     for (fit, metric), by in rows.items():
         unit = "px" if metric == "vertex_error" else "L2"
         print(f"{fit} fit, {metric} ({unit}):")
@@ -87,7 +106,7 @@ def main(root):
             )
             print(f"  {NAMES[v]:<20} {mean(by[v]):10.3f}{g}")
         ratio = lambda a, b: mean(gains[a]) / mean(gains[b]) if mean(gains[b]) > 0 else float("nan")
-        for v in (v for v in ["misread", "coverage"] if v in gains):
+        for v in (v for v in CRITERIA if v in gains):
             print(f"  {NAMES[v]}'s gain / random's: {ratio(v, 'random'):.2f}   / farthest-first's: {ratio(v, 'distance'):.2f}")
             # Paired: the same run's base model and control, so the spread between runs cancels.
             for other in ["random", "distance"]:

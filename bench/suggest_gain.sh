@@ -5,9 +5,9 @@
 #   train/  TRAIN (9) drawn frames, independent random poses (APES §5.1 ranges);
 #   pool/   32 more such frames: the drawings the artist could add, with their true poses;
 #   test/   16 more: the fixed held-out motion.
-# A base model trains on those frames (BASE_STEPS). One pool frame is added, chosen by
-# `puppet suggest` (misread), by `puppet suggest --by distance` (farthest pose first) and at
-# random, and by `puppet suggest --by coverage`; `puppet train --from base` continues on the
+# A base model trains on those frames (BASE_STEPS). One pool frame is added, chosen by each of
+# `puppet suggest --by misread / coverage / typical / distance` (the last farthest pose first) and
+# at random; `puppet train --from base` continues on the
 # TRAIN + 1 frames for MORE_STEPS, and a control continues on the TRAIN alone for the same steps. Each model's test fit (default and one-pass) is
 # scored by `puppet eval`; a selector's gain is the control's error less its own.
 # bench/suggest_gain.py turns the reports into the table.
@@ -15,6 +15,7 @@
 #   bash bench/suggest_gain.sh            # about 45 min on the 2-core machine, idle
 #   TRAIN=5 OUT=runs/suggest-gain-5 bash bench/suggest_gain.sh   # one frame added to five
 #   AGAIN_SEEDS="2 3 4 5" … bash bench/suggest_gain.sh    # each continuation with 4 more seeds (~3 h, ~12 GB of weights)
+#   VARIANTS="none typical distance random" … bash bench/suggest_gain.sh   # only these continuations
 #   python3 bench/suggest_gain.py runs/suggest-gain
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -26,6 +27,8 @@ CHARS=${CHARS:-"31 32 33 34 35"}
 SEEDS=${SEEDS:-"1 2"}
 TRAIN=${TRAIN:-9}
 AGAIN_SEEDS=${AGAIN_SEEDS:-}
+CRITERIA=${CRITERIA:-"misread coverage typical distance"}   # suggest --by …: each one's pick is recorded
+VARIANTS=${VARIANTS:-"none misread coverage typical distance random"}   # the continuations made
 POOL=32
 source bench/continue.sh
 
@@ -64,22 +67,25 @@ arap = 2500.0
 joints = 1e4
 EOF
         [ -f "$r/base/weights.bpk" ] && [ -f "$r/base/done" ] || { "$P" -q train "$r/base.toml" --resume 2>/dev/null || "$P" -q train "$r/base.toml"; touch "$r/base/done"; }
-        "$P" -q suggest --model "$r/base" -n 1 --pool "$d/pool" -o "$r/pick-misread"
-        "$P" -q suggest --model "$r/base" -n 1 --pool "$d/pool" --by distance -o "$r/pick-distance"
-        "$P" -q suggest --model "$r/base" -n 1 --pool "$d/pool" --by coverage -o "$r/pick-coverage"
-        pick() { python3 -c "import json,sys; print(json.load(open(sys.argv[1]))['suggestions'][0]['origin']['index'])" "$1/suggestions.json"; }
-        declare -A chosen=(
-            [misread]=$(pick "$r/pick-misread")
-            [distance]=$(pick "$r/pick-distance")
-            [coverage]=$(pick "$r/pick-coverage")
-            [random]=$(python3 -c "import random; print(random.Random($c * 100 + $s).randrange($POOL))")
-        )
-        for variant in none misread coverage distance random; do
+        declare -A chosen=([random]=$(python3 -c "import random; print(random.Random($c * 100 + $s).randrange($POOL))"))
+        for by in $CRITERIA; do
+            "$P" -q suggest --model "$r/base" -n 1 --pool "$d/pool" --by "$by" -o "$r/pick-$by"
+            chosen[$by]=$(python3 -c "import json,sys; print(json.load(open(sys.argv[1]))['suggestions'][0]['origin']['index'])" "$r/pick-$by/suggestions.json")
+        done
+        for variant in $VARIANTS; do
             v=$r/$variant
+            if [ "$variant" != none ]; then
+                k=${chosen[$variant]}
+                # A continuation is made once: a criterion that picks otherwise now (another
+                # build) must not leave an older continuation filed under the new pick.
+                if [ -f "$v-frames.index" ] && [ "$(cat "$v-frames.index")" != "$k" ]; then
+                    echo "$v: $variant now picks pool frame $k, the continuation there was made with $(cat "$v-frames.index"); remove $v* to redo it" >&2
+                    exit 1
+                fi
+            fi
             mkdir -p "$v-frames"
             cp "$d"/train/frames/*.png "$v-frames/"
             if [ "$variant" != none ]; then
-                k=${chosen[$variant]}
                 src=$(ls "$d"/pool/frames/*.png | sort -V | sed -n "$((k + 1))p")
                 cp "$src" "$v-frames/added.png"
                 echo "$k" >"$v-frames.index"
@@ -91,7 +97,7 @@ EOF
         for s in $AGAIN_SEEDS; do
             mkdir -p "$r/again-seed-$s"
             sed "s/^seed = .*/seed = $s/" "$r/none/train.toml" >"$r/again-seed-$s/train.toml"
-            for variant in none misread coverage distance random; do
+            for variant in $VARIANTS; do
                 continue_and_score "$r" "$r/again-seed-$s/$variant" "$r/$variant-frames" "$r/again-seed-$s/train.toml"
             done
         done

@@ -20,7 +20,8 @@ use super::Session;
 /// turned a little past the drawn ranges, in-betweens of drawn frames, steps along the ways the
 /// drawn frames differ), ranked by how badly the network reads its own renders of the poses
 /// around each, beyond what the drawn frames teach already (or, with --by misread, of the pose
-/// alone; with --by distance, by how far each is from every drawn pose), n different ones kept,
+/// alone; with --by typical, by how many poses around it the drawn frames do not teach yet,
+/// however well read; with --by distance, by how far each is from every drawn pose), n different ones kept,
 /// none next to a drawn pose.
 ///
 /// Writes into OUTPUT, best first: next_N.png (the rest art moved into the pose under its faint
@@ -71,6 +72,9 @@ pub enum ByArg {
     /// How badly the network reads the candidates around the pose, nearer ones counting more,
     /// beyond what the drawn poses teach already.
     Coverage,
+    /// How many poses around the pose, nearer ones counting more, the drawn poses do not teach
+    /// yet, however well the network reads them: the most typical pose still to draw.
+    Typical,
 }
 
 /// Runs `puppet suggest`.
@@ -88,6 +92,7 @@ pub fn run(args: SuggestArgs, s: &Session) -> anyhow::Result<()> {
             ByArg::Misread => Criterion::Misread,
             ByArg::Distance => Criterion::Distance,
             ByArg::Coverage => Criterion::Coverage,
+            ByArg::Typical => Criterion::Typical,
         },
         seed: args.seed,
     };
@@ -191,6 +196,7 @@ fn listing(stem: &str, c: &Candidate) -> serde_json::Value {
         "picture": format!("{stem}.png"),
         "misread_px": c.misread,
         "coverage_px": c.coverage,
+        "typical": c.typical,
         "distance_degrees": c.distance,
         "origin": c.origin,
     })
@@ -209,6 +215,7 @@ mod tests {
         parses(&[
             "suggest", "--model", "m", "-o", "next", "--frames", "f", "--turned", "10", "--seed", "3",
         ]);
+        parses(&["suggest", "--model", "m", "-o", "next", "--by", "typical"]);
         for bad in [
             vec!["suggest", "--model", "m"],
             vec!["suggest", "--model", "m", "-o", "x", "--by", "luck"],

@@ -13,7 +13,8 @@
 //! back well is one it has in effect learned; one it misreads is where a drawing teaches most.
 //! [`Criterion::Coverage`], the default, sums the misread of the candidates around a pose,
 //! nearer ones counting more, beyond what the drawn poses teach already: a drawing teaches its
-//! neighbourhood. [`Criterion::Distance`], the turn-space
+//! neighbourhood. [`Criterion::Typical`] counts the candidates around a pose not yet taught,
+//! misread or not: the most typical of the poses still to draw. [`Criterion::Distance`], the turn-space
 //! distance from the nearest drawn pose (farthest first), is the baseline both are measured
 //! against (docs/results.md "Suggest").
 //!
@@ -48,6 +49,11 @@ pub enum Criterion {
     /// drawing teaches its neighbourhood, so a pose among many misread ones is worth more than
     /// a misread outlier. The default: it gains most (docs/results.md "Suggest").
     Coverage,
+    /// As [`Criterion::Coverage`] with every candidate's misread counted as 1: how many of the
+    /// poses around the pose, nearer ones counting more, no drawn pose teaches yet. The most
+    /// typical of the poses still to draw, however well the network reads them; a network
+    /// misreads unusual poses most, and a drawing of one teaches the fit of typical poses little.
+    Typical,
 }
 
 /// The width of [`Criterion::Coverage`]'s neighbourhood: a candidate `d` degrees away (turn
@@ -161,6 +167,8 @@ pub struct Candidate {
     pub distance: f32,
     /// The misread of the candidates around it, weighted by nearness ([`Criterion::Coverage`]).
     pub coverage: f32,
+    /// The candidates around it not yet taught, weighted by nearness ([`Criterion::Typical`]).
+    pub typical: f32,
 }
 
 impl Candidate {
@@ -170,6 +178,7 @@ impl Candidate {
             Criterion::Misread => self.misread,
             Criterion::Distance => self.distance,
             Criterion::Coverage => self.coverage,
+            Criterion::Typical => self.typical,
         }
     }
 }
@@ -325,18 +334,23 @@ pub fn score(model: &Model, drawn_poses: &[Vec<[f32; 2]>], poses: Vec<(Vec<[f32;
                 misread,
                 distance: if distance.is_finite() { distance } else { 0.0 },
                 coverage: 0.0,
+                typical: 0.0,
             }
         })
         .collect();
     let misread: Vec<f32> = candidates.iter().map(|c| c.misread).collect();
-    for (c, v) in candidates.iter_mut().zip(coverage(&turns, &misread, &drawn_turns)) {
-        c.coverage = v;
+    let coverage_scores = coverage(&turns, &misread, &drawn_turns);
+    let typical_scores = coverage(&turns, &vec![1.0; turns.len()], &drawn_turns);
+    for ((c, coverage), typical) in candidates.iter_mut().zip(coverage_scores).zip(typical_scores) {
+        c.coverage = coverage;
+        c.typical = typical;
     }
     Ok(candidates)
 }
 
 /// Per pose (limb turns `turns[i]`), what a drawing of it would add to what the drawn poses
-/// (`drawn_turns`) already teach ([`Criterion::Coverage`]): the `misread` of every pose `q`,
+/// (`drawn_turns`) already teach ([`Criterion::Coverage`]; [`Criterion::Typical`] with every
+/// `misread` 1): the `misread` of every pose `q`,
 /// weighted by how much nearer the pose is to `q` than the nearest drawn pose is,
 /// `max(0, k(pose, q) − max_d k(d, q))` with `k = exp(−t² / 2w²)`, `t` the [`turn_distance`]
 /// and `w` [`COVERAGE_DEGREES`]. Without the drawn poses' share, the densest neighbourhood of
@@ -523,6 +537,7 @@ mod tests {
             misread,
             distance,
             coverage: misread,
+            typical: 1.0,
         }
     }
 
@@ -553,6 +568,21 @@ mod tests {
         assert!(taught[3] > taught[1] && taught[0].abs() < 1e-6, "{taught:?}");
         assert!((taught[3] - 4.0).abs() < 1e-2, "{taught:?}");
         assert!(taught[1] > 0.0 && taught[1] < 0.5 * scores[1], "{taught:?}");
+    }
+
+    #[test]
+    fn typical_prefers_the_centre_of_an_untaught_crowd_however_well_read() {
+        let deg = |a: f32| vec![a.to_radians()];
+        // A crowd the network reads well, one pose it misreads badly, and a drawn pose at 0°.
+        let turns = [deg(0.0), deg(60.0), deg(65.0), deg(55.0), deg(150.0)];
+        let misread = [0.1, 0.1, 0.1, 0.1, 9.0];
+        let drawn = [deg(0.0)];
+        let argmax = |v: &[f32]| (0..v.len()).max_by(|&a, &b| v[a].total_cmp(&v[b])).unwrap();
+        assert_eq!(argmax(&coverage(&turns, &misread, &drawn)), 4);
+        let typical = coverage(&turns, &[1.0; 5], &drawn);
+        assert_eq!(argmax(&typical), 1, "{typical:?}");
+        // The drawn pose teaches itself: nothing is left around it.
+        assert!(typical[0] < 0.1 * typical[1], "{typical:?}");
     }
 
     #[test]
