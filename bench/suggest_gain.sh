@@ -14,7 +14,7 @@
 #
 #   bash bench/suggest_gain.sh            # about 45 min on the 2-core machine, idle
 #   TRAIN=5 OUT=runs/suggest-gain-5 bash bench/suggest_gain.sh   # one frame added to five
-#   AGAIN_SEEDS="2 3 4 5" … bash bench/suggest_gain.sh    # each continuation with 4 more seeds (~3 h, ~12 GB of weights)
+#   AGAIN_SEEDS="2 3 4 5" … bash bench/suggest_gain.sh    # each continuation with these seeds too, a run's own skipped (~3 h, ~12 GB)
 #   VARIANTS="none typical distance random" … bash bench/suggest_gain.sh   # only these continuations
 #   python3 bench/suggest_gain.py runs/suggest-gain
 set -euo pipefail
@@ -94,11 +94,13 @@ EOF
         done
         # The same continuations with other training seeds: one run's gain is mostly the seed's luck
         # (docs/results.md "Suggest"), and bench/suggest_gain.py averages over the seeds.
-        for s in $AGAIN_SEEDS; do
-            mkdir -p "$r/again-seed-$s"
-            sed "s/^seed = .*/seed = $s/" "$r/none/train.toml" >"$r/again-seed-$s/train.toml"
+        for again in $AGAIN_SEEDS; do
+            # The run's own continuations train with its seed ($s): that seed again would repeat them.
+            [ "$again" != "$s" ] || { echo "$r: training seed $again is the run's own, skipped" >&2; continue; }
+            mkdir -p "$r/again-seed-$again"
+            sed "s/^seed = .*/seed = $again/" "$r/none/train.toml" >"$r/again-seed-$again/train.toml"
             for variant in $VARIANTS; do
-                continue_and_score "$r" "$r/again-seed-$s/$variant" "$r/$variant-frames" "$r/again-seed-$s/train.toml"
+                continue_and_score "$r" "$r/again-seed-$again/$variant" "$r/$variant-frames" "$r/again-seed-$again/train.toml"
             done
         done
     done
