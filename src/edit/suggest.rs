@@ -15,8 +15,8 @@
 //! nearer ones counting more, beyond what the drawn poses teach already: a drawing teaches its
 //! neighbourhood. [`Criterion::Typical`] counts the candidates around a pose not yet taught,
 //! misread or not: the most typical of the poses still to draw. [`Criterion::Distance`], the turn-space
-//! distance from the nearest drawn pose (farthest first), is the baseline both are measured
-//! against (docs/results.md "Suggest").
+//! distance from the nearest drawn pose (farthest first), is the baseline the others are
+//! measured against (docs/results.md "Suggest").
 //!
 //! [`pick`] takes the best-scored candidates greedily, each at least a set turn-space distance
 //! from the drawn poses and from those already taken, so n suggestions are n poses different
@@ -51,8 +51,9 @@ pub enum Criterion {
     Coverage,
     /// As [`Criterion::Coverage`] with every candidate's misread counted as 1: how many of the
     /// poses around the pose, nearer ones counting more, no drawn pose teaches yet. The most
-    /// typical of the poses still to draw, however well the network reads them; a network
-    /// misreads unusual poses most, and a drawing of one teaches the fit of typical poses little.
+    /// typical of the poses still to draw, however well the network reads them: made for a
+    /// pool of poses the artist plans to need, where the crowded poses are the ones asked for
+    /// most (docs/suggest.md).
     Typical,
 }
 
