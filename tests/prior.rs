@@ -1,10 +1,10 @@
-//! `puppet prior data` (issue 56): a character posed by the engine, written with its truth; the
-//! refusals write nothing.
+//! `puppet prior data` (issue 56): a character posed by the engine, written with its truth and
+//! scored by `prior eval`; the refusals write nothing.
 
 use crate::util::{puppet, repo};
 
 #[test]
-fn prior_data_poses_the_robot_with_its_truth_and_the_same_seed_gives_the_same_files() {
+fn prior_data_poses_the_robot_with_its_truth_one_seed_gives_the_same_files_and_eval_scores_them() {
     let tmp = tempfile::tempdir().unwrap();
     let robot = repo().join("data/kenney/robot");
     let run = |out: &str| {
@@ -44,6 +44,21 @@ fn prior_data_poses_the_robot_with_its_truth_and_the_same_seed_gives_the_same_fi
     }
     // Writing again into a folder puppet made is allowed.
     run("a").assert_ok();
+    // The table is `prior eval`'s result, so --quiet keeps it: a PCK per network, in percent.
+    let scored = puppet(tmp.path(), &["-q", "prior", "eval", dir.to_str().unwrap()]);
+    scored.assert_ok();
+    for row in ["robot", "mean over characters"] {
+        for net in ["prior", "parts"] {
+            let line = scored
+                .stdout
+                .lines()
+                .find(|l| l.starts_with(row) && l.split_whitespace().any(|w| w == net))
+                .unwrap_or_else(|| panic!("no {row} row for the {net} network in:\n{}", scored.stdout));
+            let pck: Vec<f64> = line.split_whitespace().filter_map(|w| w.strip_suffix('%')?.parse().ok()).collect();
+            assert_eq!(pck.len(), 3, "{line}");
+            assert!(pck.iter().all(|p| (0.0..=100.0).contains(p)), "{line}");
+        }
+    }
 }
 
 #[test]
@@ -256,4 +271,28 @@ fn a_prior_config_that_trains_on_its_held_out_characters_is_refused_before_anyth
     let config = tiny_prior_config(tmp.path(), "personas-1");
     puppet(tmp.path(), &["prior", "train", config.to_str().unwrap()]).assert_error(&["held_out", "personas-1", "prior.toml"]);
     assert!(!tmp.path().join("run").exists(), "a refused run made its folder");
+}
+
+#[test]
+fn the_prior_configs_load_and_every_kenney_figure_comes_from_a_prior_that_never_saw_the_character() {
+    const KENNEY: [&str; 3] = ["robot", "male_adventurer", "female_adventurer"];
+    let configs = repo().join("configs");
+    let trained_on = |file: &str| -> Vec<String> {
+        let config = puppet::prior::PriorConfig::load(&configs.join(file)).unwrap_or_else(|e| panic!("{file}: {e}"));
+        let kenney = repo().join("data/kenney").canonicalize().unwrap();
+        config
+            .characters
+            .iter()
+            .filter_map(|p| Some(p.strip_prefix(&kenney).ok()?.to_string_lossy().into_owned()))
+            .collect()
+    };
+    // The shipped prior saw none of them; each leave-one-out prior saw exactly the other two.
+    assert_eq!(trained_on("prior.toml"), Vec::<String>::new());
+    for left_out in KENNEY {
+        let mut seen = trained_on(&format!("prior-without-{left_out}.toml"));
+        seen.sort();
+        let mut others: Vec<String> = KENNEY.iter().filter(|&&c| c != left_out).map(|c| c.to_string()).collect();
+        others.sort();
+        assert_eq!(seen, others, "prior-without-{left_out}.toml");
+    }
 }

@@ -150,7 +150,7 @@ fn eval(args: EvalArgs, s: &Session) -> anyhow::Result<()> {
     };
     let parts = TrainedNet::shipped(&device)?;
     let alphas = ALPHAS.map(|a| format!("PCK@{a:<6}")).join(" ");
-    s.ui.say(format!(
+    s.ui.print(format!(
         "{:<25} {:<7} {:>5} {:>8}  {alphas}",
         "character", "network", "pairs", "vertices"
     ))?;
@@ -162,7 +162,7 @@ fn eval(args: EvalArgs, s: &Session) -> anyhow::Result<()> {
         for ((label, net), total) in [("prior", &prior), ("parts", &parts)].into_iter().zip(&mut totals) {
             let score = score_posed(folder, net, &device)?;
             let pck = score.pck.map(|v| format!("{:>9.2}%", 100.0 * v)).join(" ");
-            s.ui.say(format!("{name:<25} {label:<7} {:>5} {:>8} {pck}", score.pairs, score.vertices))?;
+            s.ui.print(format!("{name:<25} {label:<7} {:>5} {:>8} {pck}", score.pairs, score.vertices))?;
             for (t, v) in total.iter_mut().zip(score.pck) {
                 *t += v / args.folders.len() as f64;
             }
@@ -170,7 +170,7 @@ fn eval(args: EvalArgs, s: &Session) -> anyhow::Result<()> {
     }
     for (label, total) in ["prior", "parts"].iter().zip(totals) {
         let pck = total.map(|v| format!("{:>9.2}%", 100.0 * v)).join(" ");
-        s.ui.say(format!("{:<25} {label:<7} {:>5} {:>8} {pck}", "mean over characters", "", ""))?;
+        s.ui.print(format!("{:<25} {label:<7} {:>5} {:>8} {pck}", "mean over characters", "", ""))?;
     }
     Ok(())
 }

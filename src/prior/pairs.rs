@@ -43,6 +43,9 @@ impl PairSource for PosedPairs {
     }
 }
 
+/// The stream of [`MixedPairs`]' choice of source, forked from each pair's.
+const SOURCE_CHOICE: u64 = 1;
+
 /// Pairs from two sources of one working size: pair `index` is the other source's with
 /// probability `other_share` (a function of `seed` and `index`), each source's pairs numbered
 /// on by their own count.
@@ -64,7 +67,10 @@ impl PairSource for MixedPairs<'_> {
 
     fn pair(&self, index: u64) -> Result<TrainingPair> {
         // Both sources see every index, each its own stream of pairs, so a pair never repeats.
-        if Rng::new(self.seed).fork(index).unit() < self.other_share {
+        // The choice has a stream of its own: a source seeded alike draws from
+        // `Rng::new(seed).fork(index)`, and a choice made with that stream's first number left
+        // it only part of its range (`PosedPairs` only the second half of its characters).
+        if Rng::new(self.seed).fork(index).fork(SOURCE_CHOICE).unit() < self.other_share {
             self.other.pair(index)
         } else {
             self.main.pair(index)
@@ -118,6 +124,54 @@ mod tests {
     /// Premultiplied RGB of working pixel `i` of `planes` (`[4, S, S]`).
     fn colour(planes: &[f32], i: usize, pixels: usize) -> [f32; 3] {
         std::array::from_fn(|c| planes[c * pixels + i])
+    }
+
+    /// A source whose pair `index` carries, as its one plane value, the first number of the
+    /// stream `PosedPairs` draws its character from, or `marker` when `marker` is set.
+    struct FirstDraw {
+        seed: u64,
+        marker: Option<f32>,
+    }
+
+    impl PairSource for FirstDraw {
+        fn size(&self) -> usize {
+            1
+        }
+
+        fn pair(&self, index: u64) -> Result<TrainingPair> {
+            let value = self.marker.unwrap_or_else(|| Rng::new(self.seed).fork(index).unit());
+            Ok(TrainingPair {
+                a: vec![value],
+                b: vec![value],
+                matches: Vec::new(),
+                masks: [vec![true], vec![true]],
+            })
+        }
+    }
+
+    #[test]
+    fn mixing_two_sources_leaves_each_its_whole_range_of_draws() {
+        let seed = 11;
+        let main = FirstDraw { seed, marker: None };
+        let other = FirstDraw { seed, marker: Some(-1.0) };
+        let mixed = MixedPairs {
+            main: &main,
+            other: &other,
+            other_share: 0.5,
+            seed,
+        };
+        let draws: Vec<f32> = (0..4000).map(|i| mixed.pair(i).unwrap().a[0]).filter(|&v| v >= 0.0).collect();
+        let share = draws.len() as f64 / 4000.0;
+        assert!((0.45..0.55).contains(&share), "the main source gave {share} of the pairs");
+        // The main source's own first numbers still spread over [0, 1): each tenth holds ~10 %.
+        for tenth in 0..10 {
+            let n = draws.iter().filter(|&&v| (v * 10.0) as usize == tenth).count();
+            let part = n as f64 / draws.len() as f64;
+            assert!(
+                (0.07..0.13).contains(&part),
+                "tenth {tenth} holds {part} of the main source's draws"
+            );
+        }
     }
 
     #[test]
