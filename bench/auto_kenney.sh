@@ -7,6 +7,10 @@
 #
 #   bash bench/auto_kenney.sh             # about 45 min on the 2-core machine, idle
 #   python3 bench/auto_kenney.py runs/auto-kenney
+#
+# NET=DIR gives `puppet auto` that correspondence network instead of the built-in prior; a `%c`
+# in it stands for the character (NET=runs/prior-without-%c: the leave-one-out priors of
+# configs/prior-without-*.toml).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 P=${PUPPET:-target/release/puppet}
@@ -15,7 +19,9 @@ CHARACTERS=${CHARACTERS:-"robot male_adventurer female_adventurer"}
 
 for c in $CHARACTERS; do
     mkdir -p "$OUT/$c"
-    [ -f "$OUT/$c/auto/index.html" ] || "$P" -q auto "data/kenney/$c/frames" -o "$OUT/$c/auto" --steps 1700 2>"$OUT/$c/auto.log"
+    net=${NET:+--net ${NET//%c/$c}}
+    [ -f "$OUT/$c/auto/index.html" ] ||
+        "$P" -q auto "data/kenney/$c/frames" $net -o "$OUT/$c/auto" --steps 1700 2>"$OUT/$c/auto.log"
     for run in hand auto-parts; do
         m=$OUT/$c/$run
         artwork=$([ "$run" = auto-parts ] && echo "--artwork $OUT/$c/auto/artwork" || true)

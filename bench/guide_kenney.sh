@@ -8,6 +8,10 @@
 #
 #   bash bench/guide_kenney.sh            # about 40 min on the 2-core machine, idle
 #   python3 bench/guide_kenney.py runs/guide-kenney
+#
+# PRIOR_NET=DIR guides with that prior instead (`train --prior-net`); a `%c` in it stands for the
+# character (PRIOR_NET=runs/prior-without-%c: the leave-one-out priors). RUNS="prior-1700 …"
+# trains only those runs.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 P=${PUPPET:-target/release/puppet}
@@ -21,10 +25,10 @@ for c in $CHARACTERS; do
     prefix=$(ls "data/kenney/$c/frames" | head -1 | sed 's/_.*//') # robot, maleAdventurer, …
     [ -f "$OUT/$c/dis.txt" ] || python3 bench/flow_dis.py warp --reference "data/kenney/$c/frames/${prefix}_idle.png" \
         "data/kenney/$c/frames/${prefix}_"{walk0,walk4,fall}.png >"$OUT/$c/dis.txt"
-    for run in scratch-$FULL prior-$FULL scratch-$THIRD prior-$THIRD; do
+    for run in ${RUNS:-scratch-$FULL prior-$FULL scratch-$THIRD prior-$THIRD}; do
         m=$OUT/$c/$run
         steps=${run#*-}
-        flag=$([ "${run%-*}" = prior ] && echo --prior || true)
+        flag=$([ "${run%-*}" = prior ] && echo "--prior ${PRIOR_NET:+--prior-net ${PRIOR_NET//%c/$c}}" || true)
         if [ ! -f "$m/done" ]; then
             "$P" -q train "configs/kenney-$c.toml" $flag --steps "$steps" -o "$m" --resume 2>/dev/null ||
                 "$P" -q train "configs/kenney-$c.toml" $flag --steps "$steps" -o "$m"

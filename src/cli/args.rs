@@ -79,10 +79,7 @@ impl FitSourceArgs {
             (None, None) => anyhow::bail!("give --model or --puppet"),
         };
         let prior = if self.prior || dir.is_none() {
-            Some(match &self.prior_net {
-                Some(run) => TrainedNet::load(run, device)?,
-                None => puppet::prior::shipped(device)?,
-            })
+            Some(puppet::prior::load_or_shipped(self.prior_net.as_deref(), device)?)
         } else {
             None
         };

@@ -144,10 +144,7 @@ fn train(args: TrainArgs, s: &Session) -> anyhow::Result<()> {
 /// Runs `puppet prior eval`.
 fn eval(args: EvalArgs, s: &Session) -> anyhow::Result<()> {
     let device = puppet::backend::device();
-    let prior = match &args.net {
-        Some(dir) => TrainedNet::load(dir, &device)?,
-        None => puppet::prior::shipped(&device)?,
-    };
+    let prior = puppet::prior::load_or_shipped(args.net.as_deref(), &device)?;
     let parts = TrainedNet::shipped(&device)?;
     let alphas = ALPHAS.map(|a| format!("PCK@{a:<6}")).join(" ");
     s.ui.print(format!(

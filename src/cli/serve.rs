@@ -12,7 +12,6 @@ use anyhow::Context as _;
 use puppet::appearance::AppearanceStage;
 use puppet::fit::{FitOptions, DEFAULT_LATENT_STEPS, DEFAULT_VERTEX_STEPS};
 use puppet::model::Model;
-use puppet::parts::learn::TrainedNet;
 use puppet::progress::Progress as _;
 use puppet::puppet::artwork;
 use puppet::puppet::build::BuildOptions;
@@ -98,10 +97,7 @@ pub fn run(args: ServeArgs, s: &Session) -> anyhow::Result<()> {
     let fit = args.fit.options(&dir)?;
     let mut options = ServeOptions::new(fit).with_model_folder(&dir);
     if !args.no_prior {
-        let net = match &args.prior_net {
-            Some(run) => TrainedNet::load(run, &device)?,
-            None => puppet::prior::shipped(&device)?,
-        };
+        let net = puppet::prior::load_or_shipped(args.prior_net.as_deref(), &device)?;
         let zero_shot = FitOptions::for_model(&dir, DEFAULT_LATENT_STEPS, DEFAULT_VERTEX_STEPS)?;
         options = options.with_prior(UploadPrior::new(net, zero_shot));
     }

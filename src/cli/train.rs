@@ -60,6 +60,9 @@ pub struct TrainArgs {
     /// `[train.guide]`, turned on with its default weight where the config leaves it off).
     #[arg(long, conflicts_with = "from")]
     pub prior: bool,
+    /// With --prior: another prior than the built-in one, a `puppet prior train` run folder.
+    #[arg(long, value_name = "DIR", requires = "prior")]
+    pub prior_net: Option<PathBuf>,
 }
 
 impl TrainArgs {
@@ -106,7 +109,11 @@ pub fn run(args: TrainArgs, s: &Session) -> anyhow::Result<()> {
             weights: config.loss.clone(),
             ..FitOptions::default()
         };
-        Some(Arc::new(PriorGuide::new(puppet::prior::shipped(&device)?, options, device)) as Arc<dyn UntrainedFit>)
+        Some(Arc::new(PriorGuide::new(
+            puppet::prior::load_or_shipped(args.prior_net.as_deref(), &device)?,
+            options,
+            device,
+        )) as Arc<dyn UntrainedFit>)
     };
     let options = TrainOptions {
         resume: args.resume,
@@ -160,6 +167,21 @@ mod tests {
                 .map(|_: crate::cli::Cli| ())
                 .is_err(),
             "a continued model is not guided by the prior"
+        );
+        parses(&[
+            "train",
+            "configs/kenney-robot.toml",
+            "--prior",
+            "--prior-net",
+            "runs/prior",
+            "-o",
+            "runs/c",
+        ]);
+        assert!(
+            clap::Parser::try_parse_from(["puppet", "train", "c.toml", "--prior-net", "runs/prior"])
+                .map(|_: crate::cli::Cli| ())
+                .is_err(),
+            "another prior is only for a run guided by one"
         );
         let missing: crate::cli::Cli = clap::Parser::try_parse_from(["puppet", "train", "--artwork", "a.psd", "-o", "x"]).unwrap();
         let crate::cli::Command::Train(args) = missing.command else {

@@ -265,6 +265,18 @@ pub fn shipped(device: &Device) -> Result<TrainedNet> {
     TrainedNet::from_bytes(SHAPE, WEIGHTS.to_vec(), Path::new("data/prior (built in)"), device)
 }
 
+/// The prior trained in the run folder `dir` by `puppet prior train`, or without one
+/// [`shipped`].
+///
+/// # Errors
+/// As [`TrainedNet::load`] and [`shipped`].
+pub fn load_or_shipped(dir: Option<&Path>, device: &Device) -> Result<TrainedNet> {
+    match dir {
+        Some(dir) => TrainedNet::load(dir, device),
+        None => shipped(device),
+    }
+}
+
 /// A model that carries a puppet's template and no learned network (a one-unit placeholder):
 /// what the fit's latent-free stages need — the puppet, its working square, the rig's map — for
 /// a character nobody trained, working at `input_size`².
