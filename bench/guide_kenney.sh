@@ -35,8 +35,9 @@ for c in $CHARACTERS; do
             if [ "$seed" != 1 ]; then
                 config=$OUT/$c/kenney-$c-s$seed.toml
                 m=$OUT/$c/$run-s$seed
-                # The config's paths are relative to its folder: made absolute for the copy.
-                [ -f "$config" ] || sed -e "s|\"\.\./|\"$PWD/|" -e "s/^seed = .*/seed = $seed\nsplit_seed = 1/" \
+                # The config's paths are relative to its folder: made absolute for the copy, which
+                # is made again each time so that it follows the config.
+                sed -e "s|\"\.\./|\"$PWD/|" -e "s/^seed = .*/seed = $seed\nsplit_seed = 1/" \
                     "configs/kenney-$c.toml" >"$config"
             fi
             steps=${run#*-}
